@@ -92,15 +92,15 @@ def _tables(source: Source) -> tuple:
     f_r = np.ascontiguousarray(source.f_r_cm * _M_PER_CM)
     f_t = np.ascontiguousarray(np.deg2rad(source.f_theta_deg))
     f_v = np.ascontiguousarray(source.f, dtype=float)
-    g_lut, g_inv = build_lookup(g_r)
-    fr_lut, fr_inv = build_lookup(f_r)
-    ft_lut, ft_inv = build_lookup(f_t)
+    g_lut, g_inv, g_idx = build_lookup(g_r)
+    fr_lut, fr_inv, fr_idx = build_lookup(f_r)
+    ft_lut, ft_inv, ft_idx = build_lookup(f_t)
     tables = (
         half,
         source.r_min_cm * _M_PER_CM,
         scale,
-        g_r, g_v, g_lut, g_inv,
-        f_r, f_t, f_v, fr_lut, fr_inv, ft_lut, ft_inv,
+        g_r, g_v, g_lut, g_inv, g_idx,
+        f_r, f_t, f_v, fr_lut, fr_inv, fr_idx, ft_lut, ft_inv, ft_idx,
     )  # fmt: skip
     source._cache["kernel_tables"] = tables
     return tables
@@ -131,7 +131,23 @@ def _inside_error(source: Source, pts_mm: np.ndarray, pos_mm: np.ndarray, dirs: 
 # public API
 
 
-def dose_rate_per_sk(source: Source, positions_mm, directions, points_mm) -> np.ndarray:
+def _run_threads(kernel, parallel: bool, *args):
+    """Call a threaded kernel on one thread (default) or on all of numba's threads."""
+    import numba
+
+    if parallel:
+        return kernel(*args)
+    before = numba.get_num_threads()
+    numba.set_num_threads(1)
+    try:
+        return kernel(*args)
+    finally:
+        numba.set_num_threads(before)
+
+
+def dose_rate_per_sk(
+    source: Source, positions_mm, directions, points_mm, *, parallel: bool = False
+) -> np.ndarray:
     """Dose rate per unit air-kerma strength from each dwell at each point (2D line source).
 
     Parameters
@@ -145,6 +161,8 @@ def dose_rate_per_sk(source: Source, positions_mm, directions, points_mm) -> np.
         (theta = 0). Norms must be 1 within 1e-6.
     points_mm : array_like, shape (n_points, 3)
         Calculation points, mm.
+    parallel : bool
+        Split the points over all numba threads (same numbers bit for bit; default one thread).
 
     Returns
     -------
@@ -163,7 +181,9 @@ def dose_rate_per_sk(source: Source, positions_mm, directions, points_mm) -> np.
     from tg43._kernels import rate_matrix
 
     out = np.empty((pts.shape[0], pos.shape[0]))
-    n_bad = rate_matrix(pts * _M_PER_MM, pos * _M_PER_MM, dirs, *_tables(source), out)
+    n_bad = _run_threads(
+        rate_matrix, parallel, pts * _M_PER_MM, pos * _M_PER_MM, dirs, *_tables(source), out
+    )
     if n_bad:
         raise _inside_error(source, pts, pos, dirs)
     return out
@@ -202,7 +222,8 @@ def plan_dose_gy(
         Give both to decay-correct S_K from the reference date to the treatment date with the
         Ir-192 half-life (73.83 d). Neither: no decay correction.
     parallel : bool
-        Use the multi-threaded kernel (same numbers).
+        Split the points over all numba threads (the same numbers bit for bit; default one
+        thread).
 
     Returns
     -------
@@ -223,9 +244,11 @@ def plan_dose_gy(
     weights = times * (sk / _S_PER_H * _GY_PER_CGY)  # Gy per (cGy h^-1 U^-1)
     from tg43 import _kernels
 
-    kernel = _kernels.weighted_sum_parallel if parallel else _kernels.weighted_sum
     out = np.empty(pts.shape[0])
-    n_bad = kernel(pts * _M_PER_MM, pos * _M_PER_MM, dirs, weights, *_tables(source), out)
+    n_bad = _run_threads(
+        _kernels.weighted_sum, parallel,
+        pts * _M_PER_MM, pos * _M_PER_MM, dirs, weights, *_tables(source), out,
+    )  # fmt: skip
     if n_bad:
         raise _inside_error(source, pts, pos, dirs)
     return out
