@@ -1,0 +1,1 @@
+"""The rod-in-channel engine: a source cable pushed through an applicator channel."""
