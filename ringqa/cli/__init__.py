@@ -18,6 +18,7 @@ from ringqa.errors import RingQAError
 # command name -> module (imported lazily so that `ringqa --help` stays fast)
 COMMANDS: dict[str, str] = {
     "tg43-demo": "ringqa.cli.tg43_demo",
+    "import": "ringqa.cli.import_plan",
 }
 
 

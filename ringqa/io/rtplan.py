@@ -1,0 +1,815 @@
+"""DICOM RT Plans for brachytherapy: channels, dwells, source, dose points, applicator library.
+
+:func:`read_rtplan` reads a brachytherapy RT Plan with pydicom, by keyword:
+
+- channels (``ApplicationSetupSequence[*].ChannelSequence``): number, length (``ChannelLength``),
+  step (``SourceApplicatorStepSize``), total time (``ChannelTotalTime``), and its dwells from the
+  ``BrachyControlPointSequence``: relative position (``ControlPointRelativePosition``), 3D position
+  (``ControlPoint3DPosition``), orientation (``ControlPointOrientation`` (300A,0412), when every
+  dwell has one; unit vector) and dwell time;
+- the source (``SourceSequence``): isotope, S_K (``ReferenceAirKermaRate``, uGy m^2 h^-1 = U),
+  reference date, manufacturer/model, and a guess of the TG-43 data set (``tg43_name``);
+- dose reference points (``DoseReferenceSequence`` items with ``DoseReferencePointCoordinates``)
+  with the TPS dose (``TargetPrescriptionDose``, else ``DeliveryMaximumDose``,
+  ``TargetMaximumDose``, ``OrganAtRiskMaximumDose``);
+- Oncentra's embedded applicator library where present (:mod:`ringqa.io.oncentra`).
+
+Dwell times
+    Consecutive control points at the same position (same relative and 3D position) form one
+    dwell. With cumulative weights (the DICOM meaning), a dwell's time is ``ChannelTotalTime x
+    (increase of CumulativeTimeWeight over the dwell) / FinalCumulativeTimeWeight``, per channel.
+    This never treats weights as seconds, so PDR plans (weights are not seconds; times are per
+    pulse) come out right. A control point alone at its position (unpaired) whose weight does not
+    increase is a zero-time position. Weights that increase while the source MOVES between
+    positions are ambiguous and refused. Plans that store per-dwell weights in
+    ``CumulativeTimeWeight`` (weights that decrease, or whose increments do not add up to
+    ``FinalCumulativeTimeWeight`` while the per-position weights do) are detected and read as
+    per-dwell weights, with a notice in ``RTPlan.warnings``; anything else is refused. Times are
+    never negative.
+
+Every problem raises :class:`RTPlanError` (a :class:`~ringqa.errors.InputFileError`) naming the
+file, the element (keyword, channel, control point) and the fix; pydicom's own exceptions never
+escape.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ringqa.errors import InputFileError
+from ringqa.io import oncentra
+from ringqa.io.oncentra import LibraryChannel
+
+RT_PLAN_SOP_CLASS = "1.2.840.10008.5.1.4.1.1.481.5"
+_SOP_NAMES = {
+    "1.2.840.10008.5.1.4.1.1.481.1": "RT Image",
+    "1.2.840.10008.5.1.4.1.1.481.2": "RT Dose",
+    "1.2.840.10008.5.1.4.1.1.481.3": "RT Structure Set",
+    "1.2.840.10008.5.1.4.1.1.481.4": "RT Beams Treatment Record",
+    "1.2.840.10008.5.1.4.1.1.481.6": "RT Brachy Treatment Record",
+    "1.2.840.10008.5.1.4.1.1.481.8": "RT Ion Plan",
+    "1.2.840.10008.5.1.4.1.1.2": "CT Image",
+    "1.2.840.10008.5.1.4.1.1.4": "MR Image",
+}
+#: Control points closer than this (mm) are at the same position.
+SAME_POSITION_MM = 1.0e-3
+#: TPS dose tags, in order of preference.
+DOSE_TAGS = (
+    "TargetPrescriptionDose",
+    "DeliveryMaximumDose",
+    "TargetMaximumDose",
+    "OrganAtRiskMaximumDose",
+)
+
+__all__ = [
+    "DosePoint",
+    "LibraryChannel",
+    "PlanChannel",
+    "PlanSource",
+    "RTPlan",
+    "RTPlanError",
+    "applicator_from_rtplan",
+    "dwell_times",
+    "guess_tg43_name",
+    "read_rtplan",
+]
+
+
+class RTPlanError(InputFileError):
+    """An RT Plan cannot be read correctly (names the file, the element and the fix)."""
+
+
+@dataclass(frozen=True)
+class PlanChannel:
+    """One channel of a brachytherapy plan with its dwells.
+
+    Attributes
+    ----------
+    number : int
+        ``ChannelNumber``.
+    name : str
+        ``SourceApplicatorName``, else the library part label, else ``"channel <N>"``.
+    length_mm : float or None
+        ``ChannelLength`` (indexer length).
+    step_mm : float or None
+        ``SourceApplicatorStepSize``.
+    relative_position_mm : numpy.ndarray
+        (n,) ``ControlPointRelativePosition`` of each dwell (0 = most distal position).
+    positions_mm : numpy.ndarray
+        (n, 3) ``ControlPoint3DPosition`` (patient coordinates).
+    times_s : numpy.ndarray
+        (n,) dwell times (s), >= 0; per pulse for PDR plans.
+    directions : numpy.ndarray or None
+        (n, 3) unit ``ControlPointOrientation`` per dwell, when the plan has it for every dwell.
+    total_time_s : float
+        ``ChannelTotalTime``.
+    applicator_id : str
+        ``SourceApplicatorID``.
+    applicator_length_mm : float or None
+        ``SourceApplicatorLength``.
+    source_number : int or None
+        ``ReferencedSourceNumber``.
+    number_of_pulses : int or None
+        ``NumberOfPulses`` (PDR).
+    pulse_interval_s : float or None
+        ``PulseRepetitionInterval`` (PDR).
+    joint_address : str or None
+        Oncentra's part address (private (300B,1013)), links the channel to the library.
+    """
+
+    number: int
+    name: str
+    length_mm: float | None
+    step_mm: float | None
+    relative_position_mm: np.ndarray
+    positions_mm: np.ndarray
+    times_s: np.ndarray
+    directions: np.ndarray | None
+    total_time_s: float
+    applicator_id: str = ""
+    applicator_length_mm: float | None = None
+    source_number: int | None = None
+    number_of_pulses: int | None = None
+    pulse_interval_s: float | None = None
+    joint_address: str | None = None
+
+    @property
+    def n_dwells(self) -> int:
+        """Number of dwell positions (including zero-time positions)."""
+        return len(self.times_s)
+
+
+@dataclass(frozen=True)
+class PlanSource:
+    """The plan's source (``SourceSequence`` item).
+
+    Attributes
+    ----------
+    isotope : str
+        ``SourceIsotopeName`` (e.g. ``"Ir-192"``).
+    model : str
+        Manufacturer, model id/description and treatment machine, joined (what the guess used).
+    tg43_name : str or None
+        Guessed TG-43 data set (``"mhdr-v2"``, ``"flexisource"``, ``"gammamed-plus"``,
+        ``"vs2000"``, ``"m-19"``) or None when unsure.
+    sk_U : float or None
+        Air-kerma strength ``ReferenceAirKermaRate`` (uGy m^2 h^-1 = U) at the reference date.
+    reference_date : datetime.date or None
+        ``SourceStrengthReferenceDate``.
+    half_life_days : float or None
+        ``SourceIsotopeHalfLife``.
+    number : int or None
+        ``SourceNumber``.
+    """
+
+    isotope: str
+    model: str
+    tg43_name: str | None
+    sk_U: float | None
+    reference_date: _dt.date | None
+    half_life_days: float | None = None
+    number: int | None = None
+
+
+@dataclass(frozen=True)
+class DosePoint:
+    """A dose reference point with the dose the TPS computed there.
+
+    Attributes
+    ----------
+    name : str
+        ``DoseReferenceDescription`` (else ``"point <number>"``).
+    position_mm : numpy.ndarray
+        (3,) ``DoseReferencePointCoordinates``.
+    tps_dose_gy : float or None
+        The TPS dose (first present of :data:`DOSE_TAGS`).
+    dose_tag : str or None
+        Which tag gave ``tps_dose_gy``.
+    number : int or None
+        ``DoseReferenceNumber``.
+    """
+
+    name: str
+    position_mm: np.ndarray
+    tps_dose_gy: float | None
+    dose_tag: str | None = None
+    number: int | None = None
+
+
+@dataclass(frozen=True)
+class RTPlan:
+    """A brachytherapy RT Plan as read by :func:`read_rtplan`.
+
+    Attributes
+    ----------
+    channels : tuple of PlanChannel
+        In file order.
+    source : PlanSource
+        The source the channels use.
+    points : tuple of DosePoint
+        Dose reference points with coordinates.
+    library : dict of int to LibraryChannel, or None
+        Oncentra's applicator library per channel number; None when the plan has none.
+    path : str
+        The file read.
+    treatment_type : str
+        ``BrachyTreatmentType`` (``"HDR"``, ``"PDR"``, ...).
+    plan_label : str
+        ``RTPlanLabel``.
+    prescription_gy : float or None
+        ``BrachyApplicationSetupDose`` of the first fraction group's first setup.
+    applicator_name : str or None
+        Oncentra's applicator name (private (300B,1010)), when present.
+    warnings : tuple of str
+        Notices (no library, per-dwell weights read, partial orientations, ...).
+    """
+
+    channels: tuple[PlanChannel, ...]
+    source: PlanSource
+    points: tuple[DosePoint, ...]
+    library: dict[int, LibraryChannel] | None
+    path: str
+    treatment_type: str = ""
+    plan_label: str = ""
+    prescription_gy: float | None = None
+    applicator_name: str | None = None
+    warnings: tuple[str, ...] = field(default_factory=tuple)
+
+    def channel(self, number: int) -> PlanChannel:
+        """The channel with ``ChannelNumber == number``."""
+        for ch in self.channels:
+            if ch.number == number:
+                return ch
+        have = ", ".join(str(c.number) for c in self.channels)
+        raise RTPlanError(self.path, f"no channel {number}", f"channels are {have}")
+
+
+# --------------------------------------------------------------------------------------------
+# dwell times (pure function, tested on its own)
+
+
+def dwell_times(
+    weights: np.ndarray,
+    groups: list[tuple[int, int]],
+    total_time_s: float,
+    final_weight: float | None,
+) -> tuple[np.ndarray, str]:
+    """Dwell times from control-point weights.
+
+    Parameters
+    ----------
+    weights : numpy.ndarray
+        (n_cp,) ``CumulativeTimeWeight`` of each control point (finite, >= 0).
+    groups : list of (start, stop)
+        Control points ``start:stop`` share one position (one dwell), in order.
+    total_time_s : float
+        ``ChannelTotalTime`` (s), >= 0.
+    final_weight : float or None
+        ``FinalCumulativeTimeWeight`` (None: the last weight).
+
+    Returns
+    -------
+    times_s : numpy.ndarray
+        (n_groups,) dwell times, >= 0.
+    mode : str
+        ``"cumulative"``, ``"per-dwell"`` or ``"empty"`` (all weights and the total zero).
+
+    Raises
+    ------
+    ValueError
+        With a message saying why the weights cannot be turned into times.
+    """
+    w = np.asarray(weights, dtype=float)
+    n = len(groups)
+    if n == 0:
+        return np.zeros(0), "empty"
+    W = float(w[-1]) if final_weight is None else float(final_weight)
+    scale = max(abs(W), float(np.max(w)))
+    tol = 1e-6 * scale  # weights are DS strings: relative rounding only
+    if W <= tol:
+        if np.all(w <= tol):
+            if total_time_s > 0:
+                raise ValueError(
+                    f"FinalCumulativeTimeWeight is {W:g} but ChannelTotalTime is "
+                    f"{total_time_s:g} s: the time cannot be shared out"
+                )
+            return np.zeros(n), "empty"
+        raise ValueError(f"FinalCumulativeTimeWeight is {W:g} while control points have weights")
+    cumulative = bool(np.all(np.diff(w) >= -tol)) and abs((w[-1] - w[0]) - W) <= tol
+    if cumulative:
+        dwell = np.array([w[b - 1] - w[a] for a, b in groups])
+        for g in range(1, n):
+            a, _ = groups[g]
+            jump = w[a] - w[groups[g - 1][1] - 1]
+            if jump > tol:
+                raise ValueError(
+                    f"CumulativeTimeWeight increases by {jump:g} while the source moves from "
+                    f"control point {groups[g - 1][1] - 1} to {a} (different positions): it is "
+                    "ambiguous which position the time belongs to (export the plan with paired "
+                    "control points, two per dwell position)"
+                )
+        if w[0] > tol:
+            raise ValueError(f"the first CumulativeTimeWeight is {w[0]:g}, not 0")
+        dwell = np.clip(dwell, 0.0, None)
+        return total_time_s * dwell / W, "cumulative"
+    per = np.array([np.max(w[a:b]) for a, b in groups])
+    if abs(per.sum() - W) <= 1e-5 * scale * n:  # n rounded per-dwell values
+        return total_time_s * per / W, "per-dwell"
+    raise ValueError(
+        "CumulativeTimeWeight is neither cumulative (non-decreasing with increments adding up to "
+        f"FinalCumulativeTimeWeight {W:g}; they add up to {w[-1] - w[0]:g}) nor per-dwell "
+        f"(per-position weights add up to {per.sum():g})"
+    )
+
+
+# --------------------------------------------------------------------------------------------
+# source model guess
+
+_TG43_PATTERNS = (
+    ("flexisource", ("flexisource", "flexitron", "isodose control")),
+    ("mhdr-v2", ("mhdr-v2", "mhdr v2", "mhdr", "microselectron", "micro selectron")),
+    ("gammamed-plus", ("gammamed",)),
+    ("vs2000", ("vs2000", "varisource", "vs 2000")),
+    ("m-19", ("m-19", "m19", "spec")),
+)
+
+
+def guess_tg43_name(text: str, isotope: str) -> str | None:
+    """Guess the TG-43 data set from manufacturer/model/machine text (None when unsure).
+
+    Only Ir-192 sources are guessed. ``"microSelectron"`` maps to ``"mhdr-v2"`` (the v2 and v2r
+    sources share the consensus data); ``"Flexitron"`` / ``"Flexisource"`` to ``"flexisource"``.
+    """
+    iso = isotope.lower().replace(" ", "")
+    if "192" not in iso:
+        return None
+    t = text.lower()
+    for name, keys in _TG43_PATTERNS:
+        if any(k in t for k in keys):
+            return name
+    return None
+
+
+# --------------------------------------------------------------------------------------------
+# reading
+
+
+def read_rtplan(path: str | Path) -> RTPlan:
+    """Read a brachytherapy DICOM RT Plan.
+
+    Parameters
+    ----------
+    path : str or Path
+        The RT Plan file.
+
+    Returns
+    -------
+    RTPlan
+
+    Raises
+    ------
+    RTPlanError
+        Not DICOM, truncated or corrupt, not an RT Plan, not a brachytherapy plan, no channels,
+        NaN or missing positions, weights that cannot be turned into times, ...
+    """
+    p = Path(path)
+    if not p.is_file():
+        raise RTPlanError(p, "file not found", "check the path")
+    import pydicom
+    from pydicom.errors import InvalidDicomError
+
+    try:
+        ds = pydicom.dcmread(p)
+    except InvalidDicomError:
+        raise RTPlanError(
+            p, "not a DICOM file (no DICM preamble)", "export the plan from the TPS as DICOM"
+        ) from None
+    except Exception as exc:  # pydicom raises many kinds on damaged files
+        raise RTPlanError(
+            p,
+            f"cannot be parsed as DICOM ({type(exc).__name__}: {exc}); the file is truncated or "
+            "corrupt",
+            "export the plan again",
+        ) from None
+    try:
+        return _parse(p, ds)
+    except RTPlanError:
+        raise
+    except Exception as exc:  # element access on a damaged file
+        raise RTPlanError(
+            p,
+            f"damaged or inconsistent DICOM data ({type(exc).__name__}: {exc}); the file may be "
+            "truncated or corrupt",
+            "export the plan again",
+        ) from None
+
+
+def _get(item, keyword: str):
+    """Value of a keyword, or None when absent or empty."""
+    el = item.get(keyword) if hasattr(item, "get") else None
+    if el is None:
+        return None
+    value = getattr(el, "value", el)
+    if value is None or value == "":
+        return None
+    return value
+
+
+def _float(p: Path, item, keyword: str, where: str, required: bool = False) -> float | None:
+    v = _get(item, keyword)
+    if v is None:
+        if required:
+            raise RTPlanError(p, f"{where}: {keyword} is missing", "export a complete plan")
+        return None
+    try:
+        f = float(v)
+    except (TypeError, ValueError):
+        raise RTPlanError(p, f"{where}: {keyword} is {v!r}, not a number", "") from None
+    if not math.isfinite(f):
+        raise RTPlanError(p, f"{where}: {keyword} is {f}", "the plan holds no valid value there")
+    return f
+
+
+def _vector(p: Path, item, keyword: str, where: str) -> np.ndarray | None:
+    v = _get(item, keyword)
+    if v is None:
+        return None
+    try:
+        arr = np.array([float(x) for x in v], dtype=float)
+    except (TypeError, ValueError):
+        raise RTPlanError(p, f"{where}: {keyword} is {v!r}, not numbers", "") from None
+    if arr.shape != (3,):
+        raise RTPlanError(p, f"{where}: {keyword} has {arr.size} values, not 3", "")
+    if not np.all(np.isfinite(arr)):
+        raise RTPlanError(
+            p,
+            f"{where}: {keyword} is {arr.tolist()} (not finite)",
+            "the plan has no valid coordinates there; re-export it from the TPS",
+        )
+    return arr
+
+
+def _parse(p: Path, ds) -> RTPlan:
+    sop = str(_get(ds, "SOPClassUID") or "")
+    modality = str(_get(ds, "Modality") or "")
+    if modality != "RTPLAN" or (sop and sop != RT_PLAN_SOP_CLASS):
+        what = _SOP_NAMES.get(sop, f"SOP class {sop or 'unknown'}")
+        raise RTPlanError(
+            p,
+            f"not an RT Plan (Modality {modality or 'missing'}, {what})",
+            "give the RT Plan file (Modality RTPLAN, usually named RP*.dcm)",
+        )
+    setups = _get(ds, "ApplicationSetupSequence")
+    if not _get(ds, "BrachyTreatmentType") and not setups:
+        beams = " (it has a BeamSequence: external beam)" if _get(ds, "BeamSequence") else ""
+        raise RTPlanError(
+            p,
+            f"not a brachytherapy plan: no BrachyTreatmentType or ApplicationSetupSequence{beams}",
+            "give a brachytherapy RT Plan",
+        )
+    warnings: list[str] = []
+    treatment_type = str(_get(ds, "BrachyTreatmentType") or "")
+    raw_channels = [(s, c) for s in (setups or []) for c in (_get(s, "ChannelSequence") or [])]
+    if not raw_channels:
+        raise RTPlanError(
+            p,
+            "no channels (ApplicationSetupSequence[*].ChannelSequence is missing or empty)",
+            "export the plan after the channels were reconstructed and dwells activated",
+        )
+    sources = _read_sources(p, ds, warnings)
+    channels = []
+    used_sources = set()
+    for k, (_setup, item) in enumerate(raw_channels):
+        ch = _read_channel(p, item, k, warnings, treatment_type)
+        channels.append(ch)
+        used_sources.add(ch.source_number)
+    numbers = [c.number for c in channels]
+    if len(set(numbers)) != len(numbers):
+        raise RTPlanError(p, f"ChannelNumber repeats ({numbers})", "export a consistent plan")
+    source = _pick_source(p, sources, used_sources, warnings)
+    points = _read_points(p, ds)
+    library, app_name = _read_library(p, setups, channels, warnings)
+    if library:
+        channels = [
+            _with_name(c, library[c.number].name) if c.number in library and not c.name else c
+            for c in channels
+        ]
+        _check_library(channels, library, warnings)
+    channels = [_with_name(c, f"channel {c.number}") if not c.name else c for c in channels]
+    if treatment_type == "PDR":
+        warnings.append("PDR plan: dwell times are per pulse (ChannelTotalTime covers one pulse)")
+    prescription = None
+    fgs = _get(ds, "FractionGroupSequence")
+    if fgs:
+        refs = _get(fgs[0], "ReferencedBrachyApplicationSetupSequence")
+        if refs:
+            prescription = _float(p, refs[0], "BrachyApplicationSetupDose", "fraction group 1")
+    return RTPlan(
+        channels=tuple(channels),
+        source=source,
+        points=tuple(points),
+        library=library,
+        path=str(p),
+        treatment_type=treatment_type,
+        plan_label=str(_get(ds, "RTPlanLabel") or ""),
+        prescription_gy=prescription,
+        applicator_name=app_name,
+        warnings=tuple(warnings),
+    )
+
+
+def _with_name(ch: PlanChannel, name: str) -> PlanChannel:
+    from dataclasses import replace
+
+    return replace(ch, name=name)
+
+
+def _read_channel(p: Path, item, k: int, warnings: list, treatment_type: str) -> PlanChannel:
+    number_v = _get(item, "ChannelNumber")
+    try:
+        number = int(number_v) if number_v is not None else k + 1
+    except (TypeError, ValueError):
+        raise RTPlanError(p, f"channel item {k}: ChannelNumber is {number_v!r}", "") from None
+    where = f"channel {number}"
+    total = _float(p, item, "ChannelTotalTime", where)
+    cps = _get(item, "BrachyControlPointSequence") or []
+    declared = _get(item, "NumberOfControlPoints")
+    if declared is not None and int(declared) != len(cps):
+        raise RTPlanError(
+            p,
+            f"{where}: NumberOfControlPoints is {int(declared)} but {len(cps)} control points "
+            "are present; the file is truncated or corrupt",
+            "export the plan again",
+        )
+    if total is None:
+        if cps:
+            raise RTPlanError(
+                p, f"{where}: ChannelTotalTime is missing", "export the plan with dwell times"
+            )
+        total = 0.0
+    if total < 0:
+        raise RTPlanError(p, f"{where}: ChannelTotalTime is {total:g} s (negative)", "")
+    rel, pos, w, orient = [], [], [], []
+    for j, cp in enumerate(cps):
+        cw = f"{where}, control point {j}"
+        r = _float(p, cp, "ControlPointRelativePosition", cw)
+        x = _vector(p, cp, "ControlPoint3DPosition", cw)
+        if x is None:
+            raise RTPlanError(
+                p,
+                f"{cw}: ControlPoint3DPosition is missing",
+                "ringqa needs the 3D dwell positions; export them from the TPS",
+            )
+        if r is None:
+            raise RTPlanError(
+                p,
+                f"{cw}: ControlPointRelativePosition is missing",
+                "ringqa needs relative positions to match dwells to the channel",
+            )
+        wt = _float(p, cp, "CumulativeTimeWeight", cw)
+        if wt is None:
+            if j == 0:
+                wt = 0.0
+            else:
+                raise RTPlanError(p, f"{cw}: CumulativeTimeWeight is missing", "")
+        if wt < 0:
+            raise RTPlanError(p, f"{cw}: CumulativeTimeWeight is {wt:g} (negative)", "")
+        rel.append(r)
+        pos.append(x)
+        w.append(wt)
+        orient.append(_vector(p, cp, "ControlPointOrientation", cw))
+    groups: list[tuple[int, int]] = []
+    for j in range(len(cps)):
+        if (
+            groups
+            and abs(rel[j] - rel[groups[-1][0]]) < SAME_POSITION_MM
+            and np.linalg.norm(pos[j] - pos[groups[-1][0]]) < SAME_POSITION_MM
+        ):
+            groups[-1] = (groups[-1][0], j + 1)
+        else:
+            groups.append((j, j + 1))
+    final = _float(p, item, "FinalCumulativeTimeWeight", where)
+    try:
+        times, mode = dwell_times(np.array(w), groups, total, final)
+    except ValueError as exc:
+        raise RTPlanError(p, f"{where}: {exc}", "") from None
+    if mode == "per-dwell":
+        warnings.append(
+            f"{where}: CumulativeTimeWeight holds per-dwell weights (not cumulative); read as "
+            "per-dwell weights x ChannelTotalTime / FinalCumulativeTimeWeight"
+        )
+    have = [orient[a] is not None for a, _ in groups]
+    directions = None
+    if groups and all(have):
+        d = np.array([orient[a] for a, _ in groups])
+        norms = np.linalg.norm(d, axis=1)
+        if np.any(norms < 1e-9):
+            bad = int(np.flatnonzero(norms < 1e-9)[0])
+            raise RTPlanError(
+                p, f"{where}, dwell {bad}: ControlPointOrientation is a zero vector", ""
+            )
+        directions = d / norms[:, None]
+    elif any(have):
+        warnings.append(
+            f"{where}: ControlPointOrientation present for only some dwells; orientations ignored"
+        )
+    pulses = _get(item, "NumberOfPulses")
+    src = _get(item, "ReferencedSourceNumber")
+    return PlanChannel(
+        number=number,
+        name=str(_get(item, "SourceApplicatorName") or "").strip(),
+        length_mm=_float(p, item, "ChannelLength", where),
+        step_mm=_float(p, item, "SourceApplicatorStepSize", where),
+        relative_position_mm=np.array([rel[a] for a, _ in groups], dtype=float),
+        positions_mm=np.array([pos[a] for a, _ in groups], dtype=float).reshape(-1, 3),
+        times_s=np.asarray(times, dtype=float),
+        directions=directions,
+        total_time_s=float(total),
+        applicator_id=str(_get(item, "SourceApplicatorID") or ""),
+        applicator_length_mm=_float(p, item, "SourceApplicatorLength", where),
+        source_number=None if src is None else int(src),
+        number_of_pulses=None if pulses is None else int(pulses),
+        pulse_interval_s=_float(p, item, "PulseRepetitionInterval", where),
+        joint_address=_private_str(item, oncentra.JOINT_ADDRESS_TAG),
+    )
+
+
+def _private_str(item, tag: tuple[int, int]) -> str | None:
+    try:
+        el = item.get(tag)
+    except Exception:
+        return None
+    if el is None or el.value is None:
+        return None
+    v = el.value
+    if isinstance(v, bytes):
+        v = v.decode("latin-1", errors="replace")
+    v = str(v).strip().strip("\x00").strip()
+    return v or None
+
+
+def _read_sources(p: Path, ds, warnings: list) -> list[PlanSource]:
+    items = _get(ds, "SourceSequence") or []
+    if not items:
+        raise RTPlanError(p, "no SourceSequence", "export the plan with its source")
+    machine = ""
+    tms = _get(ds, "TreatmentMachineSequence")
+    if tms:
+        machine = " ".join(
+            str(_get(tms[0], k) or "")
+            for k in ("Manufacturer", "ManufacturerModelName", "TreatmentMachineName")
+        )
+    out = []
+    for k, s in enumerate(items):
+        where = f"source {k}"
+        isotope = str(_get(s, "SourceIsotopeName") or "").strip()
+        units = str(_get(s, "SourceStrengthUnits") or "AIR_KERMA_RATE")
+        if units != "AIR_KERMA_RATE":
+            raise RTPlanError(
+                p,
+                f"{where}: SourceStrengthUnits is {units}",
+                "ringqa needs the air-kerma strength (AIR_KERMA_RATE)",
+            )
+        sk = _float(p, s, "ReferenceAirKermaRate", where)
+        if sk is None:
+            warnings.append(f"{where}: no ReferenceAirKermaRate (S_K); give it to the dose step")
+        elif sk <= 0:
+            raise RTPlanError(p, f"{where}: ReferenceAirKermaRate is {sk:g}", "")
+        date = None
+        dv = _get(s, "SourceStrengthReferenceDate")
+        if dv is not None:
+            try:
+                date = _dt.datetime.strptime(str(dv)[:8], "%Y%m%d").date()
+            except ValueError:
+                warnings.append(f"{where}: SourceStrengthReferenceDate {dv!r} is not a date")
+        model = " ".join(
+            x
+            for x in (
+                str(_get(s, "SourceManufacturer") or ""),
+                str(_get(s, "SourceModelID") or ""),
+                str(_get(s, "SourceDescription") or ""),
+                machine,
+            )
+            if x.strip()
+        ).strip()
+        num = _get(s, "SourceNumber")
+        out.append(
+            PlanSource(
+                isotope=isotope,
+                model=model,
+                tg43_name=guess_tg43_name(model, isotope),
+                sk_U=sk,
+                reference_date=date,
+                half_life_days=_float(p, s, "SourceIsotopeHalfLife", where),
+                number=None if num is None else int(num),
+            )
+        )
+    return out
+
+
+def _pick_source(p: Path, sources: list, used: set, warnings: list) -> PlanSource:
+    used = {u for u in used if u is not None}
+    chosen = [s for s in sources if s.number in used] or sources[:1]
+    if len(chosen) > 1:
+        warnings.append(
+            f"channels use {len(chosen)} sources; source {chosen[0].number} is reported"
+        )
+    return chosen[0]
+
+
+def _read_points(p: Path, ds) -> list[DosePoint]:
+    out = []
+    for k, item in enumerate(_get(ds, "DoseReferenceSequence") or []):
+        num = _get(item, "DoseReferenceNumber")
+        name = str(_get(item, "DoseReferenceDescription") or "").strip()
+        where = f"dose reference {name or k}"
+        xyz = _vector(p, item, "DoseReferencePointCoordinates", where)
+        if xyz is None:
+            continue  # a volume or site reference, not a point
+        dose = tag = None
+        for t in DOSE_TAGS:
+            dose = _float(p, item, t, where)
+            if dose is not None:
+                tag = t
+                break
+        out.append(
+            DosePoint(
+                name=name or f"point {num if num is not None else k + 1}",
+                position_mm=xyz,
+                tps_dose_gy=dose,
+                dose_tag=tag,
+                number=None if num is None else int(num),
+            )
+        )
+    return out
+
+
+def _read_library(p: Path, setups, channels: list, warnings: list):
+    found = False
+    app_name = None
+    library: dict[int, LibraryChannel] = {}
+    by_setup = {}
+    for s in setups or []:
+        app_name = app_name or _private_str(s, oncentra.APPLICATOR_NAME_TAG)
+        el = s.get(oncentra.LIBRARY_TAG)
+        if el is None or not el.value:
+            continue
+        found = True
+        details = _private_str(s, oncentra.APPLICATOR_DETAILS_TAG) or ""
+        preferred = None
+        if "Measured source path:" in details:
+            preferred = details.split("Measured source path:", 1)[1].strip().splitlines()[0]
+        try:
+            lib = oncentra.parse_library(oncentra.decode_library(el.value))
+        except oncentra.LibraryFormatError as exc:
+            warnings.append(
+                f"Oncentra applicator library (300B,100D) not readable ({exc}); using the "
+                "standard tags only"
+            )
+            continue
+        for ch_item in _get(s, "ChannelSequence") or []:
+            by_setup[int(_get(ch_item, "ChannelNumber") or 0)] = (lib, preferred)
+    if not found:
+        warnings.append(
+            "no Oncentra applicator library (private tag (300B,100D)) in the plan: no centrelines "
+            "or measured source paths; using the standard tags only"
+        )
+        return None, app_name
+    for ch in channels:
+        if ch.number not in by_setup:
+            continue
+        lib, preferred = by_setup[ch.number]
+        if not ch.joint_address:
+            warnings.append(f"channel {ch.number}: no joint address (300B,1013); no library data")
+            continue
+        try:
+            library[ch.number] = oncentra.library_channel(lib, ch.joint_address, preferred)
+        except oncentra.LibraryFormatError as exc:
+            warnings.append(f"channel {ch.number}: library not usable ({exc})")
+    return (library or None), app_name
+
+
+def _check_library(channels: list, library: dict, warnings: list) -> None:
+    """Warn when the library does not line up with the plan's dwells (> 2 mm)."""
+    for ch in channels:
+        lc = library.get(ch.number)
+        if lc is None or ch.n_dwells == 0:
+            continue
+        ref = lc.measured_path_mm if lc.measured_path_mm is not None else lc.centreline_mm
+        d = np.linalg.norm(ch.positions_mm[:, None, :] - ref[None, :, :], axis=2).min(axis=1)
+        if d.max() > 2.0:
+            warnings.append(
+                f"channel {ch.number}: dwells lie up to {d.max():.2f} mm from the library's "
+                f"{'measured path' if lc.measured_path_mm is not None else 'centreline'}; the "
+                "library may not belong to this plan"
+            )
+
+
+def applicator_from_rtplan(plan: RTPlan):  # pragma: no cover - needs ringqa.geometry
+    """Build an :class:`~ringqa.geometry.Applicator` from the plan's applicator library."""
+    raise NotImplementedError("applicator_from_rtplan lands after ringqa.geometry")

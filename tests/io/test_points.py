@@ -1,0 +1,129 @@
+"""CSV/JSON centreline and source-path files: round trips and every refusal (with its message)."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from ringqa.io.points import PointsFileError, read_point_set, read_points, write_points
+
+
+def _helix_mm(n=40, r=13.0, pitch=2.0):
+    t = np.linspace(0, 2 * np.pi, n)
+    return np.column_stack([r * np.cos(t), r * np.sin(t), pitch * t])
+
+
+def _csv(tmp_path, text, name="pts.csv"):
+    p = tmp_path / name
+    p.write_text(text)
+    return p
+
+
+def test_csv_is_millimetres_in_metres_out(tmp_path):
+    """1000 mm in the file is 1 m inside."""
+    p = _csv(tmp_path, "x_mm,y_mm,z_mm\n0,0,0\n1000,0,0\n1000,1000,0\n1000,1000,1000\n")
+    np.testing.assert_allclose(read_points(p)[-1], [1, 1, 1])
+
+
+def test_columns_in_any_order_with_comments_and_extras(tmp_path):
+    p = _csv(tmp_path, "# measured 2026\nlabel,z_mm,x_mm,y_mm\na,3,1,2\nb,6,4,5\n\nc,9,7,8\n")
+    np.testing.assert_allclose(read_points(p, kind="path") * 1e3, [[1, 2, 3], [4, 5, 6], [7, 8, 9]])
+
+
+@pytest.mark.parametrize("suffix", [".csv", ".json"])
+def test_round_trip(tmp_path, suffix):
+    """write_points then read_points gives the points back to 1 nm (6 decimals in mm)."""
+    pts_m = _helix_mm() * 1e-3
+    rel = np.arange(len(pts_m)) * 2.5
+    p = write_points(tmp_path / f"cl{suffix}", pts_m, rel)
+    ps = read_point_set(p, kind="path")
+    np.testing.assert_allclose(ps.points_m, pts_m, atol=1e-9)
+    np.testing.assert_allclose(ps.relative_position_mm, rel)
+
+
+@given(st.lists(st.floats(-500, 500), min_size=3, max_size=3), st.floats(0.5, 5.0))
+def test_round_trip_any_straight_line(tmp_path_factory, start, step):
+    """Evenly spaced points on a line (step 0.5-5 mm) round-trip through CSV to 1 nm."""
+    d = np.array([0.6, 0.0, 0.8])
+    pts = (np.array(start) + np.outer(np.arange(6) * step, d)) * 1e-3
+    p = write_points(tmp_path_factory.mktemp("rt") / "line.csv", pts)
+    np.testing.assert_allclose(read_points(p), pts, atol=1e-9)
+
+
+def test_json_column_form(tmp_path):
+    p = tmp_path / "c.json"
+    p.write_text(json.dumps({"x_mm": [0, 10, 20], "y_mm": [0, 0, 0], "z_mm": [0, 1, 3]}))
+    assert read_points(p, kind="path").shape == (3, 3)
+
+
+# --------------------------------------------------------------------------- refusals
+
+
+@pytest.mark.parametrize(
+    ("text", "match"),
+    [
+        ("x_m,y_m,z_m\n0,0,0\n0.01,0,0\n0.02,0,0\n0.03,0,0\n", "in metres"),
+        ("x_cm,y_cm,z_cm\n0,0,0\n1,0,0\n2,0,0\n3,0,0\n", "centimetres"),
+        ("x,y,z\n0,0,0\n1,0,0\n2,0,0\n3,0,0\n", "no column.*x_mm"),
+        ("x_mm,y_mm,z_mm\n0,0,0\n0.0001,0,0\n0.0002,0,0\n0.0003,0,0\n", "looks like metres"),
+        ("x_mm,y_mm,z_mm\n0,0,0\n1,0,0\n1,0,0\n3,0,0\n", "line 4 repeats the point of line 3"),
+        ("x_mm,y_mm,z_mm\n0,0,0\n2,0,0\n1,0,0\n3,0,0\n", "turns back .* at line 3"),
+        ("x_mm,y_mm,z_mm\n0,0,0\n1,0,0\nnan,0,0\n3,0,0\n", "line 4, column x_mm: value is nan"),
+        ("x_mm,y_mm,z_mm\n0,0,0\n1,,0\n2,0,0\n3,0,0\n", "line 3, column y_mm: '' is not a number"),
+        ("x_mm,y_mm,z_mm\n0,0,0\n1,0,0\n2,0,0\n", "3 point.*at least 4"),
+        ("", "empty file"),
+    ],
+)
+def test_bad_centreline_csv(tmp_path, text, match):
+    p = _csv(tmp_path, text)
+    with pytest.raises(PointsFileError, match=match) as info:
+        read_points(p, kind="centreline")
+    assert str(p) in str(info.value)
+
+
+def test_loop_through_itself_is_a_duplicate(tmp_path):
+    """A square walked twice: point 5 repeats point 1 (non-consecutive duplicate)."""
+    rows = ["0,0,0", "10,0,0", "10,10,0", "0,10,0", "0,0,0.0000001", "10,0,1"]
+    p = _csv(tmp_path, "x_mm,y_mm,z_mm\n" + "\n".join(rows) + "\n")
+    with pytest.raises(PointsFileError, match="line 6 repeats the point of line 2"):
+        read_points(p)
+
+
+def test_path_relative_positions_must_increase(tmp_path):
+    p = _csv(tmp_path, "x_mm,y_mm,z_mm,relative_position_mm\n0,0,0,5\n2.5,0,0,2.5\n5,0,0,0\n")
+    with pytest.raises(PointsFileError, match="most distal first"):
+        read_points(p, kind="path")
+
+
+@pytest.mark.parametrize(
+    ("doc", "match"),
+    [
+        ({"units": "m", "points": [[0, 0, 0], [0.01, 0, 0]]}, "units.*'m'.*multiply by 1000"),
+        ({"points": [[0, 0, 0], [10, 0, 0]]}, 'no "units" key'),
+        ({"units": "mm", "points": [[0, 0], [10, 0, 0]]}, r"points\[0\]"),
+        ({"units": "mm", "points": [[0, 0, 0], [10, "a", 0]]}, r"points\[1\]\[1\]"),
+        ({"x_m": [0, 1], "y_m": [0, 0], "z_m": [0, 0]}, "metres"),
+        ({"foo": 1}, "no points found"),
+        ([1, 2, 3], "not an object"),
+    ],
+)
+def test_bad_json(tmp_path, doc, match):
+    p = tmp_path / "p.json"
+    p.write_text(json.dumps(doc))
+    with pytest.raises(PointsFileError, match=match):
+        read_points(p, kind="path")
+
+
+def test_bad_json_syntax_and_type_and_missing(tmp_path):
+    p = tmp_path / "p.json"
+    p.write_text("{not json")
+    with pytest.raises(PointsFileError, match="not valid JSON"):
+        read_points(p)
+    with pytest.raises(PointsFileError, match="unknown file type"):
+        read_points(_csv(tmp_path, "x", name="p.txt"))
+    with pytest.raises(PointsFileError, match="file not found"):
+        read_points(tmp_path / "missing.csv")
