@@ -19,6 +19,8 @@ from ringqa.errors import RingQAError
 COMMANDS: dict[str, str] = {
     "tg43-demo": "ringqa.cli.tg43_demo",
     "import": "ringqa.cli.import_plan",
+    "simulate": "ringqa.cli.simulate",
+    "accuracy": "ringqa.cli.accuracy",
 }
 
 

@@ -228,3 +228,23 @@ class Scene:
     def replace(self, **changes) -> Scene:
         """A copy with some fields replaced (dataclasses.replace)."""
         return replace(self, **changes)
+
+    def to_dict(self) -> dict[str, Any]:
+        """The scene in user units (mm/deg/s), TOML-able; :func:`load_scene` reads it back."""
+        from ringqa.simulation.scenefile import scene_to_dict
+
+        return scene_to_dict(self)
+
+    def with_overrides(self, overrides: dict[str, Any]) -> Scene:
+        """A copy with dotted user-unit keys changed, e.g. ``{"solver.increment_mm": 0.5}``."""
+        from ringqa.simulation.scenefile import scene_with_overrides
+
+        return scene_with_overrides(self, overrides)
+
+    @classmethod
+    def for_channel(cls, channel: Channel, cable: str = "flexitron", **settings) -> Scene:
+        """A scene for a channel with a preset cable; settings as section tables in user units
+        (``solver={"increment_mm": 0.5}``) or ``solver__increment_mm=0.5``."""
+        from ringqa.simulation.scenefile import scene_for_channel
+
+        return scene_for_channel(channel, cable, **settings)

@@ -1,0 +1,28 @@
+"""The accuracy/time study: what each numerical setting of a simulation costs and buys.
+
+Public API::
+
+    from ringqa.accuracy import run_study, AccuracyStudy, default_grid, pareto_mask, recommend
+"""
+
+from ringqa.accuracy.study import (
+    AccuracyError,
+    AccuracyStudy,
+    ReferenceInfo,
+    RunRecord,
+    default_grid,
+    pareto_mask,
+    recommend,
+    run_study,
+)
+
+__all__ = [
+    "AccuracyError",
+    "AccuracyStudy",
+    "ReferenceInfo",
+    "RunRecord",
+    "default_grid",
+    "pareto_mask",
+    "recommend",
+    "run_study",
+]

@@ -1,0 +1,86 @@
+"""``ringqa accuracy``: what accuracy each simulation setting buys, and at what time.
+
+Runs the scene over a grid of settings (element length per cable section, increment or time
+step, tolerance, solver kind, each optional effect on/off), compares every run with a reference
+refined until it no longer changes, and writes:
+
+  DIR/accuracy.csv      one row per run: the settings, time_s, max_err_mm, median_err_mm,
+                        max_err_deg, dose_err_pct, status, pareto, ...
+  DIR/accuracy.png      error vs time (log-log), each run labelled, the Pareto front marked
+  DIR/recommended.toml  the scene with the cheapest settings meeting --target-mm
+  DIR/reference.csv     the reference's refinement levels and how they agree
+  DIR/runs.jsonl        finished runs: re-running the command resumes from them
+
+Exit status: 0 done (a recommendation was found), 1 no setting in the grid meets the target,
+2 bad input. Interrupt with Ctrl-C and run the same command again to resume.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+from pathlib import Path
+
+
+def add_parser(subparsers) -> None:
+    p = subparsers.add_parser(
+        "accuracy",
+        help="accuracy/time study of a scene's numerical settings",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument("scene", help="scene TOML file, or a shipped scene name (ring26-flexitron)")
+    p.add_argument("--out", required=True, type=Path, help="output folder")
+    p.add_argument("--target-mm", type=float, default=0.1, help="accuracy to meet (mm, 0.1)")
+    p.add_argument(
+        "--set",
+        dest="overrides",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="override a scene key before the study (repeatable)",
+    )
+    p.add_argument("--repeats", type=int, default=3, help="timed repeats per run (median; 3)")
+    p.add_argument("--fresh", action="store_true", help="ignore runs cached in DIR")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from ringqa.accuracy import run_study
+    from ringqa.errors import RingQAError
+    from ringqa.outdir import check_writable
+    from ringqa.simulation.scenefile import load_scene, parse_set_args
+
+    check_writable(args.out)
+    if not (math.isfinite(args.target_mm) and args.target_mm > 0):
+        raise RingQAError(f"--target-mm {args.target_mm}: must be a positive number of mm")
+    if args.repeats < 1:
+        raise RingQAError(f"--repeats {args.repeats}: must be at least 1")
+    scene = load_scene(args.scene, parse_set_args(args.overrides))
+    study = run_study(
+        scene,
+        target_mm=args.target_mm,
+        out_dir=args.out,
+        progress=not args.quiet,
+        resume=not args.fresh,
+        repeats=args.repeats,
+    )
+    t = study.table
+    n_bad = int((t["status"] != 0).sum())
+    print(
+        f"ringqa accuracy: {scene.name}: {len(t)} runs ({n_bad} jammed/failed), reference "
+        f"{'converged' if study.reference.converged else 'NOT converged'} "
+        f"(finest levels agree to {study.reference.agreement_mm:.2g} mm)"
+    )
+    for w in study.warnings:
+        print(f"ringqa accuracy: warning: {w}")
+    if study.recommended is None:
+        print(f"ringqa accuracy: no setting meets {args.target_mm:g} mm -> {args.out}/accuracy.csv")
+        return 1
+    r = study.recommended
+    print(
+        f"ringqa accuracy: cheapest meeting {args.target_mm:g} mm: {r['label']} "
+        f"({r['max_err_mm']:.3g} mm, {r['time_s']:.3g} s) -> {args.out}/recommended.toml"
+    )
+    return 0

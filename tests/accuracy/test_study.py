@@ -1,0 +1,186 @@
+"""The accuracy study's logic on a fake simulator with a known error model (see conftest)."""
+
+from __future__ import annotations
+
+import tomllib
+
+import numpy as np
+import pandas as pd
+import pytest
+from conftest import C_EL, C_INC, FakeSimulator, exact_positions_mm
+
+from ringqa.accuracy import AccuracyError, pareto_mask, recommend, run_study
+from ringqa.accuracy.study import (
+    CONTRACT_COLUMNS,
+    angle_errors_deg,
+    default_grid,
+    fit_ring_frame,
+    position_errors_mm,
+)
+
+GRID = {
+    "discretisation.element_length_mm.thin": [3.0, 1.5, 0.75],
+    "solver.increment_mm": [4.0, 1.0, 0.5, 0.25],
+}
+
+
+def test_pareto_mask_by_hand():
+    """Points (t, e): A(1, 10) B(2, 5) C(3, 6) D(4, 1) E(5, nan): C is beaten by B (faster and
+    more accurate), E has no error; the front is A, B, D."""
+    mask = pareto_mask([1, 2, 3, 4, 5], [10, 5, 6, 1, np.nan])
+    assert mask.tolist() == [True, True, False, True, False]
+
+
+def test_recommend_picks_cheapest_meeting_target():
+    """Rows (time, err): (1, 0.5) (2, 0.08) (3, 0.02) (0.5, 0.01 but jammed) (0.1, 0.001 model):
+    for 0.1 mm the answer is the 2 s run; 0.01 mm: none numerical; with model changes the model
+    row wins."""
+    t = pd.DataFrame(
+        {
+            "time_s": [1, 2, 3, 0.5, 0.1],
+            "max_err_mm": [0.5, 0.08, 0.02, 0.01, 0.001],
+            "status": [0, 0, 0, 1, 0],
+            "kind": ["numerical"] * 4 + ["model"],
+            "run": range(5),
+        }
+    )
+    assert recommend(t, 0.1)["time_s"] == 2
+    assert recommend(t, 0.01) is None
+    assert recommend(t, 0.01, include_model_changes=True)["time_s"] == 0.1
+
+
+def test_error_measures_by_hand():
+    """Positions 3-4-5: |(3, 4, 0)| = 5 mm; directions (1,0,0) vs (1,1,0)/sqrt2: 45 deg."""
+    e = position_errors_mm([[3.0, 4.0, 0.0]], [[0.0, 0.0, 0.0]])
+    assert e.tolist() == pytest.approx([5.0])
+    a = angle_errors_deg([[1.0, 0.0, 0.0]], [[1.0, 1.0, 0.0]])
+    assert a.tolist() == pytest.approx([45.0])
+    assert angle_errors_deg([[0.0, 0.0, 1.0]], [[0.0, 0.0, 1.0]]).tolist() == [0.0]
+
+
+def test_fit_ring_frame_recovers_circle():
+    """Points on a circle of radius 13 mm centred at (1, 2, 3) in a tilted plane: the fit returns
+    that centre and radius to 1e-9 mm and a normal perpendicular to the plane."""
+    n = np.array([0.0, 0.6, 0.8])
+    u = np.array([1.0, 0.0, 0.0])
+    v = np.cross(n, u)
+    phi = np.linspace(0.2, 4.0, 30)
+    pts = np.array([1.0, 2.0, 3.0]) + 13.0 * (np.outer(np.cos(phi), u) + np.outer(np.sin(phi), v))
+    c, normal, lat, r = fit_ring_frame(pts)
+    assert r == pytest.approx(13.0, abs=1e-9)
+    assert c == pytest.approx([1.0, 2.0, 3.0], abs=1e-9)
+    assert abs(np.dot(normal, n)) == pytest.approx(1.0, abs=1e-12)
+    assert abs(np.dot(lat, n)) < 1e-12
+
+
+def test_study_table_front_and_recommendation(fake_scene, fake_simulator, tmp_path):
+    """Error model e = 0.02 h^2 + 0.05 inc (mm) (h = 3, inc = 1: 0.23 mm): the measured errors
+    match it to 11 % (the reference's own error is <= 10 % of the smallest); the recommendation is
+    the fastest run meeting 0.1 mm (checked by brute force); jammed runs (inc 4 > 3 mm) appear
+    with status 1 and no error; errors fall strictly along the front."""
+    study = run_study(fake_scene, grid=GRID, target_mm=0.1, out_dir=tmp_path,
+                      simulator=fake_simulator, repeats=2)  # fmt: skip
+    t = study.table
+    for col in CONTRACT_COLUMNS:
+        assert col in t.columns
+    jam = t["solver.increment_mm"] == 4.0
+    assert (t.loc[jam, "status"] == 1).all() and t.loc[jam, "max_err_mm"].isna().all()
+    assert not t.loc[jam, "pareto"].any()
+    # measured error vs the model (reference error is ~0 by construction, <= 10 % of smallest)
+    ok = t["status"] == 0
+    h = t.loc[ok, "discretisation.element_length_mm.thin"]
+    inc = t.loc[ok, "solver.increment_mm"]
+    expected = C_EL * h**2 + C_INC * inc
+    assert np.allclose(t.loc[ok, "max_err_mm"], expected, rtol=0.11)
+    # brute-force recommendation: cheapest among those meeting 0.1 mm
+    meets = t[ok & (t["max_err_mm"] <= 0.1)]
+    assert study.recommended["time_s"] == meets["time_s"].min()
+    front = t[t["pareto"]].sort_values("time_s")
+    assert np.all(np.diff(front["max_err_mm"]) < 0)  # errors fall monotonically along the front
+    for name in ("accuracy.csv", "accuracy.png", "recommended.toml", "reference.csv",
+                 "runs.jsonl", "study.json"):  # fmt: skip
+        assert (tmp_path / name).is_file(), name
+    csv = pd.read_csv(tmp_path / "accuracy.csv")
+    assert set(CONTRACT_COLUMNS) <= set(csv.columns) and len(csv) == len(t)
+    rec = tomllib.loads((tmp_path / "recommended.toml").read_text())
+    thin = next(s for s in rec["instrument"]["sections"] if s["name"] == "thin")
+    assert thin["element_length_mm"] == study.recommended["discretisation.element_length_mm.thin"]
+    assert rec["solver"]["increment_mm"] == study.recommended["solver.increment_mm"]
+
+
+def test_reference_is_really_converged(fake_scene, fake_simulator):
+    """The reference's TRUE error (vs the exact circle) must be within a tenth of the smallest
+    reported error (+1 % slack): with e ~ 0.05 inc (first order) levels differ by halves, so the
+    rule stops when the last difference is <= 0.1 x smallest, and the remaining error (a geometric
+    tail equal to that last difference) is too."""
+    study = run_study(fake_scene, grid=GRID, simulator=fake_simulator, repeats=1, max_levels=6)
+    ref = study.reference
+    assert ref.converged
+    assert ref.agreement_mm <= 0.1 * ref.smallest_error_mm
+    finest = ref.levels[-1]["overrides"]
+    res = FakeSimulator()(fake_scene.with_overrides(finest))
+    adv = np.array(fake_scene.motion.advances_m) * 1e3
+    true_err = np.max(np.linalg.norm(res.source_pos_m * 1e3 - exact_positions_mm(adv), axis=1))
+    assert true_err <= 0.1 * ref.smallest_error_mm * 1.01
+
+
+def test_unconverged_reference_is_reported(fake_scene, fake_simulator):
+    """With only 2 levels the two finest differ by ~smallest/4 > smallest/10: not converged."""
+    study = run_study(fake_scene, grid=GRID, simulator=fake_simulator, repeats=1, max_levels=2)
+    assert not study.reference.converged
+    assert any("not converged" in w for w in study.warnings)
+
+
+def test_recommended_setting_reproduces_its_error(fake_scene, fake_simulator):
+    """Re-running the recommended overrides gives the claimed max error (deterministic model)."""
+    study = run_study(fake_scene, grid=GRID, simulator=fake_simulator, repeats=1)
+    again = FakeSimulator()(fake_scene.with_overrides(study.recommended_overrides))
+    finest = study.reference.levels[-1]["overrides"]
+    ref = FakeSimulator()(fake_scene.with_overrides(finest))
+    err = np.max(np.linalg.norm((again.source_pos_m - ref.source_pos_m) * 1e3, axis=1))
+    assert err == pytest.approx(study.recommended["max_err_mm"], rel=1e-9)
+    assert err <= 0.1
+
+
+def test_resume_skips_finished_runs(fake_scene, tmp_path):
+    """A second study in the same folder runs nothing new; an interrupted cache line is ignored;
+    resume=False starts afresh."""
+    sim1 = FakeSimulator()
+    run_study(fake_scene, grid=GRID, out_dir=tmp_path, simulator=sim1, repeats=1)
+    assert sim1.calls > 0
+    with open(tmp_path / "runs.jsonl", "a") as fh:
+        fh.write('{"key": "cut-off')  # a line cut by an interruption
+    sim2 = FakeSimulator()
+    s2 = run_study(fake_scene, grid=GRID, out_dir=tmp_path, simulator=sim2, repeats=1)
+    assert sim2.calls == 0
+    assert s2.recommended is not None
+    sim3 = FakeSimulator()
+    run_study(fake_scene, grid=GRID, out_dir=tmp_path, simulator=sim3, repeats=1, resume=False)
+    assert sim3.calls == sim1.calls
+
+
+def test_default_grid_covers_the_settings(fake_scene):
+    """16 element x increment runs, 2 tolerances, the other solver kind, 4 effect toggles."""
+    grid = default_grid(fake_scene)
+    assert len(grid) == 16 + 2 + 1 + 4
+    assert {"solver.kind": "dynamic", "effects.inertia": True} in grid
+    assert {"effects.friction": "none"} in grid
+    thin = sorted({g["discretisation.element_length_mm.thin"] for g in grid if
+                   "discretisation.element_length_mm.thin" in g})  # fmt: skip
+    assert thin == [0.75, 1.5, 3.0, 6.0]
+
+
+def test_model_change_rows_are_marked(fake_scene, fake_simulator):
+    """Friction off moves the fake source by 0.5 mm on top of the base discretisation error
+    0.02 * 3^2 + 0.05 * 1 = 0.23 mm: a 'model' row with ~0.73 mm error, never recommended even
+    though it meets the 1 mm target."""
+    grid = [{"solver.increment_mm": 0.5}, {"effects.friction": "none"}]
+    study = run_study(fake_scene, grid=grid, simulator=fake_simulator, repeats=1, target_mm=1.0)
+    row = study.table[study.table["kind"] == "model"].iloc[0]
+    assert row["max_err_mm"] == pytest.approx(0.73, rel=0.02)
+    assert study.recommended["kind"] == "numerical"
+
+
+def test_bad_target_is_an_input_error(fake_scene, fake_simulator):
+    with pytest.raises(AccuracyError, match="target"):
+        run_study(fake_scene, grid=GRID, target_mm=-1, simulator=fake_simulator)
