@@ -1,6 +1,19 @@
 """Geometry layer: channel centrelines, lumen cross-sections, channels, applicators (SI)."""
 
+from ringqa.geometry.applicator import Applicator, Channel
 from ringqa.geometry.centreline import Centreline, CentrelineTable, GeometryError
 from ringqa.geometry.lumen import Lumen
+from ringqa.geometry.parametric import fit_circle, ring_applicator, ring_channel, tandem_channel
 
-__all__ = ["Centreline", "CentrelineTable", "GeometryError", "Lumen"]
+__all__ = [
+    "Applicator",
+    "Centreline",
+    "CentrelineTable",
+    "Channel",
+    "GeometryError",
+    "Lumen",
+    "fit_circle",
+    "ring_applicator",
+    "ring_channel",
+    "tandem_channel",
+]
