@@ -810,6 +810,11 @@ def _check_library(channels: list, library: dict, warnings: list) -> None:
             )
 
 
-def applicator_from_rtplan(plan: RTPlan):  # pragma: no cover - needs ringqa.geometry
-    """Build an :class:`~ringqa.geometry.Applicator` from the plan's applicator library."""
-    raise NotImplementedError("applicator_from_rtplan lands after ringqa.geometry")
+def applicator_from_rtplan(plan: RTPlan):
+    """Build an :class:`~ringqa.geometry.Applicator` from the plan's applicator library.
+
+    See :func:`ringqa.io.plan_applicator.applicator_from_rtplan` (conventions there).
+    """
+    from ringqa.io.plan_applicator import applicator_from_rtplan as build
+
+    return build(plan)

@@ -1,0 +1,240 @@
+"""An :class:`~ringqa.geometry.Applicator` from an RT Plan's embedded applicator library.
+
+Conventions (interfaces.md):
+
+- channels ``"ring"`` and ``"tandem"`` (other parts keep their library label), centrelines
+  proximal -> distal in metres, DICOM patient coordinates;
+- lumen: circular, ``r_b`` = library lumen diameter / 2, contact-transition radius
+  ``r_a = r_b - 0.1 mm`` (the paper's 1.5 / 1.4 mm ring);
+- ``s_ref_m``: arc length of the library's first marker (``marker1``), where the plan's relative
+  position 0 lies (checked on the Oncentra 26/60 plan: the tandem's relative-position-0 dwell is
+  the marker to < 0.05 mm, and the marker's arc length on the centreline equals
+  SourceApplicatorLength to 0.01 mm on both channels).
+  Without a marker: ``SourceApplicatorLength`` when given, else the lumen tip minus 5 mm, with
+  a note in ``metadata["notes"]``;
+- measured path (most distal first, relative positions 0, step, ...) attached to its channel;
+- ring frame: a circle fitted to the circular distal part of the ring centreline
+  (:func:`fit_ring_circle`); ``ring_normal`` points to the tandem tip side (cranially), else away
+  from the stem entry; ``ring_lateral`` = patient left (+x in DICOM LPS) projected into the ring
+  plane.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ringqa.errors import InputFileError
+from ringqa.units import m_to_mm, mm_to_m
+
+#: Contact-transition radius below the wall radius (paper: r_b 1.5 mm, r_a 1.4 mm).
+RA_BELOW_RB_MM = 0.1
+#: Distance of the first marker from the lumen tip when the library has no marker (domain.md).
+MARKER_FROM_TIP_MM = 5.0
+#: Points within this distance (mm) of the fitted circle belong to the ring's circular part.
+ON_CIRCLE_MM = 0.02
+
+
+@dataclass(frozen=True)
+class RingCircle:
+    """A circle fitted to the ring's circular part (mm).
+
+    Attributes
+    ----------
+    centre_mm : numpy.ndarray
+        (3,) circle centre.
+    normal : numpy.ndarray
+        (3,) unit plane normal (sign not yet chosen).
+    radius_mm : float
+        Circle radius.
+    n_points : int
+        Centreline points (from the tip) within :data:`ON_CIRCLE_MM` of the circle.
+    max_error_mm : float
+        Largest distance of those points from the circle.
+    """
+
+    centre_mm: np.ndarray
+    normal: np.ndarray
+    radius_mm: float
+    n_points: int
+    max_error_mm: float
+
+
+def _fit(points: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+    """Least-squares plane (SVD) then circle in the plane (Kasa algebraic fit)."""
+    c0 = points.mean(axis=0)
+    _, _, vt = np.linalg.svd(points - c0)
+    e1, e2, n = vt[0], vt[1], vt[2]
+    q = points - c0
+    x, y = q @ e1, q @ e2
+    a = np.column_stack([x, y, np.ones_like(x)])
+    sol, *_ = np.linalg.lstsq(a, x * x + y * y, rcond=None)
+    cx, cy = sol[0] / 2, sol[1] / 2
+    r = float(np.sqrt(sol[2] + cx * cx + cy * cy))
+    return c0 + cx * e1 + cy * e2, n, r
+
+
+def _circle_error(points, centre, normal, radius) -> np.ndarray:
+    q = points - centre
+    h = q @ normal
+    rho = np.linalg.norm(q - np.outer(h, normal), axis=1)
+    return np.hypot(rho - radius, h)
+
+
+def fit_ring_circle(centreline_mm: np.ndarray, seed_mm: float = 20.0) -> RingCircle:
+    """Fit the circle of a ring channel from its distal end.
+
+    Parameters
+    ----------
+    centreline_mm : (n, 3) array_like
+        Ring centreline, proximal -> distal (mm).
+    seed_mm : float
+        Arc length from the tip used for the first fit; the fit then grows proximally over every
+        point within :data:`ON_CIRCLE_MM` of the circle and is refitted.
+
+    Returns
+    -------
+    RingCircle
+    """
+    cl = np.asarray(centreline_mm, dtype=float)
+    seg = np.linalg.norm(np.diff(cl, axis=0), axis=1)
+    from_tip = np.concatenate([np.cumsum(seg[::-1])[::-1], [0.0]])
+    k = max(int(np.count_nonzero(from_tip <= seed_mm)), 4)
+    for _ in range(5):
+        part = cl[-k:]
+        centre, normal, radius = _fit(part)
+        err = _circle_error(cl, centre, normal, radius)
+        off = np.flatnonzero(err[::-1] > ON_CIRCLE_MM)  # from the tip backwards
+        k_new = int(off[0]) if off.size else len(cl)
+        if k_new <= k:
+            break
+        k = k_new
+    err = _circle_error(cl[-k:], centre, normal, radius)
+    return RingCircle(centre, normal, float(radius), int(k), float(err.max()))
+
+
+def applicator_from_rtplan(plan):
+    """Build the applicator (ring + tandem channels) from the plan's embedded library.
+
+    Parameters
+    ----------
+    plan : RTPlan
+        From :func:`ringqa.io.rtplan.read_rtplan`.
+
+    Returns
+    -------
+    ringqa.geometry.Applicator
+
+    Raises
+    ------
+    InputFileError
+        The plan has no applicator library (other TPSs) or no ring channel in it.
+    """
+    if not plan.library:
+        raise InputFileError(
+            plan.path,
+            "the plan has no embedded applicator library (Oncentra private tag (300B,100D)), so "
+            "there is no channel centreline",
+            "give the applicator instead (a shipped name such as ring26x60, or a folder with the "
+            "centreline and measured path CSV files)",
+        )
+    from ringqa.geometry import Applicator, Centreline, Channel, Lumen
+
+    notes: list[str] = []
+    channels = []
+    ring_cl_mm = tandem_tip = None
+    info = {}
+    for number, lc in sorted(plan.library.items()):
+        name = lc.role if lc.role in ("ring", "tandem") else lc.name or f"channel {number}"
+        if any(c.name == name for c in channels):
+            name = f"{name}_{number}"
+        cl_mm = lc.centreline_mm
+        centreline = Centreline.from_points(mm_to_m(cl_mm))
+        diam = lc.lumen_diameter_mm
+        if diam is None:
+            raise InputFileError(
+                plan.path, f"library part {lc.part_id} (channel {number}) has no lumen diameter"
+            )
+        r_b = 0.5 * diam
+        lumen = Lumen.circular(mm_to_m(r_b), mm_to_m(r_b - RA_BELOW_RB_MM))
+        ch = plan.channel(number)
+        if lc.marker_mm is not None:
+            s_m, _ = centreline.closest(mm_to_m(np.asarray(lc.marker_mm)[None, :]))
+            s_ref_mm = m_to_mm(float(s_m[0]))
+            how = "library first marker"
+        elif ch.applicator_length_mm is not None:
+            s_ref_mm = ch.applicator_length_mm
+            how = "SourceApplicatorLength"
+            notes.append(f"channel {name}: no marker in the library; s_ref = {how}")
+        else:
+            s_ref_mm = m_to_mm(centreline.length_m) - MARKER_FROM_TIP_MM
+            how = "lumen tip - 5 mm"
+            notes.append(f"channel {name}: no marker in the library; s_ref = {how}")
+        path_m = None if lc.measured_path_mm is None else mm_to_m(lc.measured_path_mm)
+        step_m = None if lc.measured_step_mm is None else mm_to_m(lc.measured_step_mm)
+        channels.append(
+            Channel(
+                name=name,
+                centreline=centreline,
+                lumen=lumen,
+                s_ref_m=mm_to_m(s_ref_mm),
+                measured_path_m=path_m,
+                measured_step_m=step_m,
+            )
+        )
+        info[name] = {
+            "plan_channel": number,
+            "library_part": lc.part_id,
+            "description": lc.description,
+            "lumen_diameter_mm": diam,
+            "s_ref_mm": s_ref_mm,
+            "s_ref_from": how,
+            "measured_path": lc.measured_path_name,
+        }
+        if name == "ring":
+            ring_cl_mm = cl_mm
+        elif name == "tandem":
+            tandem_tip = cl_mm[-1]
+    if ring_cl_mm is None:
+        raise InputFileError(
+            plan.path,
+            "the applicator library has no ring channel "
+            f"(parts: {', '.join(lc.description or lc.name for lc in plan.library.values())})",
+            "ringqa commissions ring applicators; give a ring applicator plan",
+        )
+    circle = fit_ring_circle(ring_cl_mm)
+    normal = circle.normal.copy()
+    if tandem_tip is not None:
+        if (tandem_tip - circle.centre_mm) @ normal < 0:
+            normal = -normal
+    elif (ring_cl_mm[0] - circle.centre_mm) @ normal > 0:
+        normal = -normal
+    left = np.array([1.0, 0.0, 0.0]) - normal[0] * normal
+    lateral = left / np.linalg.norm(left)
+    stem = ring_cl_mm[min(20, len(ring_cl_mm) - 1)] - ring_cl_mm[0]
+    stem = stem / np.linalg.norm(stem)
+    angle = float(np.degrees(np.arcsin(min(1.0, abs(stem @ normal)))))
+    metadata = {
+        "source": "RT Plan with Oncentra's embedded applicator library",
+        "plan": plan.path,
+        "applicator_name": plan.applicator_name,
+        "diameter_mm": 2.0 * circle.radius_mm,
+        "angle_deg": angle,
+        "ring_fit": {
+            "radius_mm": circle.radius_mm,
+            "points_on_circle": circle.n_points,
+            "max_error_mm": circle.max_error_mm,
+        },
+        "channels": info,
+        "notes": notes,
+    }
+    return Applicator(
+        name=plan.applicator_name or plan.plan_label or "rtplan",
+        channels=tuple(channels),
+        ring_centre_m=mm_to_m(circle.centre_mm),
+        ring_normal=normal,
+        ring_lateral=lateral,
+        ring_radius_m=mm_to_m(circle.radius_mm),
+        metadata=metadata,
+    )
