@@ -4,8 +4,11 @@ Conventions (interfaces.md):
 
 - channels ``"ring"`` and ``"tandem"`` (other parts keep their library label), centrelines
   proximal -> distal in metres, DICOM patient coordinates;
-- lumen: circular, ``r_b`` = library lumen diameter / 2, contact-transition radius
-  ``r_a = r_b - 0.1 mm`` (the paper's 1.5 / 1.4 mm ring);
+- lumen: ``r_b`` = library lumen diameter / 2, contact-transition radius ``r_a = r_b - 0.1 mm``
+  (the paper's 1.5 / 1.4 mm ring). The library gives only the diameter; as in the parametric
+  rings (:mod:`ringqa.geometry.parametric`) the RING lumen is U-shaped (flat side ASSUMED
+  ``FLAT_MM`` = 1.2 mm from the centreline on the outside of the bend) from the end of the
+  straight stem to the tip, circular along the stem; other channels are circular;
 - ``s_ref_m``: arc length of the library's first marker (``marker1``), where the plan's relative
   position 0 lies (checked on the Oncentra 26/60 plan: the tandem's relative-position-0 dwell is
   the marker to < 0.05 mm, and the marker's arc length on the centreline equals
@@ -26,6 +29,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ringqa.errors import InputFileError
+from ringqa.geometry import Applicator, Centreline, Channel, Lumen, fit_circle
+from ringqa.geometry.parametric import FLAT_MM
 from ringqa.units import m_to_mm, mm_to_m
 
 #: Contact-transition radius below the wall radius (paper: r_b 1.5 mm, r_a 1.4 mm).
@@ -61,18 +66,26 @@ class RingCircle:
     max_error_mm: float
 
 
-def _fit(points: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
-    """Least-squares plane (SVD) then circle in the plane (Kasa algebraic fit)."""
-    c0 = points.mean(axis=0)
-    _, _, vt = np.linalg.svd(points - c0)
-    e1, e2, n = vt[0], vt[1], vt[2]
-    q = points - c0
-    x, y = q @ e1, q @ e2
-    a = np.column_stack([x, y, np.ones_like(x)])
-    sol, *_ = np.linalg.lstsq(a, x * x + y * y, rcond=None)
-    cx, cy = sol[0] / 2, sol[1] / 2
-    r = float(np.sqrt(sol[2] + cx * cx + cy * cy))
-    return c0 + cx * e1 + cy * e2, n, r
+def _fit(points_mm: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+    """Plane (SVD) then circle (algebraic fit): :func:`ringqa.geometry.fit_circle`, in mm."""
+    centre_m, normal, radius_m, _ = fit_circle(mm_to_m(points_mm))
+    return m_to_mm(centre_m), normal, m_to_mm(radius_m)
+
+
+def stem_end_mm(centreline_mm: np.ndarray, tol_mm: float = 0.01) -> float:
+    """Arc length (polyline, mm) where the centreline leaves its straight proximal stem.
+
+    The stem line runs through the first point along the first segment; the stem ends at the
+    last point before the first one farther than ``tol_mm`` from that line.
+    """
+    cl = np.asarray(centreline_mm, dtype=float)
+    d = cl[1] - cl[0]
+    d = d / np.linalg.norm(d)
+    q = cl - cl[0]
+    off = np.linalg.norm(q - np.outer(q @ d, d), axis=1)
+    k = int(np.argmax(off > tol_mm)) if np.any(off > tol_mm) else len(cl)
+    seg = np.linalg.norm(np.diff(cl, axis=0), axis=1)
+    return float(np.sum(seg[: max(k - 1, 0)]))
 
 
 def _circle_error(points, centre, normal, radius) -> np.ndarray:
@@ -139,8 +152,6 @@ def applicator_from_rtplan(plan):
             "give the applicator instead (a shipped name such as ring26x60, or a folder with the "
             "centreline and measured path CSV files)",
         )
-    from ringqa.geometry import Applicator, Centreline, Channel, Lumen
-
     notes: list[str] = []
     channels = []
     ring_cl_mm = tandem_tip = None
@@ -157,7 +168,17 @@ def applicator_from_rtplan(plan):
                 plan.path, f"library part {lc.part_id} (channel {number}) has no lumen diameter"
             )
         r_b = 0.5 * diam
-        lumen = Lumen.circular(mm_to_m(r_b), mm_to_m(r_b - RA_BELOW_RB_MM))
+        r_a = r_b - RA_BELOW_RB_MM
+        lumen_note = "circular"
+        if name == "ring" and FLAT_MM < r_a:
+            s0 = stem_end_mm(cl_mm)
+            lumen = Lumen.u_shaped(mm_to_m(r_b), mm_to_m(r_a), mm_to_m(FLAT_MM), mm_to_m(s0))
+            lumen_note = (
+                f"U-shaped from the end of the straight stem (s = {s0:.1f} mm) to the tip, flat "
+                f"side {FLAT_MM} mm from the centreline (ASSUMED, as the parametric rings)"
+            )
+        else:
+            lumen = Lumen.circular(mm_to_m(r_b), mm_to_m(r_a))
         ch = plan.channel(number)
         if lc.marker_mm is not None:
             s_m, _ = centreline.closest(mm_to_m(np.asarray(lc.marker_mm)[None, :]))
@@ -188,6 +209,8 @@ def applicator_from_rtplan(plan):
             "library_part": lc.part_id,
             "description": lc.description,
             "lumen_diameter_mm": diam,
+            "r_a_mm": r_a,
+            "lumen": lumen_note,
             "s_ref_mm": s_ref_mm,
             "s_ref_from": how,
             "measured_path": lc.measured_path_name,

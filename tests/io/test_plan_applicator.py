@@ -12,7 +12,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from ringqa.io.plan_applicator import fit_ring_circle
+from ringqa.io.plan_applicator import fit_ring_circle, stem_end_mm
 from ringqa.io.rtplan import read_rtplan
 
 EXAMPLE = ("data", "examples", "oncentra_ring26x60", "RP_ring26x60_oncentra43.dcm")
@@ -49,13 +49,11 @@ def test_fit_recovers_an_analytic_ring(radius, centre, angles):
     np.testing.assert_allclose(c.centre_mm, centre, atol=1e-8)
     assert abs(abs(c.normal @ rot[:, 2]) - 1.0) < 1e-12
     assert c.n_points == n_arc
+    assert stem_end_mm(pts) == pytest.approx(40.0, abs=1e-9)  # the stem is 40 x 1 mm
 
 
 @pytest.fixture(scope="module")
 def example_app(request):
-    geometry = pytest.importorskip("ringqa.geometry")
-    if not hasattr(geometry, "Applicator"):
-        pytest.skip("ringqa.geometry.Applicator has not landed yet")
     from ringqa.io.rtplan import applicator_from_rtplan
 
     root = request.config.rootpath
@@ -88,6 +86,19 @@ def test_applicator_s_ref_and_measured_path(example_app):
     np.testing.assert_allclose(pos * 1e3, ch.positions_mm, atol=0.05)
     assert ring.measured_path_m.shape == (30, 3) and ring.measured_step_m == pytest.approx(2.5e-3)
     assert tandem.measured_path_m is None
+
+
+def test_ring_lumen_is_u_shaped_after_the_stem(example_app):
+    """Ring: r_b 1.5 mm, r_a 1.4 mm; circular on the stem, flat side 1.2 mm beyond it (the
+    stem ends about 282.5 - 60 (circle) - 28 (transition) = 194 mm from the entry)."""
+    _, app = example_app
+    seg_s, rb, ra, flat = app.channel("ring").lumen.kernel_arrays()
+    np.testing.assert_allclose(rb * 1e3, 1.5)
+    np.testing.assert_allclose(ra * 1e3, 1.4)
+    assert seg_s[1] * 1e3 == pytest.approx(194.0, abs=1.5)
+    assert np.isinf(flat[0]) and flat[-1] * 1e3 == pytest.approx(1.2)
+    seg_s, rb, ra, flat = app.channel("tandem").lumen.kernel_arrays()
+    assert np.all(np.isinf(flat)) and rb[0] * 1e3 == pytest.approx(1.25)
 
 
 def test_plan_without_library_cannot_give_an_applicator(rtplan_factory):
