@@ -21,6 +21,7 @@ COMMANDS: dict[str, str] = {
     "import": "ringqa.cli.import_plan",
     "simulate": "ringqa.cli.simulate",
     "accuracy": "ringqa.cli.accuracy",
+    "commission": "ringqa.cli.commission",
 }
 
 

@@ -592,6 +592,7 @@ def commission(
     tandem_dwells: int = TANDEM_DWELLS,
     position_limits_mm: tuple[float, float] = (POSITION_RECOMMENDED_MM, POSITION_REQUIRED_MM),
     dose_action_pct: float = DOSE_ACTION_PCT,
+    require_measured: bool | None = None,
     simulator: Callable | None = None,
     scene_factory: Callable | None = None,
 ) -> CommissioningResult:
@@ -624,6 +625,10 @@ def commission(
         Recommended and required source-position tolerance, mm (1, 2).
     dose_action_pct : float
         Dose-difference action level, % (5).
+    require_measured : bool, optional
+        Refuse an applicator without a measured source path. Default: True for user files
+        (folder, JSON, RT Plan), False for shipped applicators and Applicator objects (which are
+        then compared simulated vs centreline).
     simulator, scene_factory : callable, optional
         Replace ``ringqa.simulation.simulate`` / ``Scene.for_channel(channel, cable=...)``
         (tests, other engines). ``simulator(scene, advances_mm=..., progress=False)`` must return
@@ -648,6 +653,14 @@ def commission(
     app, rtplan, kind, input_files = _load_input(input)
     timings["load_s"] = time.perf_counter() - t_start
     ring = _channel(app, channel)
+    if require_measured is None:
+        require_measured = kind in ("folder", "file", "rtplan")
+    if require_measured and getattr(ring, "measured_path_m", None) is None:
+        raise RingQAError(
+            f"{input}: no measured source path for channel {channel!r} (add the measured path, "
+            "e.g. a CSV with x_mm,y_mm,z_mm, most distal position first, or allow the "
+            "comparison with the centreline: --centreline-reference)"
+        )
     src = _source_for(source, rtplan, notes)
     if sk_U is None:
         sk_U = float(getattr(getattr(rtplan, "source", None), "sk_U", 0.0) or 40820.0)

@@ -1,0 +1,115 @@
+"""CSV and JSON writers for commissioning results (the file contract other tools read).
+
+Files per applicator (issue 5):
+
+- ``dwells.csv``: one row per dwell and path (``measured``/``simulated``/``centreline``).
+- ``doses.csv``: one row per dose point and plan (``measured``/``simulated``/``centreline``; and
+  ``rtplan`` = the RT Plan's own dwells at its TPS points, beside ``tps_dose_gy``).
+- ``plan_dwells.csv``: the standard plans' dwells and (equal) dwell times.
+- ``summary.csv``: one row per applicator.
+- ``results.json``: stable keys (``schema`` = ``ringqa.commission/1``), provenance included.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+SCHEMA = "ringqa.commission/1"
+FLOAT_FORMAT = "%.6g"
+
+
+def _clean(value):
+    """JSON-safe copy: numpy -> python, NaN/inf -> None, tuples -> lists."""
+    if isinstance(value, dict):
+        return {str(k): _clean(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_clean(v) for v in value]
+    if isinstance(value, np.ndarray):
+        return _clean(value.tolist())
+    if isinstance(value, np.generic):
+        return _clean(value.item())
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, Path):
+        return str(value)
+    return value
+
+
+def results_dict(result) -> dict:
+    """The results.json content of one CommissioningResult (stable keys)."""
+    points = (
+        result.doses[result.doses["plan"] == result.reference][
+            ["point", "kind", "x_mm", "y_mm", "z_mm"]
+        ].to_dict("records")
+        if not result.doses.empty
+        else []
+    )
+    return _clean(
+        {
+            "schema": SCHEMA,
+            "applicator": result.applicator,
+            "input": result.input,
+            "input_kind": result.input_kind,
+            "reference": result.reference,
+            "passed": result.passed,
+            "verdicts": [v.as_dict() for v in result.verdicts],
+            "summary": result.summary,
+            "notes": list(result.notes),
+            "settings": result.settings,
+            "simulation": result.simulation,
+            "dose_points": points,
+            "doses": result.doses.to_dict("records"),
+            "geometry": {k: v for k, v in result.geometry.items() if k != "centrelines_mm"},
+            "timings_s": result.timings_s,
+            "provenance": result.provenance.as_dict(),
+            "files": ["dwells.csv", "doses.csv", "plan_dwells.csv", "summary.csv", "report.pdf"],
+        }
+    )
+
+
+def write_tables(result, folder: Path) -> list[Path]:
+    """Write dwells.csv, doses.csv, plan_dwells.csv, summary.csv and results.json into folder."""
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    out = []
+    for name, df in (
+        ("dwells.csv", result.dwells),
+        ("doses.csv", result.doses),
+        ("plan_dwells.csv", result.plan_dwells),
+        ("summary.csv", pd.DataFrame([result.summary])),
+    ):
+        df.to_csv(folder / name, index=False, float_format=FLOAT_FORMAT)
+        out.append(folder / name)
+    (folder / "results.json").write_text(json.dumps(results_dict(result), indent=2))
+    out.append(folder / "results.json")
+    return out
+
+
+def write_batch_tables(batch, folder: Path) -> list[Path]:
+    """The cross-applicator summary.csv, all_dwells.csv and batch.json of a BatchResult."""
+    folder = Path(folder)
+    batch.summary.to_csv(folder / "summary.csv", index=False, float_format=FLOAT_FORMAT)
+    dwells = [r.dwells for r in batch.results]
+    if dwells:
+        pd.concat(dwells, ignore_index=True).to_csv(
+            folder / "all_dwells.csv", index=False, float_format=FLOAT_FORMAT
+        )
+    doses = [r.doses for r in batch.results]
+    if doses:
+        pd.concat(doses, ignore_index=True).to_csv(
+            folder / "all_doses.csv", index=False, float_format=FLOAT_FORMAT
+        )
+    info = {
+        "schema": "ringqa.commission-batch/1",
+        "applicators": [r.applicator for r in batch.results],
+        "failures": [{"input": i, "error": e} for i, e in batch.failures],
+        "summary": batch.summary.to_dict("records"),
+        "provenance": batch.results[0].provenance.as_dict() if batch.results else None,
+    }
+    (folder / "batch.json").write_text(json.dumps(_clean(info), indent=2))
+    return [folder / "summary.csv", folder / "batch.json"]

@@ -1,0 +1,112 @@
+"""``ringqa commission`` in-process, with the stand-in applicators and engine (must-show 4)."""
+
+from __future__ import annotations
+
+import importlib
+import json
+
+import pandas as pd
+import pytest
+
+from ringqa.cli import main
+from tests.pipeline.fakes import fake_scene_factory, fake_simulator, make_applicator
+
+# the module (ringqa.pipeline's attribute 'commission' is the function)
+pc = importlib.import_module("ringqa.pipeline.commission")
+
+FAKES = {
+    "fake26": lambda: make_applicator(),
+    "narrow": lambda: make_applicator(name="narrow", r_b=0.3e-3),
+    "nopath": lambda: make_applicator(name="nopath", n_measured=0),
+    "jam": lambda: make_applicator(name="jam"),
+}
+
+
+@pytest.fixture
+def fake_world(monkeypatch):
+    """Inputs named in FAKES load stand-in applicators; 'jam' gets an engine that jams."""
+
+    def load(item):
+        name = str(item)
+        if name not in FAKES:
+            from ringqa.errors import RingQAError
+
+            raise RingQAError(f"{name}: no such applicator")
+        return FAKES[name](), None, "folder" if name == "nopath" else "shipped", []
+
+    ok, jam = fake_simulator(), fake_simulator(jam_after=3)
+
+    def simulator(scene, advances_mm=None, progress=False):
+        if scene.channel is current["channel"] and current["name"] == "jam":
+            return jam(scene, advances_mm=advances_mm)
+        return ok(scene, advances_mm=advances_mm)
+
+    current = {"name": None, "channel": None}
+
+    def loader(item):
+        app, plan, kind, files = load(item)
+        current["name"], current["channel"] = str(item), app.channel("ring")
+        return app, plan, kind, files
+
+    monkeypatch.setattr(pc, "_load_input", loader)
+    monkeypatch.setattr(pc, "_default_simulator", lambda: simulator)
+    monkeypatch.setattr(pc, "_default_scene_factory", fake_scene_factory())
+
+
+def test_single(fake_world, tmp_path, capsys):
+    out = tmp_path / "out"
+    assert (
+        main(["commission", "fake26", "--out", str(out), "--set", "solver.increment_mm=0.5"]) == 0
+    )
+    assert "fake26 (measured reference)" in capsys.readouterr().out
+    data = json.loads((out / "results.json").read_text())
+    assert data["settings"]["scene_overrides"] == {"solver.increment_mm": 0.5}
+    assert (out / "report.pdf").is_file()
+
+
+@pytest.mark.parametrize(
+    ("name", "message"),
+    [
+        ("jam", "jammed after advance"),
+        ("narrow", "cannot pass"),
+        ("nopath", "no measured source path"),
+        ("missing", "no such applicator"),
+    ],
+)
+def test_failures_are_one_line_and_leave_nothing(fake_world, tmp_path, capsys, name, message):
+    out = tmp_path / "out"
+    assert main(["commission", name, "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert message in err and len(err.splitlines()) == 1 and "Traceback" not in err
+    assert list(tmp_path.iterdir()) == []  # no report, no staging folder
+
+
+def test_unwritable_output(fake_world, tmp_path, capsys):
+    target = tmp_path / "file.txt"
+    target.write_text("x")
+    assert main(["commission", "fake26", "--out", str(target)]) == 2
+    assert "not a folder" in capsys.readouterr().err
+
+
+def test_centreline_reference_flag(fake_world, tmp_path):
+    out = tmp_path / "out"
+    assert main(["commission", "nopath", "--out", str(out), "--centreline-reference"]) == 0
+    assert json.loads((out / "results.json").read_text())["reference"] == "centreline"
+
+
+def test_batch_completes_around_a_failure(fake_world, tmp_path, capsys):
+    out = tmp_path / "all"
+    code = main(["commission", "fake26", "jam", "nopath", "--out", str(out), "--quiet",
+                 "--centreline-reference"])  # fmt: skip
+    assert code == 2
+    captured = capsys.readouterr()
+    assert "2 of 3 applicators" in captured.out
+    assert "jam" in captured.err and "jammed" in captured.err
+    summary = pd.read_csv(out / "summary.csv")
+    assert list(summary["verdict"] == "ERROR") == [False, True, False]
+    assert (out / "fake26" / "report.pdf").is_file() and (out / "summary.pdf").is_file()
+
+
+def test_bad_set(fake_world, tmp_path, capsys):
+    assert main(["commission", "fake26", "--out", str(tmp_path / "o"), "--set", "novalue"]) == 2
+    assert "KEY=VALUE" in capsys.readouterr().err

@@ -1,0 +1,81 @@
+"""The report files: contract columns, stable JSON keys, a PDF with the expected pages, staging."""
+
+from __future__ import annotations
+
+import json
+
+import pandas as pd
+import pytest
+
+from ringqa.pipeline import commission, commission_batch
+from ringqa.report import SCHEMA, write_batch, write_report
+from tests.pipeline.fakes import fake_scene_factory, fake_simulator, make_applicator
+
+DWELL_COLUMNS = {"applicator", "dwell", "path", "x_mm", "y_mm", "z_mm", "dir_x", "dir_y", "dir_z",
+                 "dist_to_measured_mm"}  # fmt: skip
+DOSE_COLUMNS = {"applicator", "point", "plan", "dose_gy", "diff_pct"}
+JSON_KEYS = {"schema", "applicator", "input", "input_kind", "reference", "passed", "verdicts",
+             "summary", "notes", "settings", "simulation", "dose_points", "doses", "geometry",
+             "timings_s", "provenance", "files"}  # fmt: skip
+
+
+@pytest.fixture(scope="module")
+def result():
+    return commission(make_applicator(tandem=True), simulator=fake_simulator(z_m=2e-4),
+                      scene_factory=fake_scene_factory())  # fmt: skip
+
+
+def test_contract_files(result, tmp_path):
+    out = tmp_path / "out"
+    write_report(result, out)
+    for name in ("dwells.csv", "doses.csv", "plan_dwells.csv", "summary.csv", "results.json",
+                 "report.pdf"):  # fmt: skip
+        assert (out / name).is_file(), name
+    dwells = pd.read_csv(out / "dwells.csv")
+    assert DWELL_COLUMNS <= set(dwells.columns)
+    assert set(dwells["path"]) == {"measured", "simulated", "centreline"}
+    doses = pd.read_csv(out / "doses.csv")
+    assert DOSE_COLUMNS <= set(doses.columns)
+    assert len(pd.read_csv(out / "summary.csv")) == 1
+    data = json.loads((out / "results.json").read_text())
+    assert set(data) == JSON_KEYS
+    assert data["schema"] == SCHEMA
+    assert data["provenance"]["software"].startswith("ringqa ")
+    assert {v["status"] for v in data["verdicts"]} <= {"PASS", "WARN", "FAIL", "ACTION"}
+    # the CSV round-trips the numbers (6 significant digits)
+    sim = dwells[dwells.path == "simulated"]["dist_to_measured_mm"].to_numpy()
+    ref = result.dwells[result.dwells.path == "simulated"]["dist_to_measured_mm"].to_numpy()
+    assert sim == pytest.approx(ref, rel=1e-5)
+    pdf = (out / "report.pdf").read_bytes()
+    assert pdf.startswith(b"%PDF") and pdf.count(b"/Type /Page") - pdf.count(b"/Type /Pages") == 5
+
+
+def test_failed_write_leaves_nothing(result, tmp_path, monkeypatch):
+    """An error while writing the PDF: no out folder, no staging folder left behind."""
+    import ringqa.report as report
+
+    def boom(*a, **k):
+        raise RuntimeError("disk full")
+
+    monkeypatch.setattr(report, "write_pdf", boom)
+    with pytest.raises(RuntimeError):
+        write_report(result, tmp_path / "out")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_batch_folder(tmp_path):
+    apps = [make_applicator(name="a"), make_applicator(name="b", r_b=0.3e-3),
+            make_applicator(name="c", n_measured=0)]  # fmt: skip
+    batch = commission_batch(apps, progress=False, simulator=fake_simulator(),
+                             scene_factory=fake_scene_factory())  # fmt: skip
+    write_batch(batch, tmp_path / "all")
+    out = tmp_path / "all"
+    expected = {"a", "c", "summary.csv", "all_dwells.csv", "all_doses.csv", "batch.json",
+                "summary.pdf"}  # fmt: skip
+    assert {p.name for p in out.iterdir()} == expected
+    summary = pd.read_csv(out / "summary.csv")
+    assert list(summary["applicator"]) == ["a", "b", "c"]
+    assert summary.loc[1, "verdict"] == "ERROR" and "cannot pass" in summary.loc[1, "error"]
+    assert list(summary["reference"].fillna("")) == ["measured", "", "centreline"]
+    info = json.loads((out / "batch.json").read_text())
+    assert info["failures"][0]["input"] == "b"
