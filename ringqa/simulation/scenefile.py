@@ -35,7 +35,7 @@ from typing import Any
 
 import numpy as np
 
-from ringqa.errors import SceneError
+from ringqa.errors import RingQAError, SceneError
 from ringqa.simulation.instruments import CABLE_PRESETS, CONTACT_PRESETS, cable_preset
 from ringqa.simulation.scene import (
     FRICTION_LAWS,
@@ -370,6 +370,15 @@ def analytic_centreline_mm(spec: Mapping[str, Any]) -> np.ndarray:
 
 
 def _lumen(ck: _Checker, sec: dict, required: bool):
+    try:
+        return _lumen_inner(ck, sec, required)
+    except SceneError:
+        raise
+    except RingQAError as exc:
+        raise ck.fail("channel.lumen", str(exc), "check r_b_mm, r_a_mm, flat_mm") from None
+
+
+def _lumen_inner(ck: _Checker, sec: dict, required: bool):
     from ringqa.geometry import Lumen
 
     kind = ck.value("channel", "lumen", sec=sec)
@@ -468,7 +477,12 @@ def build_channel(ck: _Checker):
             if key not in sec:
                 raise ck.fail(f"channel.{key}", f"missing for kind = {kind!r}", "give it in mm")
         pts_mm = analytic_centreline_mm(sec)
-    cl = Centreline.from_points(mm_to_m(pts_mm))
+    try:
+        cl = Centreline.from_points(mm_to_m(pts_mm))
+    except RingQAError as exc:
+        raise ck.fail(
+            "channel", f"cannot build the centreline: {exc}", "check its parameters"
+        ) from None
     lumen = _lumen(ck, sec, required=True)
     length_mm = m_to_mm(cl.length_m)
     s_ref_mm = sec.get("s_ref_mm", max(length_mm - ANALYTIC_TIP_GAP_MM, 0.5 * length_mm))
@@ -621,10 +635,12 @@ def _custom_instrument(ck: _Checker, sec: dict, sections_in: list) -> Instrument
         )
     if not secs:
         raise ck.fail("instrument.sections", "empty", "give at least one section")
+    preset = sec.get("preset")
     return Instrument(
-        name=str(sec.get("preset", "custom")) if "preset" in sec else "custom",
+        name=str(preset) if preset else "custom",
         sections=tuple(secs),
         centre_from_tip_m=mm_to_m(sec.get("centre_from_tip_mm", 0.0)),
+        afterloader=CABLE_PRESETS[preset].afterloader if preset in CABLE_PRESETS else "",
     )
 
 
@@ -701,13 +717,7 @@ def _motion(ck: _Checker, channel, preset: str) -> tuple[Motion, np.ndarray]:
     v = {k: ck.value("motion", k, sec=sec) for k in SCHEMA["motion"]}
     length_mm = m_to_mm(channel.centreline.length_m)
     if v["advances_mm"] is not None:
-        adv = ck.numbers("motion.advances_mm", v["advances_mm"])
-        if v["step_mm"] is not None or v["span_mm"] is not None:
-            raise ck.fail(
-                "motion.step_mm",
-                "given with advances_mm",
-                "give either advances_mm or step_mm/span_mm",
-            )
+        adv = ck.numbers("motion.advances_mm", v["advances_mm"])  # wins over step_mm/span_mm
     else:
         adv = default_advances_mm(channel, v["step_mm"], v["span_mm"])
     if adv.size == 0:
@@ -803,6 +813,11 @@ def _scene_from_data(data: dict, origin: str, name: str | None, stem: str | None
             "unknown top-level key or table",
             f"allowed: {', '.join([*SCHEMA[''], *[s for s in SCHEMA if s]])}",
         )
+    for sec_name, keys in SCHEMA.items():  # every key's name, type and range before any work
+        sec = ck.section(sec_name) if sec_name else data
+        for key in keys:
+            if key in sec:
+                ck.value(sec_name, key, sec=sec if sec_name else None)
     scene_name = name or ck.value("", "name") or stem or "scene"
     preset = ck.value("instrument", "preset")
     if channel is None:
