@@ -1,0 +1,522 @@
+"""ringqa's applicator file format (JSON, millimetres) and the shipped applicators.
+
+Format (``format_version`` 1; full description in ``data/applicators/README.md``)::
+
+    {
+      "format": "ringqa-applicator", "format_version": 1, "name": "ring26x60", "units": "mm",
+      "metadata": {"diameter_mm": 26, "angle_deg": 60, "sources": [...], "assumptions": [...]},
+      "ring_frame": {"centre_mm": [0, 0, 0], "normal": [0, 0, 1], "lateral": [1, 0, 0],
+                     "radius_mm": 13.0},
+      "channels": [
+        {"name": "ring",
+         "centreline_mm": [[x, y, z], ...],          # PROXIMAL -> DISTAL (or "centreline_file")
+         "lumen": {"kind": "u_shaped", "r_b_mm": 1.5, "r_a_mm": 1.4, "flat_mm": 1.2,
+                   "s_start_mm": 60.0},
+         "s_ref_mm": 142.9,                          # arc length of relative position 0
+         "measured_path_mm": [[x, y, z], ...],       # optional, MOST DISTAL FIRST
+         "measured_step_mm": 2.5}, ...]
+    }
+
+Lumen kinds: ``circular`` (r_b_mm, r_a_mm), ``stepped`` (s_breaks_mm, r_b_mm [..], r_a_mm [..]),
+``u_shaped`` (r_b_mm, r_a_mm, flat_mm, optional s_start_mm / s_end_mm), ``segments`` (the exact
+form :func:`save_applicator` writes: s_bounds_mm with null for -inf/+inf, r_b_mm, r_a_mm, flat_mm
+with null for "no flat"). Instead of ``s_ref_mm`` a channel may give ``tip_to_first_dwell_mm``
+(s_ref = length - that) or, with a measured path, neither (s_ref = arc length closest to the
+path's first point).
+
+A FOLDER is accepted too: ``applicator.json`` (as above, where ``centreline_file`` /
+``measured_path_file`` name CSV files in the folder), or an ``applicator.json`` without
+``channels`` beside ``centreline.csv`` (+ optional ``measured_path.csv``): one channel (``channel``
+key, default "ring") with the top-level ``lumen``, ``s_ref_mm`` / ``tip_to_first_dwell_mm``,
+``measured_step_mm`` and optional ``ring_frame`` (fitted to the distal 40 mm of the centreline
+when absent).
+
+Every problem raises :class:`ApplicatorFileError` naming the file, the field and the fix.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import tempfile
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ringqa.errors import InputFileError, RingQAError
+from ringqa.geometry import Applicator, Centreline, Channel, GeometryError, Lumen, fit_circle
+from ringqa.io.points import read_points
+from ringqa.paths import data_dir
+from ringqa.units import m_to_mm, mm_to_m
+
+FORMAT = "ringqa-applicator"
+FORMAT_VERSION = 1
+SHIPPED_DIR = "applicators"
+FOLDER_FILE = "applicator.json"
+
+
+class ApplicatorFileError(InputFileError):
+    """An applicator file or folder cannot be read correctly."""
+
+
+# --------------------------------------------------------------------------------------------
+# public API
+
+
+def shipped_applicators() -> tuple[str, ...]:
+    """Names of the applicators shipped in ``data/applicators`` (e.g. ``"ring26x60"``)."""
+    try:
+        folder = data_dir() / SHIPPED_DIR
+    except FileNotFoundError:
+        return ()
+    return tuple(sorted(p.stem for p in folder.glob("*.json")))
+
+
+def load_applicator(name_or_path: str | os.PathLike) -> Applicator:
+    """Load an applicator by shipped name, from a JSON file, or from a folder.
+
+    Parameters
+    ----------
+    name_or_path : str or path
+        A shipped name (see :func:`shipped_applicators`), a ``.json`` file in this format, or a
+        folder (see the module docstring).
+
+    Returns
+    -------
+    Applicator
+
+    Raises
+    ------
+    ApplicatorFileError
+        Unknown name, missing file, malformed content (names the field and the fix).
+    """
+    text = os.fspath(name_or_path)
+    p = Path(text)
+    if p.is_dir():
+        return _load_folder(p)
+    if p.is_file():
+        return _load_json_file(p)
+    names = shipped_applicators()
+    if text in names:
+        return _load_json_file(data_dir() / SHIPPED_DIR / f"{text}.json")
+    raise ApplicatorFileError(
+        text,
+        "no such applicator file, folder or shipped name",
+        "give a path to an applicator .json or folder, or one of: " + ", ".join(names),
+    )
+
+
+def applicator_to_dict(app: Applicator, decimals: int | None = None) -> dict[str, Any]:
+    """The JSON document (mm) for ``app``; ``decimals`` rounds coordinates (mm)."""
+
+    def num(x: float) -> float | None:
+        x = float(x)
+        if not math.isfinite(x):
+            return None
+        return round(x, decimals) if decimals is not None else x
+
+    def pts(a_m) -> list:
+        return [[num(v) for v in row] for row in m_to_mm(np.asarray(a_m, dtype=float))]
+
+    channels = []
+    for ch in app.channels:
+        seg_s, seg_rb, seg_ra, seg_flat = ch.lumen.kernel_arrays()
+        entry: dict[str, Any] = {
+            "name": ch.name,
+            "centreline_mm": pts(ch.centreline.points_m),
+            "lumen": {
+                "kind": "segments",
+                "s_bounds_mm": [num(v) for v in m_to_mm(seg_s)],
+                "r_b_mm": [num(v) for v in m_to_mm(seg_rb)],
+                "r_a_mm": [num(v) for v in m_to_mm(seg_ra)],
+                "flat_mm": [num(v) for v in m_to_mm(seg_flat)],
+            },
+            "s_ref_mm": float(m_to_mm(ch.s_ref_m)),
+            "length_mm": float(m_to_mm(ch.length_m)),
+        }
+        if ch.measured_path_m is not None:
+            entry["measured_path_mm"] = pts(ch.measured_path_m)
+        if ch.measured_step_m is not None:
+            entry["measured_step_mm"] = float(m_to_mm(ch.measured_step_m))
+        channels.append(entry)
+    return {
+        "format": FORMAT,
+        "format_version": FORMAT_VERSION,
+        "name": app.name,
+        "units": "mm",
+        "conventions": {
+            "centreline": "points in mm, ordered proximal (channel entry) -> distal (lumen tip)",
+            "s_ref_mm": "arc length from the proximal end to the source centre at relative "
+            "position 0 (most distal dwell); relative position p sits at s_ref_mm - p",
+            "measured_path_mm": "source-centre positions, most distal first (p = 0, step, ...)",
+            "lumen": "flat side at flat_mm from the centreline on the outside of the bend; null "
+            "= no flat; s_bounds_mm null = -inf / +inf",
+            "frame": "ring plane normal points cranially, lateral to the patient's left",
+        },
+        "metadata": _jsonable(app.metadata),
+        "ring_frame": {
+            "centre_mm": [float(v) for v in m_to_mm(app.ring_centre_m)],
+            "normal": [float(v) for v in app.ring_normal],
+            "lateral": [float(v) for v in app.ring_lateral],
+            "radius_mm": float(m_to_mm(app.ring_radius_m)),
+        },
+        "channels": channels,
+    }
+
+
+def save_applicator(app: Applicator, path: str | os.PathLike, decimals: int | None = None) -> Path:
+    """Write ``app`` to ``path`` (JSON, mm) atomically (a temporary file renamed into place).
+
+    Parameters
+    ----------
+    app : Applicator
+    path : str or path
+        Target ``.json`` file.
+    decimals : int, optional
+        Round coordinates to this many decimals of a millimetre (None: full precision, so a
+        reload gives the identical applicator).
+
+    Returns
+    -------
+    Path
+        The file written.
+    """
+    if not isinstance(app, Applicator):
+        raise RingQAError("save_applicator: app must be a ringqa.geometry.Applicator")
+    target = Path(path)
+    if target.suffix.lower() != ".json":
+        raise ApplicatorFileError(target, "applicator files are JSON", "use a .json file name")
+    doc = applicator_to_dict(app, decimals)
+    text = json.dumps(doc, indent=1, allow_nan=False) + "\n"
+    target.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=target.parent, prefix=f".{target.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "w") as fh:
+            fh.write(text)
+        os.chmod(tmp, 0o644)  # mkstemp creates 0600; applicator files are meant to be shared
+        os.replace(tmp, target)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return target
+
+
+# --------------------------------------------------------------------------------------------
+# reading
+
+
+def _jsonable(obj):
+    if isinstance(obj, dict):
+        return {str(k): _jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_jsonable(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return _jsonable(obj.tolist())
+    if isinstance(obj, (np.floating, np.integer)):
+        return obj.item()
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return None
+    return obj
+
+
+class _Reader:
+    """Field access with errors that name the file and the field."""
+
+    def __init__(self, path: Path, base: Path | None = None):
+        self.path = path
+        self.base = base if base is not None else path.parent
+
+    def fail(self, field: str, problem: str, fix: str = "") -> ApplicatorFileError:
+        return ApplicatorFileError(self.path, f"{field}: {problem}", fix)
+
+    def get(self, d: dict, key: str, where: str, default=..., kind=None):
+        if not isinstance(d, dict):
+            raise self.fail(where, "expected a JSON object", "see data/applicators/README.md")
+        if key not in d or d[key] is None:
+            if default is ...:
+                raise self.fail(
+                    f"{where}.{key}" if where else key,
+                    "missing",
+                    "add it (see data/applicators/README.md)",
+                )
+            return default
+        return d[key]
+
+    def number(self, d: dict, key: str, where: str, default=..., positive=False) -> float | None:
+        v = self.get(d, key, where, default)
+        if v is None:
+            return None
+        field = f"{where}.{key}" if where else key
+        if isinstance(v, bool) or not isinstance(v, (int, float)):
+            raise self.fail(field, f"expected a number (mm), got {v!r}")
+        v = float(v)
+        if not math.isfinite(v):
+            raise self.fail(field, "must be finite")
+        if positive and v <= 0:
+            raise self.fail(field, f"must be > 0, got {v:g}")
+        return v
+
+    def numbers(self, v, field: str, allow_null=False) -> np.ndarray:
+        if not isinstance(v, list) or not v:
+            raise self.fail(field, "expected a non-empty list of numbers")
+        out = []
+        for i, x in enumerate(v):
+            if x is None and allow_null:
+                out.append(math.nan)
+                continue
+            if isinstance(x, bool) or not isinstance(x, (int, float)) or not math.isfinite(x):
+                raise self.fail(f"{field}[{i}]", f"expected a finite number, got {x!r}")
+            out.append(float(x))
+        return np.array(out)
+
+    def points(self, v, field: str) -> np.ndarray:
+        if not isinstance(v, list) or not v:
+            raise self.fail(field, "expected a list of [x, y, z] points in mm")
+        rows = []
+        for i, row in enumerate(v):
+            if not isinstance(row, list) or len(row) != 3:
+                raise self.fail(f"{field}[{i}]", f"expected [x, y, z] in mm, got {row!r}")
+            rows.append(self.numbers(row, f"{field}[{i}]"))
+        return np.array(rows)
+
+    def vector(self, d: dict, key: str, where: str) -> np.ndarray:
+        v = self.get(d, key, where)
+        arr = self.numbers(v, f"{where}.{key}")
+        if arr.shape != (3,):
+            raise self.fail(f"{where}.{key}", "expected 3 numbers")
+        return arr
+
+
+def _load_json_file(path: Path) -> Applicator:
+    try:
+        doc = json.loads(path.read_text())
+    except UnicodeDecodeError:
+        raise ApplicatorFileError(
+            path, "not a text (JSON) file", "give an applicator .json"
+        ) from None
+    except json.JSONDecodeError as exc:
+        raise ApplicatorFileError(
+            path, f"invalid JSON at line {exc.lineno} column {exc.colno}: {exc.msg}", "fix the file"
+        ) from None
+    except OSError as exc:
+        raise ApplicatorFileError(path, f"cannot be read ({exc.strerror})") from None
+    return _from_dict(doc, _Reader(path))
+
+
+def _load_folder(folder: Path) -> Applicator:
+    spec = folder / FOLDER_FILE
+    if not spec.is_file():
+        raise ApplicatorFileError(
+            folder,
+            f"no {FOLDER_FILE} in the folder",
+            f"add {FOLDER_FILE} with the lumen, s_ref_mm and ring frame beside centreline.csv "
+            "(see data/applicators/README.md)",
+        )
+    try:
+        doc = json.loads(spec.read_text())
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise ApplicatorFileError(spec, f"invalid JSON ({exc})", "fix the file") from None
+    rd = _Reader(spec, folder)
+    if isinstance(doc, dict) and "channels" not in doc:
+        cl_file = folder / "centreline.csv"
+        if not cl_file.is_file():
+            raise ApplicatorFileError(
+                folder, "no centreline.csv and no 'channels' in applicator.json",
+                "add centreline.csv (x_mm,y_mm,z_mm, proximal -> distal)",
+            )  # fmt: skip
+        ch: dict[str, Any] = {
+            "name": doc.get("channel", "ring"),
+            "centreline_file": "centreline.csv",
+        }
+        for key in ("lumen", "s_ref_mm", "tip_to_first_dwell_mm", "measured_step_mm"):
+            if key in doc:
+                ch[key] = doc[key]
+        if (folder / "measured_path.csv").is_file():
+            ch["measured_path_file"] = "measured_path.csv"
+        doc = {**doc, "channels": [ch]}
+    return _from_dict(doc, rd)
+
+
+def _from_dict(doc, rd: _Reader) -> Applicator:
+    if not isinstance(doc, dict):
+        raise rd.fail("(top level)", "expected a JSON object", "see data/applicators/README.md")
+    fmt = doc.get("format", FORMAT)
+    if fmt != FORMAT:
+        raise rd.fail("format", f"{fmt!r} is not {FORMAT!r}", "is this an applicator file?")
+    version = doc.get("format_version", FORMAT_VERSION)
+    if version != FORMAT_VERSION:
+        raise rd.fail(
+            "format_version", f"{version!r} is not supported (this ringqa reads {FORMAT_VERSION})",
+            "upgrade ringqa or re-export the file",
+        )  # fmt: skip
+    units = doc.get("units", "mm")
+    if units != "mm":
+        raise rd.fail("units", f"{units!r}: applicator files are in millimetres", 'use "mm"')
+    name = rd.get(doc, "name", "", default=rd.path.stem)
+    if not isinstance(name, str) or not name.strip():
+        raise rd.fail("name", "expected a non-empty string")
+    raw_channels = rd.get(doc, "channels", "")
+    if not isinstance(raw_channels, list) or not raw_channels:
+        raise rd.fail("channels", "expected a non-empty list of channel objects")
+    channels = tuple(_channel(c, f"channels[{i}]", rd) for i, c in enumerate(raw_channels))
+    metadata = doc.get("metadata", {})
+    if not isinstance(metadata, dict):
+        raise rd.fail("metadata", "expected a JSON object")
+    frame = doc.get("ring_frame")
+    if frame is None:
+        centre, normal, lateral, radius = _fit_frame(channels, rd)
+    else:
+        centre = mm_to_m(rd.vector(frame, "centre_mm", "ring_frame"))
+        normal = rd.vector(frame, "normal", "ring_frame")
+        lateral = rd.vector(frame, "lateral", "ring_frame")
+        radius = mm_to_m(rd.number(frame, "radius_mm", "ring_frame", positive=True))
+        for key, v in (("normal", normal), ("lateral", lateral)):
+            n = float(np.linalg.norm(v))
+            if n == 0:
+                raise rd.fail(f"ring_frame.{key}", "zero vector", "give a unit vector")
+        normal = normal / np.linalg.norm(normal)
+        lateral = lateral / np.linalg.norm(lateral)
+    try:
+        return Applicator(
+            name=name,
+            channels=channels,
+            ring_centre_m=centre,
+            ring_normal=normal,
+            ring_lateral=lateral,
+            ring_radius_m=float(radius),
+            metadata=metadata,
+        )
+    except GeometryError as exc:
+        raise rd.fail("ring_frame/channels", str(exc)) from None
+
+
+def _fit_frame(channels, rd: _Reader):
+    """Ring frame from the first channel: circle fit to its distal 40 mm (normal chosen so the
+    proximal entry lies caudally; lateral = DICOM +x projected into the ring plane)."""
+    ch = channels[0]
+    cl = ch.centreline
+    s = np.linspace(max(0.0, cl.length_m - 0.04), cl.length_m, 81)
+    centre, normal, radius, rms = fit_circle(cl.position(s))
+    if rms > 0.5e-3:
+        raise rd.fail(
+            "ring_frame", f"missing, and the distal 40 mm of channel {ch.name!r} is not a circle "
+            f"(rms {rms * 1e3:.2f} mm)", "give ring_frame {centre_mm, normal, lateral, radius_mm}",
+        )  # fmt: skip
+    if float((cl.position(0.0) - centre) @ normal) > 0:
+        normal = -normal
+    lateral = np.array([1.0, 0.0, 0.0]) - normal[0] * normal
+    if np.linalg.norm(lateral) < 1e-6:
+        lateral = np.array([0.0, 1.0, 0.0]) - normal[1] * normal
+    return centre, normal, lateral / np.linalg.norm(lateral), radius
+
+
+def _read_csv_points(rd: _Reader, field: str, name, kind: str) -> np.ndarray:
+    if not isinstance(name, str):
+        raise rd.fail(field, f"expected a file name, got {name!r}")
+    p = (rd.base / name).resolve()
+    return read_points(p, kind=kind)  # raises PointsFileError naming the file
+
+
+def _channel(c, where: str, rd: _Reader) -> Channel:
+    if not isinstance(c, dict):
+        raise rd.fail(where, "expected a channel object")
+    name = rd.get(c, "name", where)
+    if not isinstance(name, str) or not name.strip():
+        raise rd.fail(f"{where}.name", "expected a non-empty string")
+    where = f"{where} ({name})"
+    if "centreline_mm" in c:
+        pts_m = mm_to_m(rd.points(c["centreline_mm"], f"{where}.centreline_mm"))
+    elif "centreline_file" in c:
+        pts_m = _read_csv_points(rd, f"{where}.centreline_file", c["centreline_file"], "centreline")
+    else:
+        raise rd.fail(
+            f"{where}.centreline_mm", "missing", "give centreline_mm points or centreline_file"
+        )
+    try:
+        cl = Centreline.from_points(pts_m)
+    except GeometryError as exc:
+        raise rd.fail(f"{where}.centreline_mm", str(exc)) from None
+    lumen = _lumen(rd.get(c, "lumen", where), f"{where}.lumen", rd)
+    path_m = None
+    if c.get("measured_path_mm") is not None:
+        path_m = mm_to_m(rd.points(c["measured_path_mm"], f"{where}.measured_path_mm"))
+    elif c.get("measured_path_file") is not None:
+        path_m = _read_csv_points(rd, f"{where}.measured_path_file", c["measured_path_file"],
+                                  "path")  # fmt: skip
+    step = rd.number(c, "measured_step_mm", where, default=None, positive=True)
+    if "s_ref_mm" in c and c["s_ref_mm"] is not None:
+        s_ref = mm_to_m(rd.number(c, "s_ref_mm", where))
+    elif c.get("tip_to_first_dwell_mm") is not None:
+        s_ref = cl.length_m - mm_to_m(rd.number(c, "tip_to_first_dwell_mm", where))
+    elif path_m is not None:
+        s_arr, d_arr = cl.closest(path_m[:1])
+        if d_arr[0] > 2e-3:
+            raise rd.fail(
+                f"{where}.s_ref_mm", "missing, and the measured path's first point is "
+                f"{d_arr[0] * 1e3:.1f} mm from the centreline", "give s_ref_mm",
+            )  # fmt: skip
+        s_ref = float(s_arr[0])
+    else:
+        raise rd.fail(
+            f"{where}.s_ref_mm", "missing",
+            "give s_ref_mm (arc length of relative position 0) or tip_to_first_dwell_mm",
+        )  # fmt: skip
+    try:
+        return Channel(
+            name=name,
+            centreline=cl,
+            lumen=lumen,
+            s_ref_m=float(s_ref),
+            measured_path_m=path_m,
+            measured_step_m=None if step is None else mm_to_m(step),
+        )
+    except GeometryError as exc:
+        raise rd.fail(where, str(exc)) from None
+
+
+def _lumen(d, where: str, rd: _Reader) -> Lumen:
+    kind = rd.get(d, "kind", where)
+    try:
+        if kind == "circular":
+            return Lumen.circular(
+                mm_to_m(rd.number(d, "r_b_mm", where, positive=True)),
+                mm_to_m(rd.number(d, "r_a_mm", where, positive=True)),
+            )
+        if kind == "u_shaped":
+            s0 = rd.number(d, "s_start_mm", where, default=None)
+            s1 = rd.number(d, "s_end_mm", where, default=None)
+            return Lumen.u_shaped(
+                mm_to_m(rd.number(d, "r_b_mm", where, positive=True)),
+                mm_to_m(rd.number(d, "r_a_mm", where, positive=True)),
+                mm_to_m(rd.number(d, "flat_mm", where, positive=True)),
+                -np.inf if s0 is None else mm_to_m(s0),
+                np.inf if s1 is None else mm_to_m(s1),
+            )
+        if kind == "stepped":
+            return Lumen.stepped(
+                mm_to_m(rd.numbers(rd.get(d, "s_breaks_mm", where), f"{where}.s_breaks_mm")),
+                mm_to_m(rd.numbers(rd.get(d, "r_b_mm", where), f"{where}.r_b_mm")),
+                mm_to_m(rd.numbers(rd.get(d, "r_a_mm", where), f"{where}.r_a_mm")),
+            )
+        if kind == "segments":
+            bounds = rd.numbers(rd.get(d, "s_bounds_mm", where), f"{where}.s_bounds_mm", True)
+            if np.isnan(bounds[1:-1]).any():
+                raise rd.fail(f"{where}.s_bounds_mm", "only the first and last may be null")
+            bounds[0] = -np.inf if np.isnan(bounds[0]) else bounds[0]
+            bounds[-1] = np.inf if np.isnan(bounds[-1]) else bounds[-1]
+            flat = rd.numbers(rd.get(d, "flat_mm", where), f"{where}.flat_mm", True)
+            flat = np.where(np.isnan(flat), np.inf, flat)
+            return Lumen(
+                mm_to_m(bounds),
+                mm_to_m(rd.numbers(rd.get(d, "r_b_mm", where), f"{where}.r_b_mm")),
+                mm_to_m(rd.numbers(rd.get(d, "r_a_mm", where), f"{where}.r_a_mm")),
+                mm_to_m(flat),
+            )
+    except GeometryError as exc:
+        raise rd.fail(where, str(exc)) from None
+    raise rd.fail(
+        f"{where}.kind", f"unknown lumen kind {kind!r}",
+        "use circular, stepped, u_shaped or segments",
+    )  # fmt: skip

@@ -1,0 +1,184 @@
+"""Applicator files: shipped rings (must-show 4), round trip, folders, malformed files."""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from ringqa.geometry import Applicator, Channel, ring_applicator
+from ringqa.io.applicator_file import (
+    ApplicatorFileError,
+    applicator_to_dict,
+    load_applicator,
+    save_applicator,
+    shipped_applicators,
+)
+from ringqa.io.points import write_points
+
+SHIPPED = ("ring26x45", "ring26x60", "ring30x45", "ring30x60", "ring34x45", "ring34x60")
+
+
+def test_six_rings_are_shipped():
+    """The six Elekta-like rings are shipped by name."""
+    assert set(SHIPPED) <= set(shipped_applicators())
+
+
+@pytest.mark.parametrize("name", SHIPPED)
+def test_shipped_ring_has_its_diameter_and_angle(name):
+    """Must-show 4: ring<D>x<A> loads; its centreline radius about the ring centre is D/2 within
+    0.05 mm over the circle part (and in the ring plane within 0.05 mm), the stem's angle to the
+    ring plane (line fitted to the first 50 mm) is A within 0.5 deg; ring + tandem channels."""
+    d, a = (float(v) for v in name[4:].split("x"))
+    app = load_applicator(name)
+    assert isinstance(app, Applicator) and app.name == name
+    assert app.channel_names == ("ring", "tandem")
+    ring = app.channel("ring")
+    info = app.metadata["construction"]
+    s0 = (info["stem_mm"] + info["transition_mm"]) * 1e-3
+    p = ring.centreline.position(np.linspace(s0, ring.length_m, 400)) - app.ring_centre_m
+    h = p @ app.ring_normal
+    radial = np.linalg.norm(p - h[:, None] * app.ring_normal, axis=1) * 1e3
+    assert np.abs(radial - d / 2).max() < 0.05
+    assert np.abs(h).max() * 1e3 < 0.05
+    stem = ring.centreline.position(np.linspace(0.0, 0.05, 101))
+    _, _, vt = np.linalg.svd(stem - stem.mean(axis=0))
+    angle = np.rad2deg(np.arcsin(abs(vt[0] @ app.ring_normal)))
+    assert abs(angle - a) < 0.5
+    assert ring.s_ref_m == pytest.approx(ring.length_m - 5e-3, abs=1e-8)
+
+
+def test_shipped_files_match_the_generator(repo_root):
+    """tools/make_applicators.py --check: the committed files equal a fresh rebuild."""
+    sys.path.insert(0, str(repo_root / "tools"))
+    try:
+        import make_applicators
+    finally:
+        sys.path.pop(0)
+    assert make_applicators.main(["--check", "--out", str(repo_root / "data" / "applicators")]) == 0
+
+
+def _same(a: Applicator, b: Applicator) -> None:
+    assert a.name == b.name and a.channel_names == b.channel_names
+    assert np.allclose(a.ring_centre_m, b.ring_centre_m, atol=1e-12)
+    assert np.allclose(a.ring_normal, b.ring_normal) and np.allclose(a.ring_lateral, b.ring_lateral)
+    for ca, cb in zip(a.channels, b.channels, strict=True):
+        s = np.linspace(0, ca.length_m, 97)
+        assert np.abs(ca.centreline.position(s) - cb.centreline.position(s)).max() < 1e-12
+        assert ca.s_ref_m == pytest.approx(cb.s_ref_m, abs=1e-12)
+        for x, y in zip(ca.lumen.kernel_arrays(), cb.lumen.kernel_arrays(), strict=True):
+            assert np.array_equal(x, y)
+        if ca.measured_path_m is None:
+            assert cb.measured_path_m is None
+        else:
+            assert np.allclose(ca.measured_path_m, cb.measured_path_m, atol=1e-12)
+        assert ca.measured_step_m == cb.measured_step_m
+
+
+def test_round_trip_is_exact(tmp_path):
+    """save_applicator at full precision then load_applicator gives the same applicator (same
+    points -> same spline), including a measured path and step."""
+    app = ring_applicator(30, 45)
+    ring = app.channel("ring")
+    path = ring.centreline.position(ring.s_ref_m - np.arange(0, 0.03, 0.0025))
+    ring2 = Channel("ring", ring.centreline, ring.lumen, ring.s_ref_m, path, 0.0025)
+    app2 = Applicator(
+        app.name,
+        (ring2, app.channel("tandem")),
+        app.ring_centre_m,
+        app.ring_normal,
+        app.ring_lateral,
+        app.ring_radius_m,
+        app.metadata,
+    )
+    f = save_applicator(app2, tmp_path / "a.json")
+    back = load_applicator(f)
+    _same(app2, back)
+    assert json.loads(f.read_text())["format_version"] == 1
+    # and again: the saved form is stable (up to mm <-> m rounding, 1e-12 mm)
+    f2 = save_applicator(back, tmp_path / "b.json")
+    c1 = json.loads(f.read_text())["channels"][0]["centreline_mm"]
+    c2 = json.loads(f2.read_text())["channels"][0]["centreline_mm"]
+    assert np.abs(np.array(c1) - np.array(c2)).max() < 1e-12
+
+
+def test_folder_with_csv_files(tmp_path):
+    """A folder: centreline.csv + measured_path.csv + applicator.json (lumen, step; no s_ref and
+    no ring frame): s_ref comes from the path's first point, the frame from a circle fit
+    (radius 13 mm, normal +z because the stem comes from below)."""
+    app = ring_applicator(26, 60)
+    ring = app.channel("ring")
+    write_points(tmp_path / "centreline.csv", ring.centreline.points_m)
+    rel = np.arange(0.0, 0.0301, 0.0025)
+    write_points(tmp_path / "measured_path.csv", ring.centreline.position(ring.s_ref_m - rel))
+    spec = {"name": "my ring", "lumen": {"kind": "circular", "r_b_mm": 1.5, "r_a_mm": 1.4},
+            "measured_step_mm": 2.5}  # fmt: skip
+    (tmp_path / "applicator.json").write_text(json.dumps(spec))
+    got = load_applicator(tmp_path)
+    ch = got.channel("ring")
+    assert ch.s_ref_m == pytest.approx(ring.s_ref_m, abs=1e-6)
+    assert ch.measured_path_m.shape == (13, 3) and ch.measured_step_m == pytest.approx(0.0025)
+    assert got.ring_radius_m == pytest.approx(0.013, abs=1e-6)
+    assert np.allclose(got.ring_normal, [0, 0, 1], atol=1e-6)
+    assert np.allclose(got.ring_centre_m, 0, atol=1e-6)
+    assert np.allclose(got.ring_lateral, [1, 0, 0], atol=1e-6)
+
+
+def _valid_doc():
+    return applicator_to_dict(ring_applicator(26, 60), decimals=6)
+
+
+@pytest.mark.parametrize(
+    ("mutate", "fragment"),
+    [
+        (lambda d: d.pop("channels"), "channels: missing"),
+        (lambda d: d.update(units="m"), "millimetres"),
+        (lambda d: d.update(format_version=7), "format_version"),
+        (lambda d: d["channels"][0].pop("lumen"), "channels[0] (ring).lumen: missing"),
+        (lambda d: d["channels"][0]["lumen"].update(kind="oval"), "unknown lumen kind"),
+        (lambda d: d["channels"][0].update(s_ref_mm=900.0), "s_ref_m"),
+        (lambda d: d["channels"][0]["centreline_mm"].__setitem__(3, [1, 2]), "centreline_mm[3]"),
+        (lambda d: d["channels"][0]["centreline_mm"].__setitem__(4, "x"), "centreline_mm[4]"),
+        (lambda d: d["channels"][1].update(name="ring"), "duplicated"),
+        (lambda d: d["ring_frame"].update(normal=[0, 0, 0]), "ring_frame.normal"),
+        (lambda d: d["channels"][0]["lumen"]["r_b_mm"].__setitem__(0, -1), "r_b"),
+    ],
+)
+def test_malformed_files_name_the_field(tmp_path, mutate, fragment):
+    """Each broken file raises ApplicatorFileError naming the file and the field."""
+    doc = _valid_doc()
+    mutate(doc)
+    f = tmp_path / "bad.json"
+    f.write_text(json.dumps(doc))
+    with pytest.raises(ApplicatorFileError) as err:
+        load_applicator(f)
+    assert str(f) in str(err.value)
+    assert fragment in str(err.value)
+
+
+def test_unreadable_inputs(tmp_path):
+    """Not JSON, unknown name, folder without applicator.json: clear errors."""
+    f = tmp_path / "x.json"
+    f.write_text("{not json")
+    with pytest.raises(ApplicatorFileError, match="invalid JSON at line 1"):
+        load_applicator(f)
+    with pytest.raises(ApplicatorFileError, match="ring26x60"):
+        load_applicator("ring99x99")
+    with pytest.raises(ApplicatorFileError, match=r"no applicator\.json"):
+        load_applicator(tmp_path)
+    with pytest.raises(ApplicatorFileError, match=r"\.json"):
+        save_applicator(ring_applicator(26, 60), tmp_path / "a.txt")
+
+
+def test_saved_file_is_plain_readable_json(tmp_path):
+    """The file is readable without ringqa: points in mm proximal -> distal (first point caudal,
+    last point on the 13 mm circle), s_ref_mm = length - 5 mm."""
+    f = save_applicator(ring_applicator(26, 60), tmp_path / "r.json", decimals=6)
+    doc = json.loads(Path(f).read_text())
+    ring = doc["channels"][0]
+    pts = np.array(ring["centreline_mm"])
+    assert pts[0, 2] < -50 and abs(np.hypot(*pts[-1, :2]) - 13.0) < 1e-5
+    assert ring["s_ref_mm"] == pytest.approx(ring["length_mm"] - 5.0, abs=1e-6)
