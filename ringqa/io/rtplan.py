@@ -24,8 +24,9 @@ Dwell times
     positions are ambiguous and refused. Plans that store per-dwell weights in
     ``CumulativeTimeWeight`` (weights that decrease, or whose increments do not add up to
     ``FinalCumulativeTimeWeight`` while the per-position weights do) are detected and read as
-    per-dwell weights, with a notice in ``RTPlan.warnings``; anything else is refused. Times are
-    never negative.
+    per-dwell weights, with a notice in ``RTPlan.warnings``; so are weights that do not restart
+    at 0 in each channel (they continue from the previous channel up to a plan-wide
+    ``FinalCumulativeTimeWeight``). Anything else is refused. Times are never negative.
 
 Every problem raises :class:`RTPlanError` (a :class:`~ringqa.errors.InputFileError`) naming the
 file, the element (keyword, channel, control point) and the fix; pydicom's own exceptions never
@@ -277,7 +278,10 @@ def dwell_times(
     times_s : numpy.ndarray
         (n_groups,) dwell times, >= 0.
     mode : str
-        ``"cumulative"``, ``"per-dwell"`` or ``"empty"`` (all weights and the total zero).
+        ``"cumulative"``, ``"continued"`` (non-decreasing weights covering only part of
+        ``[0, FinalCumulativeTimeWeight]``: cumulative weights not reset per channel, the
+        channel's own weight increase is shared out; the caller must check that the channels
+        chain up), ``"per-dwell"`` or ``"empty"`` (all weights and the total zero).
 
     Raises
     ------
@@ -300,31 +304,39 @@ def dwell_times(
                 )
             return np.zeros(n), "empty"
         raise ValueError(f"FinalCumulativeTimeWeight is {W:g} while control points have weights")
-    cumulative = bool(np.all(np.diff(w) >= -tol)) and abs((w[-1] - w[0]) - W) <= tol
-    if cumulative:
-        dwell = np.array([w[b - 1] - w[a] for a, b in groups])
-        for g in range(1, n):
-            a, _ = groups[g]
-            jump = w[a] - w[groups[g - 1][1] - 1]
-            if jump > tol:
-                raise ValueError(
-                    f"CumulativeTimeWeight increases by {jump:g} while the source moves from "
-                    f"control point {groups[g - 1][1] - 1} to {a} (different positions): it is "
-                    "ambiguous which position the time belongs to (export the plan with paired "
-                    "control points, two per dwell position)"
-                )
+    monotone = bool(np.all(np.diff(w) >= -tol))
+    span = float(w[-1] - w[0])
+    if monotone and abs(span - W) <= tol:
         if w[0] > tol:
             raise ValueError(f"the first CumulativeTimeWeight is {w[0]:g}, not 0")
-        dwell = np.clip(dwell, 0.0, None)
-        return total_time_s * dwell / W, "cumulative"
+        return total_time_s * _increments(w, groups, tol) / W, "cumulative"
     per = np.array([np.max(w[a:b]) for a, b in groups])
     if abs(per.sum() - W) <= 1e-5 * scale * n:  # n rounded per-dwell values
         return total_time_s * per / W, "per-dwell"
+    if monotone and span > tol and w[-1] <= W + tol:
+        # weights not reset per channel: this channel holds the sub-range [w[0], w[-1]] of a
+        # plan-wide cumulative weight ending at W (read_rtplan checks that channels chain up)
+        return total_time_s * _increments(w, groups, tol) / span, "continued"
     raise ValueError(
         "CumulativeTimeWeight is neither cumulative (non-decreasing with increments adding up to "
         f"FinalCumulativeTimeWeight {W:g}; they add up to {w[-1] - w[0]:g}) nor per-dwell "
         f"(per-position weights add up to {per.sum():g})"
     )
+
+
+def _increments(w: np.ndarray, groups: list[tuple[int, int]], tol: float) -> np.ndarray:
+    """Weight increase over each group; refuse increases while the source moves."""
+    for g in range(1, len(groups)):
+        a, _ = groups[g]
+        jump = w[a] - w[groups[g - 1][1] - 1]
+        if jump > tol:
+            raise ValueError(
+                f"CumulativeTimeWeight increases by {jump:g} while the source moves from "
+                f"control point {groups[g - 1][1] - 1} to {a} (different positions): it is "
+                "ambiguous which position the time belongs to (export the plan with paired "
+                "control points, two per dwell position)"
+            )
+    return np.clip(np.array([w[b - 1] - w[a] for a, b in groups]), 0.0, None)
 
 
 # --------------------------------------------------------------------------------------------
@@ -484,10 +496,12 @@ def _parse(p: Path, ds) -> RTPlan:
     sources = _read_sources(p, ds, warnings)
     channels = []
     used_sources = set()
+    ranges: dict[int, tuple] = {}
     for k, (_setup, item) in enumerate(raw_channels):
-        ch = _read_channel(p, item, k, warnings, treatment_type)
+        ch = _read_channel(p, item, k, warnings, treatment_type, ranges)
         channels.append(ch)
         used_sources.add(ch.source_number)
+    _check_continued(p, ranges, warnings)
     numbers = [c.number for c in channels]
     if len(set(numbers)) != len(numbers):
         raise RTPlanError(p, f"ChannelNumber repeats ({numbers})", "export a consistent plan")
@@ -529,7 +543,42 @@ def _with_name(ch: PlanChannel, name: str) -> PlanChannel:
     return replace(ch, name=name)
 
 
-def _read_channel(p: Path, item, k: int, warnings: list, treatment_type: str) -> PlanChannel:
+def _check_continued(p: Path, ranges: dict, warnings: list) -> None:
+    """Weights that continue across channels must chain up from 0 to the plan-wide final."""
+    if not any(r[3] == "continued" for r in ranges.values()):
+        return
+    used = sorted((r for r in ranges.items() if r[1][3] != "empty"), key=lambda r: r[1][0])
+    finals = {round(r[1][2], 6) for r in used}
+    expect = 0.0
+    for number, (w0, w1, W, _mode) in used:
+        tol = 1e-6 * max(abs(W), 1e-300)
+        if abs(w0 - expect) > tol or len(finals) != 1:
+            raise RTPlanError(
+                p,
+                f"channel {number}: CumulativeTimeWeight runs {w0:g}..{w1:g} of "
+                f"FinalCumulativeTimeWeight {W:g}, but does not continue where the previous "
+                f"channel ended ({expect:g}); the weights cannot be turned into times",
+                "export the plan with weights restarting at 0 in each channel",
+            )
+        expect = w1
+    W = used[-1][1][2]
+    if abs(expect - W) > 1e-6 * abs(W):
+        raise RTPlanError(
+            p,
+            f"the channels' CumulativeTimeWeight ends at {expect:g}, not at "
+            f"FinalCumulativeTimeWeight {W:g}; the weights cannot be turned into times",
+            "export a consistent plan",
+        )
+    warnings.append(
+        "CumulativeTimeWeight does not restart at 0 in each channel (it continues across "
+        "channels up to the plan-wide FinalCumulativeTimeWeight); each channel's own weight "
+        "increase was shared out over its ChannelTotalTime"
+    )
+
+
+def _read_channel(
+    p: Path, item, k: int, warnings: list, treatment_type: str, ranges: dict
+) -> PlanChannel:
     number_v = _get(item, "ChannelNumber")
     try:
         number = int(number_v) if number_v is not None else k + 1
@@ -598,6 +647,8 @@ def _read_channel(p: Path, item, k: int, warnings: list, treatment_type: str) ->
         times, mode = dwell_times(np.array(w), groups, total, final)
     except ValueError as exc:
         raise RTPlanError(p, f"{where}: {exc}", "") from None
+    if w:
+        ranges[number] = (w[0], w[-1], final if final is not None else w[-1], mode)
     if mode == "per-dwell":
         warnings.append(
             f"{where}: CumulativeTimeWeight holds per-dwell weights (not cumulative); read as "

@@ -114,6 +114,40 @@ def test_per_dwell_weights_are_detected_and_read(rtplan_factory, weights, expect
     assert any("per-dwell" in w for w in plan.warnings)
 
 
+def test_weights_continuing_from_the_previous_channel(rtplan_factory):
+    """Channel 2's weights continue from channel 1 (60 -> 70 -> 80 of a plan-wide final 80) and
+    its ChannelTotalTime is 20 s: its own increase 20 is shared out -> 10 s, 10 s."""
+    ch1 = {"number": 1, "dwells": [(0, (0, 0, 0), 60.0)], "final_weight": 80.0}
+    ch2 = {
+        "number": 2,
+        "dwells": [(0, (0, 0, 10), 10.0), (5, (0, 0, 15), 10.0)],
+        "weights": [60.0, 70.0, 70.0, 80.0],
+        "rel": [0, 0, 5, 5],
+        "positions": [(0, 0, 10)] * 2 + [(0, 0, 15)] * 2,
+        "final_weight": 80.0,
+        "total_time_s": 20.0,
+    }
+    plan = read_rtplan(rtplan_factory([ch1, ch2]))
+    np.testing.assert_allclose(plan.channel(2).times_s, [10, 10], rtol=1e-12)
+    np.testing.assert_allclose(plan.channel(1).times_s, [60], rtol=1e-12)
+    assert any("does not restart at 0" in w for w in plan.warnings)
+
+
+def test_weights_that_do_not_chain_across_channels_are_refused(rtplan_factory):
+    """Channel 1 covers 0..60 of 100 and channel 2 70..80: 60..70 and 80..100 are missing."""
+    ch1 = {"number": 1, "dwells": [(0, (0, 0, 0), 60.0)], "final_weight": 100.0}
+    ch2 = {
+        "number": 2,
+        "dwells": [(0, (0, 0, 10), 10.0)],
+        "weights": [70.0, 80.0],
+        "rel": [0, 0],
+        "positions": [(0, 0, 10)] * 2,
+        "final_weight": 100.0,
+    }
+    with pytest.raises(RTPlanError, match=r"channel 2: .* does not continue where the previous"):
+        read_rtplan(rtplan_factory([ch1, ch2]))
+
+
 def test_inconsistent_weights_are_refused_never_negative(rtplan_factory):
     """Weights 0, 10, 5, 8 with final 30: neither cumulative nor per-dwell (10 + 8 != 30)."""
     spec = {
