@@ -52,6 +52,7 @@ _H5_FIELDS = (
     ("newton_iters", "newton_iterations", "1", 1.0),
     ("s_m", "s", "mm", None),
     ("offset_m", "offset", "mm", None),
+    ("nodes_m", "nodes", "mm", None),
 )
 
 

@@ -113,6 +113,8 @@ SCHEMA: dict[str, dict[str, tuple[Any, Any, Any]]] = {
         "mu_k": (_NUM, None, "nonneg"),
         "v_brk_mm_s": (_NUM, None, "positive"),
         "transition_mm": (_NUM, None, "positive"),
+        "transition_max_fraction": (_NUM, None, "positive"),
+        "friction_v_reg_mm_s": (_NUM, None, "positive"),
     },
     "motion": {
         "kind": ((str,), "constant", MOTION_KINDS),
@@ -133,9 +135,49 @@ SCHEMA: dict[str, dict[str, tuple[Any, Any, Any]]] = {
         "stabilisation": (_NUM, 0.0, "nonneg"),
         "jam_force_n": (_NUM, 50.0, "positive"),
         "jam_length_mm": (_NUM, 20.0, "positive"),
+        "axial_stiffness_n": (_NUM, None, "positive"),
+        "approach_mm": (_NUM, None, "nonneg"),
+        "contact_bow_fraction": (_NUM, None, "positive"),
     },
     "outputs": {"trajectory": ((bool,), False, None)},
 }
+
+# Engine settings that exist only when the engine defines the field (user key -> SI field, unit).
+EXTRA_FIELDS = {
+    "contact": {
+        "transition_max_fraction": ("transition_max_fraction", "1"),
+        "friction_v_reg_mm_s": ("friction_v_reg_m_s", "mm"),
+    },
+    "solver": {
+        "axial_stiffness_n": ("axial_stiffness_n", "1"),
+        "approach_mm": ("approach_m", "mm"),
+        "contact_bow_fraction": ("contact_bow_fraction", "1"),
+    },
+}
+
+
+def _extra_in(ck: _Checker, section: str, obj):
+    """Apply the EXTRA_FIELDS keys given in ``section`` to the dataclass ``obj``."""
+    sec = ck.section(section)
+    changes = {}
+    for key, (fname, unit) in EXTRA_FIELDS[section].items():
+        if key not in sec:
+            continue
+        if not hasattr(obj, fname):
+            raise ck.fail(f"{section}.{key}", "not supported by this engine", "remove the key")
+        val = float(ck.value(section, key, sec=sec))
+        changes[fname] = mm_to_m(val) if unit == "mm" else val
+    return replace(obj, **changes) if changes else obj
+
+
+def _extra_out(obj, section: str) -> dict:
+    out = {}
+    for key, (fname, unit) in EXTRA_FIELDS[section].items():
+        val = getattr(obj, fname, None)
+        if val is not None:
+            out[key] = m_to_mm(val) if unit == "mm" else val
+    return out
+
 
 SECTION_KEYS = {
     "name": (str,),
@@ -680,6 +722,7 @@ def _contact(ck: _Checker, preset: str) -> ContactParams:
         v_brk_m_s=base.v_brk_m_s if v["v_brk_mm_s"] is None else mm_to_m(v["v_brk_mm_s"]),
         transition_m=None if v["transition_mm"] is None else mm_to_m(v["transition_mm"]),
     )
+    out = _extra_in(ck, "contact", out)
     if out.mu_k > out.mu_s:
         raise ck.fail(
             "contact.mu_k",
@@ -752,7 +795,7 @@ def _motion(ck: _Checker, channel, preset: str) -> tuple[Motion, np.ndarray]:
 def _solver(ck: _Checker) -> SolverSettings:
     sec = ck.section("solver")
     v = {k: ck.value("solver", k, sec=sec) for k in SCHEMA["solver"]}
-    return SolverSettings(
+    settings = SolverSettings(
         kind=v["kind"],
         increment_m=mm_to_m(v["increment_mm"]),
         time_step_s=float(v["time_step_s"]),
@@ -762,6 +805,7 @@ def _solver(ck: _Checker) -> SolverSettings:
         jam_force_n=float(v["jam_force_n"]),
         jam_length_m=mm_to_m(v["jam_length_mm"]),
     )
+    return _extra_in(ck, "solver", settings)
 
 
 # ------------------------------------------------------------------------------------------------
@@ -968,6 +1012,7 @@ def scene_to_dict(scene: Scene) -> dict:
     }
     if c.transition_m is not None:
         contact["transition_mm"] = m_to_mm(c.transition_m)
+    contact.update(_extra_out(c, "contact"))
     out["contact"] = contact
     m = scene.motion
     motion: dict[str, Any] = {
@@ -990,6 +1035,7 @@ def scene_to_dict(scene: Scene) -> dict:
         "stabilisation": s.stabilisation,
         "jam_force_n": s.jam_force_n,
         "jam_length_mm": m_to_mm(s.jam_length_m),
+        **_extra_out(s, "solver"),
     }
     out["outputs"] = {"trajectory": bool(scene.outputs.trajectory)}
     return _plain(out)
