@@ -372,6 +372,13 @@ def _dose_page(plt, res):
         )
         for ax, yy in ((ax1, pv[k]), (ax2, ph[k])):
             ax.annotate(label, (pu[k], yy), xytext=off, textcoords="offset points", fontsize=7)
+    # zoom on the dwells and points (the channels' long stems would dwarf them)
+    for ax, xs, ys in ((ax1, (u, pu), (v, pv)), (ax2, (u, pu), (h, ph))):
+        xx, yy = np.concatenate(xs), np.concatenate(ys)
+        half = 0.5 * max(np.ptp(xx), np.ptp(yy)) + 8.0
+        cx, cy = 0.5 * (xx.max() + xx.min()), 0.5 * (yy.max() + yy.min())
+        ax.set_xlim(cx - half, cx + half)
+        ax.set_ylim(cy - half, cy + half)
     for ax, ylabel, title in (
         (ax1, "in the ring plane (mm)", "ring plane (seen from cranial)"),
         (ax2, "cranial (mm)", "orthogonal view"),
@@ -379,7 +386,7 @@ def _dose_page(plt, res):
         ax.set_xlabel("patient left (mm)")
         ax.set_ylabel(ylabel)
         ax.set_title(title, fontsize=9)
-        ax.set_aspect("equal", adjustable="datalim")
+        ax.set_aspect("equal")
         ax.grid(alpha=0.3)
     ax1.legend(fontsize=7, loc="lower right")
     spec = res.settings["dose_points"]

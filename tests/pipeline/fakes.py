@@ -143,3 +143,34 @@ def fake_simulator(offset_m=0.3e-3, z_m=0.0, jam_after=None, along_m=0.0, exact=
 
     simulate.calls = calls
     return simulate
+
+
+def centreline_simulator(offset_m=0.0):
+    """A stand-in engine for REAL channels: the source centre on the centreline at the advance,
+    moved ``offset_m`` along the channel's normal; direction = tangent."""
+
+    def simulate(scene, advances_mm=None, progress=False):
+        cl = scene.channel.centreline
+        adv = np.asarray(advances_mm, dtype=float)
+        s = adv * 1e-3
+        pos = np.atleast_2d(cl.position(s)) + offset_m * np.atleast_2d(cl.normal(s))
+        return SimpleNamespace(
+            status=0,
+            message="",
+            advances_mm=adv,
+            source_pos_m=pos,
+            source_dir=np.atleast_2d(cl.tangent(s)),
+            warnings=(),
+            solve_time_s=0.0,
+            n_elements=0,
+            settings={"stand_in": True},
+        )
+
+    return simulate
+
+
+def real_engine():
+    """ringqa.simulation.simulate when the engine has landed, else None."""
+    import ringqa.simulation as simulation
+
+    return getattr(simulation, "simulate", None)
