@@ -390,6 +390,8 @@ def read_rtplan(path: str | Path) -> RTPlan:
         NaN or missing positions, weights that cannot be turned into times, ...
     """
     p = Path(path)
+    if p.is_dir():
+        raise RTPlanError(p, "is a folder, not an RT Plan file", "give the RP*.dcm file itself")
     if not p.is_file():
         raise RTPlanError(p, "file not found", "check the path")
     import pydicom
@@ -501,10 +503,10 @@ def _parse(p: Path, ds) -> RTPlan:
         ch = _read_channel(p, item, k, warnings, treatment_type, ranges)
         channels.append(ch)
         used_sources.add(ch.source_number)
-    _check_continued(p, ranges, warnings)
     numbers = [c.number for c in channels]
     if len(set(numbers)) != len(numbers):
         raise RTPlanError(p, f"ChannelNumber repeats ({numbers})", "export a consistent plan")
+    _check_continued(p, ranges, warnings)
     source = _pick_source(p, sources, used_sources, warnings)
     points = _read_points(p, ds)
     library, app_name = _read_library(p, setups, channels, warnings)

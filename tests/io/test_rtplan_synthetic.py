@@ -230,9 +230,17 @@ def test_not_dicom(tmp_path):
         read_rtplan(bad)
 
 
-def test_missing_file(tmp_path):
+def test_missing_file_or_folder(tmp_path):
     with pytest.raises(RTPlanError, match="file not found"):
         read_rtplan(tmp_path / "nope.dcm")
+    with pytest.raises(RTPlanError, match="is a folder"):
+        read_rtplan(tmp_path)
+
+
+def test_repeated_channel_numbers(rtplan_factory):
+    spec = {"number": 1, "dwells": [(0, (0, 0, 0), 1.0)]}
+    with pytest.raises(RTPlanError, match=r"ChannelNumber repeats \(\[1, 1\]\)"):
+        read_rtplan(rtplan_factory([spec, spec]))
 
 
 def test_wrong_modality(rtplan_factory):
