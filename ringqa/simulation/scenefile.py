@@ -621,16 +621,9 @@ def _instrument(ck: _Checker, max_advance_m: float, preset: str) -> Instrument:
         ]
         inst = replace(inst, sections=tuple(secs))
     length = ck.value("instrument", "length_mm", sec=sec)
-    if length is not None:
-        total = mm_to_m(length)
-    elif sections_in is None and len(inst.sections) > 1:
-        # a source cable fills the channel: proximal end at the entry at the last advance
-        distal = sum(s.length_m for s in inst.sections[:-1])
-        total = max(
-            max_advance_m + inst.centre_from_tip_m, distal + inst.sections[-1].element_length_m
-        )
-    else:
-        total = None
+    # default: the preset's full length; the engine models only the part it needs (the deepest
+    # tip position plus its straight approach before the entry)
+    total = mm_to_m(length) if length is not None else None
     if total is not None:
         distal = sum(s.length_m for s in inst.sections[:-1])
         if total <= distal:
