@@ -5,6 +5,7 @@ Formats (both documented in ``docs/importers.md``):
 CSV
     A header row with the columns ``x_mm, y_mm, z_mm`` (any order, extra columns ignored) and
     optionally ``relative_position_mm``. Blank lines and lines starting with ``#`` are skipped.
+    Separator: comma (else ``;`` or tab, as found in the header); decimal point ``.``.
 JSON
     ``{"units": "mm", "points": [[x, y, z], ...], "relative_position_mm": [...]}`` (the last key
     optional), or the column form ``{"x_mm": [...], "y_mm": [...], "z_mm": [...]}``.
@@ -201,7 +202,9 @@ def _read_csv(p: Path) -> tuple[np.ndarray, np.ndarray | None, list[str]]:
         raise PointsFileError(
             p, "empty file", "write a header x_mm,y_mm,z_mm and one row per point"
         )
-    rows = list(csv.reader([line for _, line in lines]))
+    head = lines[0][1]
+    delimiter = next((d for d in (",", ";", "\t") if d in head), ",")
+    rows = list(csv.reader([line for _, line in lines], delimiter=delimiter))
     header = [h.strip() for h in rows[0]]
     err = _metre_columns_error(p, header)
     if err:
@@ -228,7 +231,9 @@ def _read_csv(p: Path) -> tuple[np.ndarray, np.ndarray | None, list[str]]:
                 raise PointsFileError(
                     p,
                     f"line {lineno}, column {col}: {cell!r} is not a number",
-                    "every row needs numeric x_mm, y_mm, z_mm",
+                    "write decimals with a point, not a comma"
+                    if "," in cell
+                    else "every row needs numeric x_mm, y_mm, z_mm",
                 ) from None
             if not math.isfinite(v):
                 raise PointsFileError(

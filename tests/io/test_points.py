@@ -54,6 +54,19 @@ def test_round_trip_any_straight_line(tmp_path_factory, start, step):
     np.testing.assert_allclose(read_points(p), pts, atol=1e-9)
 
 
+@pytest.mark.parametrize("sep", [";", "\t"])
+def test_semicolon_or_tab_separated(tmp_path, sep):
+    rows = ["x_mm", "y_mm", "z_mm"], ["0", "0", "0"], ["2.5", "0", "0"]
+    p = _csv(tmp_path, "\n".join(sep.join(r) for r in rows) + "\n")
+    np.testing.assert_allclose(read_points(p, kind="path")[1], [2.5e-3, 0, 0])
+
+
+def test_decimal_comma_is_named(tmp_path):
+    p = _csv(tmp_path, "x_mm;y_mm;z_mm\n0;0;0\n2,5;0;0\n")
+    with pytest.raises(PointsFileError, match=r"line 3, column x_mm: '2,5' is not a number.*point"):
+        read_points(p, kind="path")
+
+
 def test_json_column_form(tmp_path):
     p = tmp_path / "c.json"
     p.write_text(json.dumps({"x_mm": [0, 10, 20], "y_mm": [0, 0, 0], "z_mm": [0, 1, 3]}))
