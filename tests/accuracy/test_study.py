@@ -7,7 +7,6 @@ import tomllib
 import numpy as np
 import pandas as pd
 import pytest
-from conftest import C_EL, C_INC, FakeSimulator, exact_positions_mm
 
 from ringqa.accuracy import AccuracyError, pareto_mask, recommend, run_study
 from ringqa.accuracy.study import (
@@ -17,6 +16,7 @@ from ringqa.accuracy.study import (
     fit_ring_frame,
     position_errors_mm,
 )
+from tests.accuracy.conftest import C_EL, C_INC, FakeSimulator, exact_positions_mm
 
 GRID = {
     "discretisation.element_length_mm.thin": [3.0, 1.5, 0.75],
