@@ -14,16 +14,20 @@ MM_PER_M = 1.0e3
 
 def mm_to_m(value_mm):
     """Millimetres to metres (scalars or arrays)."""
-    return np.asarray(value_mm, dtype=float) * M_PER_MM if np.ndim(value_mm) else float(
-        value_mm
-    ) * M_PER_MM
+    return (
+        np.asarray(value_mm, dtype=float) * M_PER_MM
+        if np.ndim(value_mm)
+        else float(value_mm) * M_PER_MM
+    )
 
 
 def m_to_mm(value_m):
     """Metres to millimetres (scalars or arrays)."""
-    return np.asarray(value_m, dtype=float) * MM_PER_M if np.ndim(value_m) else float(
-        value_m
-    ) * MM_PER_M
+    return (
+        np.asarray(value_m, dtype=float) * MM_PER_M
+        if np.ndim(value_m)
+        else float(value_m) * MM_PER_M
+    )
 
 
 def deg_to_rad(value_deg):

@@ -43,7 +43,8 @@ def shared_dir() -> Path:
 @pytest.fixture(scope="session")
 def oncentra_plan_path(shared_dir: Path) -> Path:
     """The shared Oncentra 26 mm / 60 degree tandem-and-ring RT Plan."""
-    path = shared_dir / "reference" / "rtplans" / "oncentra_ring26x60" / "RP_ring26x60_oncentra43.dcm"
+    plan_dir = shared_dir / "reference" / "rtplans" / "oncentra_ring26x60"
+    path = plan_dir / "RP_ring26x60_oncentra43.dcm"
     if not path.is_file():
         pytest.skip(f"{path} not found")
     return path
