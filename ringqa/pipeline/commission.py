@@ -429,6 +429,9 @@ def _simulate(app, channel, rel_mm, *, cable, scene_overrides, simulator, scene_
     s_ref_mm = m_to_mm(channel.s_ref_m)
     rel_sorted = np.sort(np.unique(np.round(np.asarray(rel_mm, dtype=float), 9)))[::-1]
     advances = s_ref_mm - rel_sorted  # increasing: the cable is pushed in, proximal -> distal
+    motion = getattr(scene, "motion", None)
+    if getattr(motion, "backward", False) or getattr(motion, "kind", "") == "retract":
+        advances = advances[::-1]  # backward stepping / retraction: most distal dwell first
     t0 = time.perf_counter()
     res = simulate(scene, advances_mm=advances, progress=False)
     wall = time.perf_counter() - t0

@@ -9,7 +9,13 @@ import pandas as pd
 import pytest
 
 from ringqa.cli import main
-from tests.pipeline.fakes import fake_scene_factory, fake_simulator, make_applicator
+from tests.pipeline.fakes import (
+    centreline_simulator,
+    fake_scene_factory,
+    fake_simulator,
+    make_applicator,
+    real_engine,
+)
 
 # the module (ringqa.pipeline's attribute 'commission' is the function)
 pc = importlib.import_module("ringqa.pipeline.commission")
@@ -110,3 +116,42 @@ def test_batch_completes_around_a_failure(fake_world, tmp_path, capsys):
 def test_bad_set(fake_world, tmp_path, capsys):
     assert main(["commission", "fake26", "--out", str(tmp_path / "o"), "--set", "novalue"]) == 2
     assert "KEY=VALUE" in capsys.readouterr().err
+
+
+EXAMPLE = "data/examples/oncentra_ring26x60/RP_ring26x60_oncentra43.dcm"
+
+
+@pytest.fixture
+def engine(monkeypatch):
+    """The real engine when it is installed, else the centreline stand-in."""
+    if real_engine() is None:
+        monkeypatch.setattr(pc, "_default_simulator", lambda: centreline_simulator())
+    return real_engine()
+
+
+@pytest.mark.slow
+def test_oncentra_example(engine, repo_root, tmp_path):
+    """Must-show 1: the report lists measured, simulated and centreline dwells with distances,
+    Point A = 7 Gy within 0.1 %, and the RT Plan's TPS points beside the TPS doses."""
+    out = tmp_path / "onc"
+    assert main(["commission", str(repo_root / EXAMPLE), "--out", str(out)]) == 0
+    dwells = pd.read_csv(out / "dwells.csv")
+    assert set(dwells["path"]) == {"measured", "simulated", "centreline"}
+    assert dwells.loc[dwells.path != "measured", "dist_to_measured_mm"].notna().all()
+    doses = pd.read_csv(out / "doses.csv")
+    a = doses[(doses.plan == "measured") & (doses.kind == "point_a")]["dose_gy"]
+    assert a.mean() == pytest.approx(7.0, rel=1e-3)
+    own = doses[doses.plan == "rtplan"]
+    assert set(own["point"]) == {"A1", "A2", "Bladder", "ICRU"} and own["tps_dose_gy"].notna().all()
+    assert (out / "report.pdf").stat().st_size > 10_000
+
+
+@pytest.mark.slow
+def test_all_shipped(engine, tmp_path, capsys):
+    """Must-show 2: one command, six reports and the cross-applicator summary."""
+    out = tmp_path / "all"
+    assert main(["commission", "--all-shipped", "--out", str(out), "--quiet"]) == 0
+    summary = pd.read_csv(out / "summary.csv")
+    assert len(summary) == 6 and set(summary["reference"]) == {"centreline"}
+    assert all((out / name / "report.pdf").is_file() for name in summary["applicator"])
+    assert (out / "summary.pdf").is_file()

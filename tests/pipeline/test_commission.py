@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 import numpy as np
 import pytest
 from hypothesis import given
@@ -183,3 +185,20 @@ def test_batch_reports_a_failure_and_completes_the_rest(fakes):
     assert batch.failures[0][0] == "b" and "cannot pass" in batch.failures[0][1]
     assert list(batch.summary["verdict"] == "ERROR") == [False, True, False]
     assert not batch.ok
+
+
+def test_backward_stepping_gets_decreasing_advances(fakes):
+    """A scene with motion.backward = True is given the advances most distal first; the dwell
+    positions are matched by advance, so the distances are unchanged (0.2 mm)."""
+    base = fakes.scene_factory()
+
+    def factory(channel, cable):
+        scene = base(channel, cable)
+        scene.motion = SimpleNamespace(kind="stepwise", backward=True)
+        return scene
+
+    sim = fakes.simulator()
+    res = commission(fakes.applicator(), simulator=sim, scene_factory=factory)
+    assert np.all(np.diff(sim.calls[0]) < 0)
+    sim_rows = res.dwells[res.dwells.path == "simulated"]
+    np.testing.assert_allclose(sim_rows["dist_to_measured_mm"], 0.2, atol=1e-9)
