@@ -1,0 +1,55 @@
+"""``ringqa accuracy`` end to end on the fake simulator (the engine is replaced, not the study)."""
+
+from __future__ import annotations
+
+import json
+import tomllib
+from pathlib import Path
+
+import pandas as pd
+from conftest import FakeSimulator
+
+import ringqa.simulation as sim
+from ringqa.accuracy.study import CONTRACT_COLUMNS
+from ringqa.cli import main
+
+SCENE = Path(__file__).resolve().parents[2] / "data" / "scenes" / "ring13-push100.toml"
+
+
+def test_cli_accuracy_writes_the_contract_files(tmp_path, monkeypatch, capsys):
+    """accuracy.csv (contract columns, one row per run), accuracy.png, recommended.toml (a
+    loadable scene), exit 0; a second invocation resumes (no new simulator calls)."""
+    fake = FakeSimulator()
+    monkeypatch.setattr(sim, "simulate", fake, raising=False)
+    out = tmp_path / "acc"
+    rc = main(["accuracy", str(SCENE), "--out", str(out), "--target-mm", "0.1", "--repeats", "1",
+               "--quiet"])  # fmt: skip
+    assert rc == 0, capsys.readouterr()
+    table = pd.read_csv(out / "accuracy.csv")
+    assert set(CONTRACT_COLUMNS) <= set(table.columns)
+    assert table["pareto"].any()
+    assert (out / "accuracy.png").stat().st_size > 10_000
+    rec = tomllib.loads((out / "recommended.toml").read_text())
+    from ringqa.simulation.scenefile import load_scene
+
+    assert load_scene(rec).solver.kind == "quasistatic"
+    info = json.loads((out / "study.json").read_text())
+    assert info["reference"]["converged"] is True
+    calls = fake.calls
+    assert main(["accuracy", str(SCENE), "--out", str(out), "--repeats", "1", "--quiet"]) == 0
+    assert fake.calls == calls
+
+
+def test_cli_accuracy_unreachable_target_exits_1(tmp_path, monkeypatch):
+    monkeypatch.setattr(sim, "simulate", FakeSimulator(), raising=False)
+    out = tmp_path / "acc"
+    rc = main(["accuracy", str(SCENE), "--out", str(out), "--target-mm", "1e-9", "--repeats", "1",
+               "--quiet"])  # fmt: skip
+    assert rc == 1
+    assert (out / "accuracy.csv").is_file() and not (out / "recommended.toml").exists()
+
+
+def test_cli_accuracy_bad_target_exits_2(tmp_path, capsys):
+    rc = main(["accuracy", str(SCENE), "--out", str(tmp_path / "x"), "--target-mm", "-1"])
+    assert rc == 2
+    assert "--target-mm" in capsys.readouterr().err
