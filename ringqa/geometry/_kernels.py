@@ -41,9 +41,11 @@ import math
 import numpy as np
 from numba import njit
 
-#: Curvature (1/m) below which the Frenet normal is replaced by the transported normal
-#: (a bend radius of 100 m is "straight" for an applicator).
-KAPPA_MIN = 1.0e-2
+#: Curvature (1/m) below which the Frenet normal is replaced by the transported normal. A bend
+#: radius above 1 m is "straight" for an applicator (real bends: 5-50 mm), and below it the bend
+#: DIRECTION is interpolation ripple: a quintic spline through a C2 stem/transition join ripples
+#: with curvature up to ~0.05 1/m whose direction flips from sample to sample.
+KAPPA_MIN = 1.0
 
 #: Newton tolerance on the arc length of a closest point (m).
 _S_TOL = 1.0e-11

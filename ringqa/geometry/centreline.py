@@ -355,7 +355,7 @@ class Centreline:
 
     def normal(self, s_m):
         """Unit normal at ``s_m`` (towards the centre of curvature; parallel-transported where
-        the curvature is below ``KAPPA_MIN`` = 0.01 1/m): ``(3,)`` or ``(k, 3)``."""
+        the curvature is below ``KAPPA_MIN`` = 1 1/m): ``(3,)`` or ``(k, 3)``."""
         return self.frame(s_m)[2]
 
     def binormal(self, s_m):

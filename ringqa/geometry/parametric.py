@@ -9,18 +9,27 @@ Ring channel centreline, proximal -> distal:
    its distal direction is ``(0, cos a, sin a)``, ``a`` = stem-to-ring-plane angle (45 or 60 deg);
 2. a TRANSITION (default 28 mm of arc, domain.md) from the stem to the circle: a quintic Hermite
    curve that matches position, tangent and curvature vector at both ends (curvature 0 on the stem
-   side, 1/R towards the centre on the ring side), so the curvature is continuous (G2);
+   side, 1/R towards the centre on the ring side), so the curvature is continuous (G2). It starts
+   at ``B + c (11 in_B - 20 t_B - 12 z)`` mm (``in_B`` inwards, ``t_B`` the circle tangent at the
+   join B), offsets read off the Oncentra 26/60 library centreline, with ``c`` solved so the
+   transition is ``transition_mm`` long (c ~ 1). Like the Oncentra channel it is an S-shaped bend
+   (curvature ~0.09, dip ~0.05, ~0.085 1/mm on the 26 mm ring; the library's: 0.074, 0.022,
+   0.086 1/mm) with smooth torsion (< 0.3 1/mm);
 3. the CIRCLE of radius R = diameter / 2 in the ring plane, run counter-clockwise seen from cranial
-   (from the patient's front towards the left side) for ``run_deg`` (default 264 deg, the 26 mm
-   Oncentra ring, domain.md) to the lumen tip. The same ANGULAR run is kept for every size (the arc
-   grows with R: 59.9 / 69.1 / 78.3 mm for 26 / 30 / 34 mm) so that every ring covers both lateral
-   sides; the gap is centred anteriorly where the stem enters (join at -42 deg azimuth from +x,
-   tip at 222 deg).
+   (from the patient's left side towards posterior) from the join at +1.5 deg azimuth (from +x;
+   fitted to the Oncentra library, see below) for ``run_deg`` (default 264 deg, the 26 mm
+   Oncentra ring, domain.md) to the lumen tip at 265.5 deg (anterior, slightly right). The same
+   ANGULAR run is kept for every size (the arc grows with R: 59.9 / 69.1 / 78.3 mm for 26 / 30 /
+   34 mm) so that every ring covers both lateral sides; the gap is the anterior-left quadrant
+   where the stem enters.
 
-The transition's shape is set by the vertex distance ``v`` (the stem line and the circle's tangent
-line at the join meet at ``V = B - v t_B``); ``v`` is solved so that the transition is
-``transition_mm`` long. The stem then lies in a plane parallel to the sagittal plane, a few mm
-beside the midline.
+With these choices the 26/60 channel reproduces the Oncentra library's centreline (the shared
+plan; frame: its ring centre and normal, lateral = DICOM +x projected into the ring plane), at
+equal distance from the lumen tip, within 0.03 mm on the circle, 1.0 mm over the transition and
+1.1 mm along the first 30 mm of stem (tests/io/test_io_applicator_file.py). domain.md's "join at
+about -4 deg" is where the library's transition still runs 0.1 mm outside the circle; the circle
+proper starts at +1.5 deg. The stem passes 7-11 mm from the distal ring (the near-branch case of
+the closest-point search).
 
 Lumen: 3.0 mm (r_b 1.5 mm, paper's r_a 1.4 mm), U-shaped from the start of the transition to the
 tip with the flat side ASSUMED 1.2 mm from the centreline on the outside of the bend (the paper
@@ -45,6 +54,11 @@ from ringqa.units import deg_to_rad, mm_to_m
 STEM_MM = 60.0
 TRANSITION_MM = 28.0
 RUN_DEG = 264.0
+JOIN_AZIMUTH_DEG = 1.5
+#: Start of the transition relative to the join point B, in B's frame (inwards, back along the
+#: tangent, caudally), mm: read off the Oncentra 26/60 library centreline; scaled per ring so the
+#: transition is TRANSITION_MM long.
+TRANSITION_OFFSETS_MM = (11.0, 20.0, 12.0)
 RING_LUMEN_DIAMETER_MM = 3.0
 RING_R_A_MM = 1.4
 FLAT_MM = 1.2
@@ -67,8 +81,10 @@ SOURCES = (
 ASSUMPTIONS = (
     "Flat side of the U-shaped lumen 1.2 mm from the centreline on the outside of the bend (not "
     "given in the paper); circular along the straight stem.",
-    "Same angular run (264 deg) for every ring size, gap centred anteriorly; transition 28 mm.",
-    "Stem distal direction (0, cos a, sin a): comes from caudal/anterior in the sagittal plane.",
+    "Same angular run (264 deg) from the same join azimuth (+1.5 deg) for every ring size; "
+    "transition 28 mm with the Oncentra 26/60 start offsets (11, 20, 12) mm for every size.",
+    "Stem distal direction (0, cos a, sin a): comes from caudal/anterior in a sagittal plane "
+    "(as in the Oncentra 26/60 library, whose stem is at 60.0 deg to the ring plane).",
     "Tandem along the ring normal through the ring centre, 60 mm above and 60 mm below the ring "
     "plane, r_a = r_b - 0.1 mm, relative position 0 at 5.0 mm from its tip.",
 )
@@ -92,23 +108,23 @@ def _polyline_length(p: np.ndarray) -> float:
     return float(np.linalg.norm(np.diff(p, axis=0), axis=1).sum())
 
 
-def _transition(b, t_b, k_b, d, v_mm: float, n_fine: int = 4001):
-    """Transition from the stem (direction d, through V - v d) to the circle at B.
+def _transition(b, t_b, k_b, d, start, n_fine: int = 4001):
+    """Quintic Hermite transition from ``start`` (tangent d, curvature 0) to the circle at ``b``
+    (tangent t_b, curvature vector k_b).
 
-    Returns (fine points (n_fine, 3), arc length, start point A). The Hermite speed parameter
-    is iterated to the arc length so the curve is traversed at near-unit speed at both ends.
+    Returns (fine points (n_fine, 3), arc length). The Hermite speed parameter is iterated to the
+    arc length so the curve is traversed at near-unit speed at both ends (then the end curvatures
+    are exactly 0 and |k_b|).
     """
-    vtx = b - v_mm * t_b
-    a = vtx - v_mm * d
-    ell = 2.0 * v_mm
+    ell = float(np.linalg.norm(b - start))
     t = np.linspace(0.0, 1.0, n_fine)
-    for _ in range(30):
-        pts = _hermite5(a, ell * d, np.zeros(3), b, ell * t_b, ell * ell * k_b, t)
+    for _ in range(40):
+        pts = _hermite5(start, ell * d, np.zeros(3), b, ell * t_b, ell * ell * k_b, t)
         new = _polyline_length(pts)
-        if abs(new - ell) < 1e-9 * new:
+        if abs(new - ell) < 1e-10 * new:
             break
         ell = new
-    return pts, ell, a
+    return pts, ell
 
 
 def ring_centreline_mm(
@@ -117,6 +133,7 @@ def ring_centreline_mm(
     stem_mm: float = STEM_MM,
     transition_mm: float = TRANSITION_MM,
     run_deg: float = RUN_DEG,
+    join_azimuth_deg: float = JOIN_AZIMUTH_DEG,
     spacing_mm: float = POINT_SPACING_MM,
 ) -> tuple[np.ndarray, dict]:
     """Points (mm) of the parametric ring channel centreline, proximal -> distal.
@@ -126,7 +143,9 @@ def ring_centreline_mm(
     points_mm : (n, 3) ndarray
     info : dict
         ``stem_mm``, ``transition_mm`` (achieved), ``circle_mm`` (arc of the circle part),
-        ``join_azimuth_deg``, ``tip_azimuth_deg``, ``vertex_mm`` (solved vertex distance).
+        ``join_azimuth_deg``, ``tip_azimuth_deg``, ``transition_start_mm`` (point where the stem
+        ends), ``transition_scale`` (solved factor on the Oncentra-shaped offsets),
+        ``stem_direction``.
     """
     r = float(diameter_mm) / 2.0
     alpha = float(deg_to_rad(angle_deg))
@@ -136,23 +155,29 @@ def ring_centreline_mm(
         raise GeometryError(f"diameter_mm: {diameter_mm!r} mm is not a ring size (10-100 mm)")
     if not (0.0 < run_deg < 350.0):
         raise GeometryError(f"run_deg: must be in (0, 350) degrees, got {run_deg!r}")
-    phi_b = np.deg2rad(-90.0 + (360.0 - run_deg) / 2.0)
+    if not (10.0 <= transition_mm <= 80.0):
+        raise GeometryError(f"transition_mm: must be 10-80 mm, got {transition_mm!r}")
+    phi_b = np.deg2rad(join_azimuth_deg)
     b = r * np.array([np.cos(phi_b), np.sin(phi_b), 0.0])
     t_b = np.array([-np.sin(phi_b), np.cos(phi_b), 0.0])
-    k_b = -np.array([np.cos(phi_b), np.sin(phi_b), 0.0]) / r
+    in_b = -b / r
+    k_b = in_b / r
     d = np.array([0.0, np.cos(alpha), np.sin(alpha)])
+    off = np.asarray(TRANSITION_OFFSETS_MM)
+    direction = off[0] * in_b - off[1] * t_b - off[2] * np.array([0.0, 0.0, 1.0])
 
-    # solve the vertex distance for the requested transition length (monotone: bisection)
-    lo, hi = 0.2 * transition_mm, 1.0 * transition_mm
-    for _ in range(80):
+    # scale the start offset so that the transition is transition_mm long (monotone: bisection)
+    lo, hi = 0.1, 4.0
+    for _ in range(60):
         mid = 0.5 * (lo + hi)
-        _, ell, _ = _transition(b, t_b, k_b, d, mid, 801)
+        _, ell = _transition(b, t_b, k_b, d, b + mid * direction, 801)
         if ell < transition_mm:
             lo = mid
         else:
             hi = mid
-    v_mm = 0.5 * (lo + hi)
-    fine, ell, a = _transition(b, t_b, k_b, d, v_mm)
+    scale = 0.5 * (lo + hi)
+    start = b + scale * direction
+    fine, ell = _transition(b, t_b, k_b, d, start)
 
     # resample the transition at ~spacing by arc length (fine polyline)
     cum = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(fine, axis=0), axis=1))]
@@ -162,7 +187,7 @@ def ring_centreline_mm(
 
     n_stem = max(int(np.ceil(stem_mm / spacing_mm)), 2)
     u = np.linspace(-stem_mm, 0.0, n_stem + 1)[:-1]
-    stem = a + u[:, None] * d
+    stem = start + u[:, None] * d
 
     arc = r * np.deg2rad(run_deg)
     n_arc = max(int(np.ceil(arc / spacing_mm)), 4)
@@ -173,10 +198,11 @@ def ring_centreline_mm(
         "stem_mm": float(stem_mm),
         "transition_mm": float(ell),
         "circle_mm": float(arc),
-        "join_azimuth_deg": float(np.rad2deg(phi_b)),
-        "tip_azimuth_deg": float(np.rad2deg(phi_b) + run_deg),
-        "vertex_mm": float(v_mm),
-        "stem_direction": d.tolist(),
+        "join_azimuth_deg": float(join_azimuth_deg),
+        "tip_azimuth_deg": float(join_azimuth_deg + run_deg),
+        "transition_start_mm": [float(v) for v in start],
+        "transition_scale": float(scale),
+        "stem_direction": [float(v) for v in d],
     }
     return pts, info
 
@@ -229,12 +255,15 @@ def ring_channel(
     stem_mm: float = STEM_MM,
     transition_mm: float = TRANSITION_MM,
     run_deg: float = RUN_DEG,
+    join_azimuth_deg: float = JOIN_AZIMUTH_DEG,
     flat_mm: float = FLAT_MM,
     tip_to_first_dwell_mm: float = TIP_TO_FIRST_DWELL_MM,
     name: str = "ring",
 ) -> tuple[Channel, dict]:
     """The parametric ring channel (see the module docstring) and its construction info."""
-    pts_mm, info = ring_centreline_mm(diameter_mm, angle_deg, stem_mm, transition_mm, run_deg)
+    pts_mm, info = ring_centreline_mm(
+        diameter_mm, angle_deg, stem_mm, transition_mm, run_deg, join_azimuth_deg
+    )
     cl = Centreline.from_points(mm_to_m(pts_mm))
     rb = RING_LUMEN_DIAMETER_MM / 2.0
     lumen = Lumen.u_shaped(mm_to_m(rb), mm_to_m(RING_R_A_MM), mm_to_m(flat_mm), mm_to_m(stem_mm))
@@ -253,7 +282,7 @@ def ring_applicator(diameter_mm: float, angle_deg: float, **kwargs) -> Applicato
         Stem-to-ring-plane angle (45 or 60 degrees).
     **kwargs
         Optional overrides of :func:`ring_channel` (``stem_mm``, ``transition_mm``, ``run_deg``,
-        ``flat_mm``, ``tip_to_first_dwell_mm``).
+        ``join_azimuth_deg``, ``flat_mm``, ``tip_to_first_dwell_mm``).
 
     Returns
     -------
