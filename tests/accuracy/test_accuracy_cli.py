@@ -7,11 +7,11 @@ import tomllib
 from pathlib import Path
 
 import pandas as pd
-from conftest import FakeSimulator
 
 import ringqa.simulation as sim
 from ringqa.accuracy.study import CONTRACT_COLUMNS
 from ringqa.cli import main
+from tests.accuracy.conftest import FakeSimulator
 
 SCENE = Path(__file__).resolve().parents[2] / "data" / "scenes" / "ring13-push100.toml"
 
