@@ -251,7 +251,7 @@ def _positions_page(plt, res):
     span = max(3.0, float(np.max(np.abs(hh))) * 1.3) if hh.size else 3.0
     ax2.set_ylim(-span, span)
     _ = sub
-    fig.tight_layout(rect=(0, 0, 1, 0.96))
+    fig.subplots_adjust(left=0.12, right=0.95, bottom=0.06, top=0.92, hspace=0.25)
     return fig
 
 
@@ -327,7 +327,7 @@ def _deviation_page(plt, res):
     ax.set_xlabel("relative position (mm), 0 = most distal dwell")
     ax.legend(fontsize=7)
     ax.grid(alpha=0.3)
-    fig.tight_layout(rect=(0, 0, 1, 0.96))
+    fig.subplots_adjust(left=0.12, right=0.95, bottom=0.06, top=0.92, hspace=0.25)
     return fig
 
 
