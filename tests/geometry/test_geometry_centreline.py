@@ -276,3 +276,22 @@ def test_table_is_dense_and_contiguous(circle):
         assert arr.dtype == np.float64 and arr.flags.c_contiguous, name
     assert np.abs(np.linalg.norm(t.nor, axis=1) - 1).max() < 1e-12
     assert np.abs(np.sum(t.nor * t.tan, axis=1)).max() < 1e-12
+
+
+def test_tiny_windows_and_windows_beyond_the_ends(circle):
+    """A window narrower than the table spacing (0.05 mm) still returns the exact minimiser
+    inside it (clamped to the window edge when the true one lies outside); a window entirely past
+    the tip answers on the straight extension: for the 300-degree circle of radius R the point
+    tip + 3 mm * tangent + 1 mm * normal has s = L + 3 mm, d = 1 mm."""
+    r, cl = circle
+    a = np.deg2rad(100.0)
+    q = np.array([0.8 * r * np.cos(a), 0.8 * r * np.sin(a), 0.0])
+    s, d = cl.closest(q, s_hint_m=r * a + 0.02e-3, window_m=0.05e-3)
+    assert abs(s[0] - r * a) < UM and abs(d[0] - 0.2 * r) < UM
+    s, d = cl.closest(q, s_hint_m=r * a + 1e-3, window_m=0.05e-3)
+    assert abs(s[0] - (r * a + 0.95e-3)) < 1e-9  # clamped to the window's lower edge
+    tip, tan = cl.position(cl.length_m), cl.tangent(cl.length_m)
+    nor = cl.normal(cl.length_m)
+    q2 = tip + 3e-3 * tan + 1e-3 * nor
+    s, d = cl.closest(q2, s_hint_m=cl.length_m + 3e-3, window_m=1e-3)
+    assert abs(s[0] - (cl.length_m + 3e-3)) < UM and abs(d[0] - 1e-3) < UM
