@@ -64,6 +64,12 @@ def add_parser(subparsers) -> None:
         action="store_true",
         help="allow inputs without a measured path (compare simulated vs centreline)",
     )
+    p.add_argument(
+        "--accuracy-csv",
+        type=Path,
+        default=None,
+        help="accuracy.csv of 'ringqa accuracy' for the scene used (adds a report page)",
+    )
     p.add_argument("--no-pdf", action="store_true", help="write the CSV/JSON files only")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
@@ -111,7 +117,7 @@ def run(args: argparse.Namespace) -> int:
     items = _inputs(args)
     if len(items) == 1 and not args.all_shipped:
         res = commission(items[0], **kwargs)
-        write_report(res, args.out, pdf=not args.no_pdf)
+        write_report(res, args.out, pdf=not args.no_pdf, accuracy_csv=args.accuracy_csv)
         verdicts = "; ".join(f"{v.status} {v.check}" for v in res.verdicts)
         print(
             f"ringqa commission: {res.applicator} ({res.reference} reference): {verdicts} "

@@ -13,12 +13,16 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import pandas as pd
+
+from ringqa.errors import InputFileError
 from ringqa.outdir import staged_output
 from ringqa.report.pdf import write_batch_pdf, write_pdf
 from ringqa.report.tables import SCHEMA, results_dict, write_batch_tables, write_tables
 
 __all__ = [
     "SCHEMA",
+    "read_accuracy_csv",
     "results_dict",
     "write_batch",
     "write_batch_pdf",
@@ -28,22 +32,50 @@ __all__ = [
 ]
 
 
-def _write_one(result, folder: Path, pdf: bool) -> None:
+ACCURACY_COLUMNS = ("time_s", "max_err_mm", "status")
+
+
+def read_accuracy_csv(path) -> pd.DataFrame:
+    """Read ``accuracy.csv`` of ``ringqa accuracy`` (for the report's accuracy page)."""
+    p = Path(path)
+    try:
+        table = pd.read_csv(p)
+    except (OSError, ValueError) as exc:
+        raise InputFileError(
+            p,
+            f"cannot read the accuracy table ({exc})",
+            "give the accuracy.csv written by ringqa accuracy",
+        ) from exc
+    missing = [c for c in ACCURACY_COLUMNS if c not in table.columns]
+    if missing:
+        raise InputFileError(
+            p,
+            f"missing column(s) {', '.join(missing)}",
+            "give the accuracy.csv written by ringqa accuracy",
+        )
+    return table
+
+
+def _write_one(result, folder: Path, pdf: bool, accuracy=None) -> None:
     write_tables(result, folder)
     if pdf:
-        write_pdf(result, folder / "report.pdf")
+        write_pdf(result, folder / "report.pdf", accuracy=accuracy)
 
 
-def write_report(result, out_dir, *, pdf: bool = True) -> Path:
+def write_report(result, out_dir, *, pdf: bool = True, accuracy_csv=None) -> Path:
     """Write one applicator's files into ``out_dir`` (staged: all or nothing).
+
+    ``accuracy_csv``: optional accuracy.csv of ``ringqa accuracy`` for the scene used (adds a
+    page with its error-vs-time plot).
 
     Returns
     -------
     pathlib.Path
         ``out_dir``.
     """
+    accuracy = None if accuracy_csv is None else read_accuracy_csv(accuracy_csv)
     with staged_output(out_dir) as stage:
-        _write_one(result, stage, pdf)
+        _write_one(result, stage, pdf, accuracy)
     return Path(out_dir)
 
 

@@ -511,8 +511,62 @@ def _dwell_table_pages(plt, res):
     return figs
 
 
-def write_pdf(result, path: Path, *, png_dir: Path | None = None) -> Path:
-    """Write the report PDF of one CommissioningResult (``png_dir``: also each page as PNG)."""
+def _accuracy_page(plt, res, table: pd.DataFrame):
+    """The accuracy/time study of the scene (ringqa accuracy's accuracy.csv): error vs time."""
+    fig = plt.figure(figsize=A4)
+    fig.suptitle(
+        f"{res.applicator}: accuracy of the simulation settings (ringqa accuracy)",
+        fontsize=13,
+        weight="bold",
+        x=0.06,
+        ha="left",
+    )
+    ax = fig.add_axes((0.12, 0.45, 0.8, 0.45))
+    ok = (table["status"] == 0) & np.isfinite(table["max_err_mm"]) & (table["max_err_mm"] > 0)
+    t = table[ok]
+    ax.scatter(t["time_s"], t["max_err_mm"], c="C0", s=18, label="runs (max dwell error)")
+    if "pareto" in t:
+        front = t[t["pareto"].astype(bool)].sort_values("time_s")
+        ax.step(front["time_s"], front["max_err_mm"], where="post", c="C3", label="Pareto front")
+    lim_rec = res.settings["position_limits_mm"][0]
+    ax.axhline(
+        0.1 * lim_rec,
+        color="0.4",
+        ls=":",
+        lw=1,
+        label=f"{0.1 * lim_rec:g} mm (a tenth of the {lim_rec:g} mm tolerance)",
+    )
+    if len(t):
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+    ax.set_xlabel("solve time per run (s)")
+    ax.set_ylabel("max dwell-position error vs converged reference (mm)")
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(fontsize=8)
+    n_bad = int((~ok).sum())
+    fig.text(
+        0.06,
+        0.38,
+        textwrap.fill(
+            f"{len(table)} runs of the scene's numerical settings, {n_bad} failed, jammed or "
+            "exact. The simulated dwell positions in this report are only as accurate as the "
+            "settings used: compare the scene settings on page 1 with the Pareto front.",
+            110,
+        ),
+        fontsize=9,
+        va="top",
+    )
+    return fig
+
+
+def write_pdf(
+    result, path: Path, *, png_dir: Path | None = None, accuracy: pd.DataFrame | None = None
+) -> Path:
+    """Write the report PDF of one CommissioningResult.
+
+    ``png_dir``: also save each page as PNG; ``accuracy``: the table of ``ringqa accuracy``
+    (accuracy.csv: ``time_s, max_err_mm, status, pareto``) for an extra page.
+    """
     plt = _plt()
     from matplotlib.backends.backend_pdf import PdfPages
 
@@ -525,6 +579,8 @@ def write_pdf(result, path: Path, *, png_dir: Path | None = None) -> Path:
             _dose_page(plt, result),
             *_dwell_table_pages(plt, result),
         ]
+        if accuracy is not None:
+            figs.append(_accuracy_page(plt, result, accuracy))
         for k, fig in enumerate(figs):
             pdf.savefig(fig)
             if png_dir is not None:

@@ -79,3 +79,21 @@ def test_batch_folder(tmp_path):
     assert list(summary["reference"].fillna("")) == ["measured", "", "centreline"]
     info = json.loads((out / "batch.json").read_text())
     assert info["failures"][0]["input"] == "b"
+
+
+def test_accuracy_page(result, tmp_path):
+    """An accuracy.csv adds one page; a table without the contract columns is refused by name."""
+    from ringqa.errors import RingQAError
+
+    csv = tmp_path / "accuracy.csv"
+    table = {"time_s": [0.1, 0.5, 2.0], "max_err_mm": [0.3, 0.05, 0.01], "status": [0, 0, 0],
+             "pareto": [True, True, True]}  # fmt: skip
+    pd.DataFrame(table).to_csv(csv, index=False)
+    write_report(result, tmp_path / "out", accuracy_csv=csv)
+    pdf = (tmp_path / "out" / "report.pdf").read_bytes()
+    assert pdf.count(b"/Type /Page") - pdf.count(b"/Type /Pages") == 6
+    bad = tmp_path / "bad.csv"
+    bad.write_text("a,b\n1,2\n")
+    with pytest.raises(RingQAError, match="max_err_mm"):
+        write_report(result, tmp_path / "out2", accuracy_csv=bad)
+    assert not (tmp_path / "out2").exists()
