@@ -111,18 +111,20 @@ def _r(x: float) -> float:
     return float(f"{x:.6g}")
 
 
-def default_grid(scene) -> list[dict[str, Any]]:
+DEFAULT_FACTORS = (2.0, 1.0, 0.5, 0.25)
+
+
+def default_grid(scene, factors: tuple[float, ...] = DEFAULT_FACTORS) -> list[dict[str, Any]]:
     """The default grid of settings (each a dict of dotted overrides in user units).
 
-    - element length (all flexible sections together) x {2, 1, 1/2, 1/4} crossed with the
-      increment (quasi-static) or time step (dynamic) x {2, 1, 1/2, 1/4}: 16 runs;
+    - element length (all flexible sections together) x ``factors`` (2, 1, 1/2, 1/4) crossed with
+      the increment (quasi-static) or time step (dynamic) x ``factors``: 16 runs;
     - Newton tolerance 1e-4 and 1e-6 at the scene's discretisation;
     - the other solver kind (quasi-static <-> dynamic with inertia) at the scene's discretisation;
     - each optional effect toggled (torsion, wall damping, friction none <-> the scene's law,
       gravity): these change the MODEL; their rows show what the effect changes and costs.
     """
     grid: list[dict[str, Any]] = []
-    factors = (2.0, 1.0, 0.5, 0.25)
     for fe in factors:
         for fs in factors:
             grid.append(_scaled(scene, fe, fs))
@@ -484,6 +486,13 @@ class ReferenceInfo:
         ``agreement_mm <= max(0.1 * smallest_error_mm, noise_mm)``.
     criterion : str
         The rule in words.
+    tail_estimate_mm : float
+        Estimated error of the reference itself: the geometric tail ``d r / (1 - r)`` of the
+        level differences ``d`` shrinking by ``ratio`` r per level (NaN with fewer than three
+        levels or when the differences do not shrink). A check on the rule: for a slowly
+        converging engine two levels can agree while both are still off.
+    ratio : float
+        Ratio of the last two level differences.
     """
 
     levels: tuple[dict, ...]
@@ -491,6 +500,24 @@ class ReferenceInfo:
     smallest_error_mm: float
     converged: bool
     criterion: str
+    tail_estimate_mm: float = math.nan
+    ratio: float = math.nan
+
+
+def tail_estimate(diffs) -> tuple[float, float]:
+    """Geometric-tail estimate of the error left after the last level (mm) and the ratio.
+
+    With level differences ``d_k`` shrinking as ``d_k = r d_(k-1)``, the finest level is still
+    ``d_k r / (1 - r)`` away from the limit. NaN when fewer than two differences are known or
+    ``r >= 1`` (not converging).
+    """
+    d = [x for x in diffs if x is not None and np.isfinite(x)]
+    if len(d) < 2 or d[-2] <= 0:
+        return math.nan, math.nan
+    r = d[-1] / d[-2]
+    if not r < 1.0:
+        return math.nan, float(r)
+    return float(d[-1] * r / (1.0 - r)), float(r)
 
 
 @dataclass(frozen=True)
@@ -514,6 +541,8 @@ class AccuracyStudy:
         How the dose points were defined.
     out_dir : Path or None
     warnings : tuple of str
+    run_overrides : tuple of dict
+        The overrides of each run (indexed by the table's ``run`` column).
     """
 
     scene_name: str
@@ -525,6 +554,7 @@ class AccuracyStudy:
     dose_points: str
     out_dir: Path | None = None
     warnings: tuple[str, ...] = field(default_factory=tuple)
+    run_overrides: tuple[dict, ...] = field(default_factory=tuple)
 
     def recommend(self, target_mm: float, include_model_changes: bool = False) -> dict | None:
         """The cheapest successful run with ``max_err_mm <= target_mm`` (table row), or None."""
@@ -553,6 +583,7 @@ def run_study(
     repeats: int = 3,
     max_levels: int = 4,
     noise_mm: float = DEFAULT_NOISE_MM,
+    factors: tuple[float, ...] = DEFAULT_FACTORS,
 ) -> AccuracyStudy:
     """Run the accuracy/time study of a scene.
 
@@ -581,6 +612,8 @@ def run_study(
         Most reference refinement levels.
     noise_mm : float
         Agreement below which the reference counts as converged regardless (mm).
+    factors : tuple of float
+        Refinement factors of the default grid (ignored when ``grid`` is given).
 
     Returns
     -------
@@ -591,7 +624,7 @@ def run_study(
     if not (isinstance(target_mm, int | float) and target_mm > 0 and math.isfinite(target_mm)):
         raise AccuracyError(f"--target-mm {target_mm!r}: must be a positive number of mm")
     simulator = simulator or _default_simulator()
-    grid_list = expand_grid(grid) if grid is not None else default_grid(scene)
+    grid_list = expand_grid(grid) if grid is not None else default_grid(scene, factors)
     grid_list = _dedupe(scene, [{}, *grid_list])
     out = Path(out_dir) if out_dir is not None else None
     cache = _Cache(out / CACHE_NAME if out is not None else None, resume)
@@ -670,11 +703,20 @@ def run_study(
             f"{agreement:.3g} mm, more than a tenth of the smallest reported error "
             f"({smallest:.3g} mm); errors below ~{agreement:.2g} mm are not resolved"
         )
+    tail, ratio = tail_estimate([lv["diff_to_previous_mm"] for lv in levels])
+    if np.isfinite(tail) and np.isfinite(smallest) and tail > 0.1 * smallest:
+        warnings.append(
+            f"the reference levels converge slowly (each halving shrinks the change by only "
+            f"{ratio:.2f}): its own error is estimated at {tail:.2g} mm (geometric tail), more "
+            f"than a tenth of the smallest reported error ({smallest:.2g} mm)"
+        )
     reference = ReferenceInfo(
         levels=tuple(levels),
         agreement_mm=float(agreement),
         smallest_error_mm=float(smallest),
         converged=converged,
+        tail_estimate_mm=float(tail),
+        ratio=float(ratio),
         criterion=(
             "levels halve the finest grid element lengths and step; converged when the two finest "
             f"levels agree to max(0.1 x smallest grid error, {noise_mm:g} mm)"
@@ -738,6 +780,7 @@ def run_study(
         dose_points=dose_model.how if dose_model is not None else "not computed",
         out_dir=out,
         warnings=tuple(warnings),
+        run_overrides=tuple(dict(g) for g in grid_list),
     )
     if out is not None:
         write_study(study, scene, out)
@@ -832,6 +875,8 @@ def write_study(study: AccuracyStudy, scene, out_dir: str | Path) -> None:
                 "agreement_mm": study.reference.agreement_mm,
                 "smallest_error_mm": study.reference.smallest_error_mm,
                 "criterion": study.reference.criterion,
+                "tail_estimate_mm": study.reference.tail_estimate_mm,
+                "ratio": study.reference.ratio,
                 "levels": list(study.reference.levels),
             },
             "dose_points": study.dose_points,

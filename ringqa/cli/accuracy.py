@@ -41,6 +41,12 @@ def add_parser(subparsers) -> None:
         help="override a scene key before the study (repeatable)",
     )
     p.add_argument("--repeats", type=int, default=3, help="timed repeats per run (median; 3)")
+    p.add_argument(
+        "--factors",
+        default="2,1,0.5,0.25",
+        help="refinement factors of element length and increment/time step (2,1,0.5,0.25)",
+    )
+    p.add_argument("--max-levels", type=int, default=4, help="most reference refinement levels (4)")
     p.add_argument("--fresh", action="store_true", help="ignore runs cached in DIR")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
@@ -57,6 +63,14 @@ def run(args: argparse.Namespace) -> int:
         raise RingQAError(f"--target-mm {args.target_mm}: must be a positive number of mm")
     if args.repeats < 1:
         raise RingQAError(f"--repeats {args.repeats}: must be at least 1")
+    try:
+        factors = tuple(float(x) for x in args.factors.split(","))
+    except ValueError:
+        raise RingQAError(f"--factors {args.factors!r}: give numbers like 2,1,0.5,0.25") from None
+    if not factors or not all(math.isfinite(f) and f > 0 for f in factors):
+        raise RingQAError(f"--factors {args.factors!r}: factors must be positive numbers")
+    if args.max_levels < 2:
+        raise RingQAError(f"--max-levels {args.max_levels}: at least 2 (two levels must agree)")
     scene = load_scene(args.scene, parse_set_args(args.overrides))
     study = run_study(
         scene,
@@ -65,6 +79,8 @@ def run(args: argparse.Namespace) -> int:
         progress=not args.quiet,
         resume=not args.fresh,
         repeats=args.repeats,
+        max_levels=args.max_levels,
+        factors=factors,
     )
     t = study.table
     n_bad = int((t["status"] != 0).sum())

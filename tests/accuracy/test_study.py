@@ -184,3 +184,14 @@ def test_model_change_rows_are_marked(fake_scene, fake_simulator):
 def test_bad_target_is_an_input_error(fake_scene, fake_simulator):
     with pytest.raises(AccuracyError, match="target"):
         run_study(fake_scene, grid=GRID, target_mm=-1, simulator=fake_simulator)
+
+
+def test_tail_estimate_by_hand():
+    """Differences 0.4, 0.2, 0.1 (ratio 1/2): remaining error 0.1 * 0.5 / 0.5 = 0.1; ratio 0.8
+    with last 0.0035: 0.0035 * 0.8 / 0.2 = 0.014; growing differences: NaN."""
+    from ringqa.accuracy.study import tail_estimate
+
+    assert tail_estimate([float("nan"), 0.4, 0.2, 0.1]) == pytest.approx((0.1, 0.5))
+    assert tail_estimate([0.0042, 0.0042 * 0.8])[0] == pytest.approx(0.0042 * 0.8 * 4)
+    assert np.isnan(tail_estimate([0.1, 0.2])[0])
+    assert np.isnan(tail_estimate([0.1])[0])
