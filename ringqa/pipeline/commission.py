@@ -373,6 +373,39 @@ def _dose_verdict(check: str, diff_pct: np.ndarray, action: float) -> Verdict:
     )  # fmt: skip
 
 
+def _verdict_meanings(verdicts, ref_kind: str) -> list[str]:
+    """What a physicist should conclude from the verdicts that are not PASS."""
+    out = []
+    for v in verdicts:
+        if v.status == "PASS":
+            continue
+        if v.check == "position: centreline vs measured":
+            out.append(
+                f"Centreline vs measured {v.status}: planning on the channel centreline would "
+                f"misplace dwells by up to {v.value:.1f} mm in this applicator; plan on the "
+                "measured source path (or a validated source-path model) instead."
+            )
+        elif v.check == "position: simulated vs measured":
+            out.append(
+                f"Simulated vs measured {v.status}: the simulation does not reproduce the "
+                f"measured path within tolerance (max {v.value:.1f} mm); it cannot replace the "
+                "measurement for this applicator."
+            )
+        elif v.check.startswith("position: simulated vs centreline"):
+            out.append(
+                f"Simulated vs centreline {v.status}: the simulated source deviates from the "
+                f"centreline by up to {v.value:.1f} mm; measure the source path of this "
+                "applicator before planning on its centreline."
+            )
+        elif v.check.startswith("dose:"):
+            out.append(
+                f"{v.check} {v.status}: the dwell-position differences change the dose at the "
+                f"dose points by up to {v.value:.1f} % (lateral ring-surface points are the most "
+                "sensitive; see the dose table)."
+            )
+    return out
+
+
 # ------------------------------------------------------------------------------------------------
 # simulation
 
@@ -862,6 +895,7 @@ def commission(
             _dose_verdict(f"dose: {pname} vs {ref_kind} plan", sub["diff_pct"].to_numpy(),
                           float(dose_action_pct))
         )  # fmt: skip
+    notes += _verdict_meanings(verdicts, ref_kind)
 
     def _maxabs(a):
         return float(np.max(np.abs(a))) if np.size(a) else float("nan")

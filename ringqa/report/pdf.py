@@ -49,6 +49,11 @@ def _plt():
     return plt
 
 
+def _title(res, what: str) -> str:
+    """Page title: what, then the applicator (shortened to fit the page)."""
+    return textwrap.shorten(f"{what}: {res.applicator}", 62, placeholder="...")
+
+
 def _frame(geometry: dict):
     """Ring frame: centre (3,), e_left (3,), e_ant (3,) in-plane, e_cranial (3,)."""
     c = np.asarray(geometry["ring_centre_mm"], dtype=float)
@@ -73,14 +78,14 @@ def _text_page(plt, title: str):
 
 
 def _title_page(plt, res) -> object:
-    fig = _text_page(plt, f"ringqa commissioning report: {res.applicator}")
+    fig = _text_page(plt, textwrap.shorten(f"ringqa commissioning report: {res.applicator}", 60))
     prov = res.provenance
     s = res.settings
     lines = [
         ("Applicator", f"{res.applicator}  (input: {res.input}, {res.input_kind})"),
         ("Reference path", _reference_text(res)),
         ("Source (TG-43)", f"{s['source']}, S_K = {s['sk_U']:.0f} U"),
-        ("Cable model", f"{s['cable']} preset"),
+        ("Cable model", f"{s['cable']} preset (all simulation settings: last page)"),
         (
             "Standard plan",
             f"dwells every {s['plan_step_mm']:g} mm, equal times, "
@@ -139,20 +144,6 @@ def _title_page(plt, res) -> object:
         wrapped = textwrap.fill(note, 100)
         fig.text(0.06, y, "- " + wrapped.replace("\n", "\n  "), fontsize=8.5, va="top")
         y -= 0.017 * (wrapped.count("\n") + 1) + 0.006
-    y -= 0.01
-    fig.text(0.06, y, "Scene settings (simulation)", fontsize=12, weight="bold", va="top")
-    y -= 0.026
-    flat = _flatten(s.get("scene") or {}) or {"(defaults)": ""}
-    for k, v in dict(list(s.get("scene_overrides", {}).items())).items():
-        flat[f"override {k}"] = v
-    items = [f"{k} = {v}" for k, v in flat.items()]
-    text = "\n".join(textwrap.shorten(t, 60) for t in items[:40])
-    if len(items) > 40:
-        text += f"\n... {len(items) - 40} more in results.json"
-    col = text.split("\n")
-    half = (len(col) + 1) // 2
-    fig.text(0.06, y, "\n".join(col[:half]), fontsize=7, va="top", family="monospace")
-    fig.text(0.52, y, "\n".join(col[half:]), fontsize=7, va="top", family="monospace")
     fig.text(
         0.06,
         0.05,
@@ -160,6 +151,51 @@ def _title_page(plt, res) -> object:
         "Date: ______________",
         fontsize=10,
     )
+    return fig
+
+
+def _settings_page(plt, res):
+    """The simulation's scene settings and the run's other settings (for the record)."""
+    fig = _text_page(plt, textwrap.shorten(f"Settings of this run: {res.applicator}", 60))
+    s = res.settings
+    sim = res.simulation
+    flat = {
+        k: v
+        for k, v in _flatten(s.get("scene") or {}).items()
+        if not isinstance(v, list | tuple | dict)
+    } or {"(engine defaults)": ""}
+    for k, v in dict(s.get("scene_overrides", {})).items():
+        flat[f"--set {k}"] = v
+    run = {
+        "simulation status": f"{sim.get('status')} {sim.get('message', '')}".strip(),
+        "simulation solve time": f"{sim.get('solve_time_s', 0.0):.2f} s",
+        "elements": sim.get("n_elements"),
+        **{f"dose point {k}": v for k, v in s.get("dose_points", {}).items()},
+        "plan step": f"{s['plan_step_mm']:g} mm",
+        "tandem dwells (no measured path)": s["tandem_dwells"],
+    }
+    for w in sim.get("warnings", []):
+        run.setdefault("engine warnings", "")
+        run["engine warnings"] += f"{w}; "
+    y = 0.92
+    fig.text(0.06, y, "Run", fontsize=12, weight="bold", va="top")
+    y -= 0.025
+    lines = [textwrap.shorten(f"{k} = {v}", 110) for k, v in run.items()]
+    fig.text(0.06, y, "\n".join(lines), fontsize=7.5, va="top", family="monospace")
+    y -= 0.0135 * len(lines) + 0.02
+    fig.text(
+        0.06, y, "Scene (simulation settings, user units)", fontsize=12, weight="bold", va="top"
+    )
+    y -= 0.025
+    items = [textwrap.shorten(f"{k} = {v}", 58) for k, v in flat.items()]
+    per_col = max(1, int((y - 0.04) / 0.0125))
+    if len(items) > 2 * per_col:
+        items = [
+            *items[: 2 * per_col - 1],
+            f"... {len(items) - 2 * per_col + 1} more in results.json",
+        ]
+    fig.text(0.06, y, "\n".join(items[:per_col]), fontsize=7, va="top", family="monospace")
+    fig.text(0.52, y, "\n".join(items[per_col:]), fontsize=7, va="top", family="monospace")
     return fig
 
 
@@ -190,7 +226,7 @@ def _positions_page(plt, res):
     """Figure 6 of the paper: ring-plane view and the orthogonal view."""
     fig, axes = plt.subplots(2, 1, figsize=A4, gridspec_kw={"height_ratios": [1.35, 1]})
     fig.suptitle(
-        f"{res.applicator}: dwell positions (paper Figure 6)",
+        _title(res, "Dwell positions (paper Figure 6)"),
         fontsize=13,
         weight="bold",
         x=0.06,
@@ -259,7 +295,7 @@ def _deviation_page(plt, res):
     fig, axes = plt.subplots(3, 1, figsize=A4, sharex=True)
     ref = res.reference
     fig.suptitle(
-        f"{res.applicator}: deviation from the {ref} path per dwell",
+        _title(res, f"Deviation from the {ref} path"),
         fontsize=13,
         weight="bold",
         x=0.06,
@@ -334,7 +370,7 @@ def _deviation_page(plt, res):
 def _dose_page(plt, res):
     fig = plt.figure(figsize=A4)
     fig.suptitle(
-        f"{res.applicator}: dose points and standard-plan doses",
+        _title(res, "Dose points and standard-plan doses"),
         fontsize=13,
         weight="bold",
         x=0.06,
@@ -475,7 +511,7 @@ def _dwell_table_pages(plt, res):
     ref = res.reference
     others = [p for p in ("simulated", "centreline") if p != ref and p in set(d["path"])]
     base = d[d["path"] == ref].reset_index(drop=True)
-    cols = ["rel. pos. (mm)", "in plan"]
+    cols = ["relative\nposition (mm)", "in the\nstandard plan"]
     data = {
         cols[0]: base["relative_position_mm"].map("{:g}".format),
         cols[1]: base["in_plan"].map({True: "yes", False: ""}),
@@ -483,11 +519,11 @@ def _dwell_table_pages(plt, res):
     for p in others:
         sub = d[d["path"] == p].reset_index(drop=True)
         for key, col, fmt in (
-            ("dist_to_reference_mm", f"{p[:3]}. dist (mm)", "{:.2f}"),
-            ("along_mm", f"{p[:3]}. along", "{:+.2f}"),
-            ("radial_mm", f"{p[:3]}. radial", "{:+.2f}"),
-            ("out_of_plane_mm", f"{p[:3]}. out", "{:+.2f}"),
-            ("angle_deg", f"{p[:3]}. angle (deg)", "{:.1f}"),
+            ("dist_to_reference_mm", f"{p}\n3D (mm)", "{:.2f}"),
+            ("along_mm", f"{p}\nalong (mm)", "{:+.2f}"),
+            ("radial_mm", f"{p}\nradial (mm)", "{:+.2f}"),
+            ("out_of_plane_mm", f"{p}\nout of plane", "{:+.2f}"),
+            ("angle_deg", f"{p}\nangle (deg)", "{:.1f}"),
         ):
             data[col] = sub[key].map(fmt.format)
     table = pd.DataFrame(data)
@@ -495,7 +531,7 @@ def _dwell_table_pages(plt, res):
     per_page = 40
     for start in range(0, len(table), per_page):
         chunk = table.iloc[start : start + per_page]
-        fig = _text_page(plt, f"{res.applicator}: dwell-by-dwell deviations from the {ref} path")
+        fig = _text_page(plt, f"Deviations from the {ref} path, dwell by dwell")
         ax = fig.add_axes((0.04, 0.04, 0.92, 0.88))
         ax.axis("off")
         t = ax.table(
@@ -507,6 +543,20 @@ def _dwell_table_pages(plt, res):
         t.auto_set_font_size(False)
         t.set_fontsize(6.5)
         t.scale(1, 1.15)
+        for (row, _), cell in t.get_celld().items():
+            if row == 0:
+                cell.set_height(cell.get_height() * 2.2)
+        fig.text(
+            0.04,
+            0.935,
+            textwrap.fill(
+                f"{res.applicator}. along = distal positive, radial = outward in the ring plane, "
+                "out of plane = cranial positive; angle between source orientations.",
+                120,
+            ),
+            fontsize=8,
+            va="top",
+        )
         figs.append(fig)
     return figs
 
@@ -515,7 +565,7 @@ def _accuracy_page(plt, res, table: pd.DataFrame):
     """The accuracy/time study of the scene (ringqa accuracy's accuracy.csv): error vs time."""
     fig = plt.figure(figsize=A4)
     fig.suptitle(
-        f"{res.applicator}: accuracy of the simulation settings (ringqa accuracy)",
+        _title(res, "Accuracy of the simulation settings"),
         fontsize=13,
         weight="bold",
         x=0.06,
@@ -578,6 +628,7 @@ def write_pdf(
             _deviation_page(plt, result),
             _dose_page(plt, result),
             *_dwell_table_pages(plt, result),
+            _settings_page(plt, result),
         ]
         if accuracy is not None:
             figs.append(_accuracy_page(plt, result, accuracy))
