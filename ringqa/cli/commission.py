@@ -4,6 +4,7 @@
     ringqa commission plan.dcm --out out/oncentra          # RT Plan with Oncentra's library
     ringqa commission --all-shipped --out out/all          # the six shipped rings + summary
     ringqa commission a/ b/ c.json --out out/batch         # several inputs = batch
+    ringqa commission my_rings/ --out out/batch            # a folder of applicator folders/files
 
 Writes DIR/dwells.csv, doses.csv, plan_dwells.csv, summary.csv, results.json and report.pdf (one
 subfolder per applicator in batch mode, plus the cross-applicator summary.csv, batch.json and
@@ -90,8 +91,40 @@ def parse_overrides(items: list[str]) -> dict:
     return out
 
 
+def _is_applicator_folder(path: Path) -> bool:
+    return any((path / f).is_file() for f in ("applicator.json", "centreline.csv"))
+
+
+def expand_folder(path: Path) -> list[Path] | None:
+    """The applicators in a folder OF applicators (None if ``path`` is one applicator's folder).
+
+    An applicator folder holds ``applicator.json`` or ``centreline.csv``; a folder of applicators
+    holds such folders, applicator ``.json`` files and/or RT Plans (``.dcm``), commissioned in
+    name order.
+    """
+    if not path.is_dir() or any(
+        (path / f).is_file() for f in ("applicator.json", "centreline.csv")
+    ):
+        return None
+    found = [
+        p
+        for p in sorted(path.iterdir())
+        if (p.is_dir() and _is_applicator_folder(p))
+        or (p.is_file() and p.suffix.lower() in (".json", ".dcm"))
+    ]
+    if not found:
+        raise RingQAError(
+            f"{path}: no applicator in this folder (expected applicator.json + centreline.csv, "
+            "or applicator folders / .json files / RT Plans inside it)"
+        )
+    return found
+
+
 def _inputs(args) -> list:
-    items: list = list(args.inputs)
+    items: list = []
+    for item in args.inputs:
+        inner = expand_folder(Path(item))
+        items += [item] if inner is None else inner
     if args.all_shipped:
         from ringqa.io.applicator_file import shipped_applicators
 
@@ -115,7 +148,7 @@ def run(args: argparse.Namespace) -> int:
         "require_measured": False if args.centreline_reference else None,
     }
     items = _inputs(args)
-    if len(items) == 1 and not args.all_shipped:
+    if len(items) == 1 and not args.all_shipped and expand_folder(Path(args.inputs[0])) is None:
         res = commission(items[0], **kwargs)
         write_report(res, args.out, pdf=not args.no_pdf, accuracy_csv=args.accuracy_csv)
         verdicts = "; ".join(f"{v.status} {v.check}" for v in res.verdicts)

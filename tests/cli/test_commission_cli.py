@@ -155,3 +155,25 @@ def test_all_shipped(engine, tmp_path, capsys):
     assert len(summary) == 6 and set(summary["reference"]) == {"centreline"}
     assert all((out / name / "report.pdf").is_file() for name in summary["applicator"])
     assert (out / "summary.pdf").is_file()
+
+
+@pytest.mark.slow
+def test_folder_of_applicators(engine, tmp_path):
+    """A folder holding two shipped rings saved as applicator JSON files is a batch of two."""
+    from ringqa.io.applicator_file import load_applicator, save_applicator
+
+    rings = tmp_path / "rings"
+    rings.mkdir()
+    for name in ("ring26x60", "ring30x45"):
+        save_applicator(load_applicator(name), rings / f"{name}.json")
+    out = tmp_path / "out"
+    code = main(["commission", str(rings), "--out", str(out), "--quiet", "--no-pdf",
+                 "--centreline-reference"])  # fmt: skip
+    assert code == 0
+    assert len(pd.read_csv(out / "summary.csv")) == 2
+
+
+def test_empty_folder_is_refused(tmp_path, capsys):
+    (tmp_path / "empty").mkdir()
+    assert main(["commission", str(tmp_path / "empty"), "--out", str(tmp_path / "o")]) == 2
+    assert "no applicator in this folder" in capsys.readouterr().err
