@@ -736,6 +736,8 @@ def commission(
     )  # fmt: skip
     timings["simulation_s"] = time.perf_counter() - t0
     cl_pos, cl_dir = _centreline_dwells(ring, rel)
+    if sim_info["warnings"]:
+        notes.append("Simulation warnings: " + "; ".join(sim_info["warnings"]))
     src_afterloader = SOURCE_AFTERLOADER.get(getattr(src, "name", ""), "")
     if src_afterloader and afterloader and src_afterloader != afterloader:
         notes.append(

@@ -117,7 +117,7 @@ def fake_scene_factory(r_o=0.45e-3):
     return factory
 
 
-def fake_simulator(offset_m=0.3e-3, z_m=0.0, jam_after=None, along_m=0.0, exact=None):
+def fake_simulator(offset_m=0.3e-3, z_m=0.0, jam_after=None, along_m=0.0, exact=None, warnings=()):
     """Source centre = centreline point at the advance (+ along_m further), offset_m outward
     in the ring plane and z_m cranially; direction = centreline tangent. ``exact`` = (positions
     (n, 3) m, directions (n, 3)) in advance order replaces them."""
@@ -138,7 +138,7 @@ def fake_simulator(offset_m=0.3e-3, z_m=0.0, jam_after=None, along_m=0.0, exact=
         if jam_after is not None:
             pos, dirs, status, msg = pos[:jam_after], dirs[:jam_after], 1, "push force above 50 N"
         return SimpleNamespace(status=status, message=msg, advances_mm=adv, source_pos_m=pos,
-                               source_dir=dirs, warnings=(), solve_time_s=0.01, n_elements=12,
+                               source_dir=dirs, warnings=warnings, solve_time_s=0.01, n_elements=12,
                                settings={"fake": True})  # fmt: skip
 
     simulate.calls = calls

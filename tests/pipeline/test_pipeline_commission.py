@@ -202,3 +202,8 @@ def test_backward_stepping_gets_decreasing_advances(fakes):
     assert np.all(np.diff(sim.calls[0]) < 0)
     sim_rows = res.dwells[res.dwells.path == "simulated"]
     np.testing.assert_allclose(sim_rows["dist_to_measured_mm"], 0.2, atol=1e-9)
+
+
+def test_engine_warnings_reach_the_notes(fakes):
+    res = _run(fakes, sim=fakes.simulator(warnings=("Newton did not converge at 12.5 mm",)))
+    assert any("Newton did not converge at 12.5 mm" in n for n in res.notes)
