@@ -584,6 +584,7 @@ def run_study(
     max_levels: int = 4,
     noise_mm: float = DEFAULT_NOISE_MM,
     factors: tuple[float, ...] = DEFAULT_FACTORS,
+    max_ref_time_s: float = 120.0,
 ) -> AccuracyStudy:
     """Run the accuracy/time study of a scene.
 
@@ -614,6 +615,9 @@ def run_study(
         Agreement below which the reference counts as converged regardless (mm).
     factors : tuple of float
         Refinement factors of the default grid (ignored when ``grid`` is given).
+    max_ref_time_s : float
+        Do not start a reference level (beyond the second) predicted to take longer than this
+        (4x the previous level's time); the study then reports the reference as not converged.
 
     Returns
     -------
@@ -631,9 +635,7 @@ def run_study(
     warnings: list[str] = []
 
     def get(overrides) -> RunRecord:
-        s = scene.with_overrides(overrides) if overrides else scene
-        key = run_key(s.to_dict())
-        rec = cache.get(key)
+        rec = cache.get(_key_of(scene, overrides))
         if rec is None:
             rec = execute(scene, overrides, simulator, repeats=repeats)
             cache.put(rec)
@@ -655,6 +657,15 @@ def run_study(
     for k in range(1, max_levels + 1):
         f = 0.5**k
         ov = _scaled(scene, finest_el * f, finest_step * f, min(scene.solver.tol, REFERENCE_TOL))
+        if level_recs and len(level_recs) >= 2 and cache.get(_key_of(scene, ov)) is None:
+            # each level doubles elements and steps: ~4x the time of the previous one
+            predicted = 4.0 * level_recs[-1].time_s
+            if predicted > max_ref_time_s:
+                warnings.append(
+                    f"reference refinement stopped before level {k}: it would take ~"
+                    f"{predicted:.0f} s (> max_ref_time_s = {max_ref_time_s:g} s)"
+                )
+                break
         rec = get(ov)
         bar.update(1)
         diff = math.nan
@@ -785,6 +796,10 @@ def run_study(
     if out is not None:
         write_study(study, scene, out)
     return study
+
+
+def _key_of(scene, overrides) -> str:
+    return run_key((scene.with_overrides(overrides) if overrides else scene).to_dict())
 
 
 def _dedupe(scene, grid_list: list[dict]) -> list[dict]:

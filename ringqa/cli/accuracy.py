@@ -47,6 +47,12 @@ def add_parser(subparsers) -> None:
         help="refinement factors of element length and increment/time step (2,1,0.5,0.25)",
     )
     p.add_argument("--max-levels", type=int, default=4, help="most reference refinement levels (4)")
+    p.add_argument(
+        "--max-ref-time-s",
+        type=float,
+        default=120.0,
+        help="do not start a reference level predicted to take longer (s; 120)",
+    )
     p.add_argument("--fresh", action="store_true", help="ignore runs cached in DIR")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
@@ -81,6 +87,7 @@ def run(args: argparse.Namespace) -> int:
         repeats=args.repeats,
         max_levels=args.max_levels,
         factors=factors,
+        max_ref_time_s=args.max_ref_time_s,
     )
     t = study.table
     n_bad = int((t["status"] != 0).sum())

@@ -244,3 +244,13 @@ def test_dose_points_from_the_applicator_or_a_fitted_circle():
     arc = load_scene("ring13-push100")
     pa = arc.channel.centreline.position(np.array(arc.motion.advances_m)) * 1e3
     assert "stand-in" in dose_model_for(arc, pa).how
+
+
+def test_reference_refinement_respects_the_time_budget(fake_scene, fake_simulator):
+    """The fake's time grows 4x per level (elements x steps); with a budget below 4x the second
+    level's time the third level is never started and the study says so."""
+    study = run_study(fake_scene, grid=GRID, simulator=fake_simulator, repeats=1, max_levels=6,
+                      max_ref_time_s=1e-9)  # fmt: skip
+    assert len(study.reference.levels) == 2
+    assert not study.reference.converged
+    assert any("refinement stopped before level 3" in w for w in study.warnings)
