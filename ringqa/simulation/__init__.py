@@ -1,6 +1,11 @@
-"""The rod-in-channel engine: a source cable pushed through an applicator channel."""
+"""The rod-in-channel engine: a source cable pushed through an applicator channel.
 
+``simulate(scene, advances_mm=None, progress=False) -> SimResult`` (see :mod:`.engine`).
+"""
+
+from ringqa.simulation.engine import simulate
 from ringqa.simulation.instruments import CABLE_PRESETS, CONTACT_PRESETS, cable_preset
+from ringqa.simulation.result import SimResult
 from ringqa.simulation.scene import Scene
 
-__all__ = ["CABLE_PRESETS", "CONTACT_PRESETS", "Scene", "cable_preset"]
+__all__ = ["CABLE_PRESETS", "CONTACT_PRESETS", "Scene", "SimResult", "cable_preset", "simulate"]

@@ -113,6 +113,10 @@ class ContactParams:
     transition_m : float or None
         Width of the contact transition zone r_b - r_a (m); None = take r_a from the lumen.
         The engine shrinks it where the clearance is smaller (and says so in warnings).
+    transition_max_fraction : float
+        The transition zone is at most this fraction of the clearance r_b - r_o (engine).
+    friction_v_reg_m_s : float or None
+        Regularisation velocity of the tanh in the friction law (m/s); None = v_brk / 10 (paper).
     """
 
     stiffness_n_m: float = 1.0e5
@@ -121,6 +125,8 @@ class ContactParams:
     mu_k: float = 0.20
     v_brk_m_s: float = 1.0e-3
     transition_m: float | None = None
+    transition_max_fraction: float = 0.2
+    friction_v_reg_m_s: float | None = None
 
 
 @dataclass(frozen=True)
@@ -176,6 +182,14 @@ class SolverSettings:
         Push force above which the run is reported as jammed (N).
     jam_length_m : float
         Input length without source progress after which the run is reported as jammed (m).
+    axial_stiffness_n : float
+        EA of the stiff axial penalty that keeps the links inextensible (N); the link strain is
+        push force / EA (1e-6 at 1 N).
+    approach_m : float
+        Straight cable modelled in front of the channel entry at the deepest advance (m).
+    contact_bow_fraction : float
+        Extra contact samples per link so that a link's bow between samples across the tightest
+        bend is at most this fraction of the clearance.
     """
 
     kind: str = "quasistatic"
@@ -186,6 +200,9 @@ class SolverSettings:
     stabilisation: float = 0.0
     jam_force_n: float = 50.0
     jam_length_m: float = 0.02
+    axial_stiffness_n: float = 1.0e6
+    approach_m: float = 0.02
+    contact_bow_fraction: float = 0.1
 
 
 @dataclass(frozen=True)

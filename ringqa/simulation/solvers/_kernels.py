@@ -1,0 +1,286 @@
+"""Numba kernels of the solvers: assemble the switched-on effects, Newton with line search.
+
+``flags`` (int64 array): [contact, friction_law (0 none, 1 coulomb, 2 stribeck), wall_damping,
+inertia, gravity, torsion, stabilisation]. An effect whose flag is 0 is not called at all.
+``q_ref``: the predicted state the stabilisation's viscosity acts against.
+``cpar`` (float64 array): [k_wall, transition (<= 0: from the lumen), transition_max_fraction,
+c_w, mu_s, mu_k, v_brk, v_reg, stabilisation, k_axial].
+``energies`` (float64 (8,)): axial, bending, torsion, contact, gravity potential, friction work of
+the step, damping work of the step, kinetic (not filled here).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from ringqa.simulation._kernels import band_solve
+from ringqa.simulation.effects._kernels import (
+    add_axial,
+    add_bending,
+    add_friction,
+    add_gravity,
+    add_inertia,
+    add_torsion,
+    add_viscous,
+    add_wall_damping,
+    apply_normal,
+    clamp_normal,
+    contact_geometry,
+)
+
+
+@njit(cache=True)
+def assemble(
+    q,
+    q_prev,
+    v_prev,
+    q_ref,
+    nd,
+    n_nodes,
+    kl,
+    link_len,
+    hinge_k,
+    twist_k,
+    node_mass,
+    node_rot,
+    samp_link,
+    samp_alpha,
+    samp_ro,
+    samp_s,
+    samp_d_prev,
+    h,
+    pos,
+    tan,
+    nor,
+    kappa_min_flat,
+    seg_s,
+    seg_rb,
+    seg_ra,
+    seg_flat,
+    cpar,
+    flags,
+    g,
+    dt,
+    r,
+    B,
+    jac,
+    samp_p,
+    samp_d,
+    samp_n,
+    samp_H,
+    samp_z,
+    samp_w,
+    samp_F,
+    samp_dF,
+    energies,
+):
+    """Residual ``r`` (and banded Jacobian ``B`` when ``jac``) of the switched-on effects."""
+    r[:] = 0.0
+    if jac:
+        B[:, :] = 0.0
+    energies[:] = 0.0
+    energies[0] = add_axial(q, nd, n_nodes, link_len, cpar[9], r, B, kl, jac)
+    energies[1] = add_bending(q, nd, n_nodes, hinge_k, r, B, kl, jac)
+    if flags[5]:
+        energies[2] = add_torsion(q, nd, n_nodes, twist_k, r, B, kl, jac)
+    if flags[0]:
+        energies[3] = contact_geometry(
+            q, nd, samp_link, samp_alpha, samp_ro, h, pos, tan, nor, kappa_min_flat,
+            seg_s, seg_rb, seg_ra, seg_flat, cpar[1], cpar[2], cpar[0],
+            samp_s, samp_p, samp_d, samp_n, samp_H, samp_z, samp_w, samp_F, samp_dF,
+        )  # fmt: skip
+        if flags[2]:
+            energies[6] = add_wall_damping(
+                samp_d, samp_d_prev, samp_z, samp_w, cpar[3], dt, samp_F, samp_dF
+            )
+            clamp_normal(samp_F, samp_dF)
+        apply_normal(nd, samp_link, samp_alpha, samp_n, samp_H, samp_F, samp_dF, r, B, kl, jac)
+        if flags[1]:
+            energies[5] = add_friction(
+                q, q_prev, nd, samp_link, samp_alpha, samp_ro, samp_p, samp_n, samp_H, samp_F,
+                samp_dF,
+                flags[1], cpar[4], cpar[5], cpar[6], cpar[7], dt, flags[5] != 0, r, B, kl, jac,
+            )  # fmt: skip
+    if flags[4]:
+        energies[4] = add_gravity(q, nd, n_nodes, node_mass, g, r)
+    if flags[3]:
+        add_inertia(q, q_prev, v_prev, nd, n_nodes, node_mass, node_rot, dt, r, B, kl, jac)
+    if flags[6]:
+        add_viscous(q, q_ref, nd, n_nodes, cpar[8], dt, r, B, kl, jac)
+
+
+@njit(cache=True)
+def update_chain(q0, dq, lam, nd, n_nodes, n_free, q):
+    """``q = q0 + lam dq`` with every link's length following its LINEARISED change.
+
+    A straight-line update rotates a link through an angle beta and so stretches it by
+    ~ l beta^2 / 2; with the stiff inextensibility penalty that second-order stretch carries
+    forces far larger than the cable's bending forces, and the line search then crawls. Walking
+    from the driven end to the tip, each free node is put at distance ``|e| + lam e^.de`` from its
+    proximal neighbour in the direction of the straight-line update: first order it is the
+    Newton step, so Newton's convergence is kept (a "second-order correction" step).
+    """
+    for i in range(n_free):
+        q[i] = q0[i] + lam * dq[i]
+    for j in range(n_nodes - 3, -1, -1):
+        a = nd * j
+        b = nd * (j + 1)
+        L0 = 0.0
+        lin = 0.0
+        for c in range(3):
+            e = q0[a + c] - q0[b + c]
+            L0 += e * e
+        L0 = math.sqrt(L0)
+        for c in range(3):
+            e = q0[a + c] - q0[b + c]
+            db = lam * dq[b + c] if b + c < n_free else q[b + c] - q0[b + c]
+            lin += e / L0 * (lam * dq[a + c] - db)
+        Lt = L0 + lin
+        Ln = 0.0
+        for c in range(3):
+            e = q[a + c] - q[b + c]
+            Ln += e * e
+        Ln = math.sqrt(Ln)
+        for c in range(3):
+            q[a + c] = q[b + c] + (q[a + c] - q[b + c]) * (Lt / Ln)
+
+
+@njit(cache=True)
+def newton(
+    q,
+    n_free,
+    q_prev,
+    v_prev,
+    q_ref,
+    nd,
+    n_nodes,
+    kl,
+    link_len,
+    hinge_k,
+    twist_k,
+    node_mass,
+    node_rot,
+    samp_link,
+    samp_alpha,
+    samp_ro,
+    samp_s,
+    samp_d_prev,
+    h,
+    pos,
+    tan,
+    nor,
+    kappa_min_flat,
+    seg_s,
+    seg_rb,
+    seg_ra,
+    seg_flat,
+    cpar,
+    flags,
+    g,
+    dt,
+    tol_abs,
+    max_iter,
+    max_step,
+    r,
+    B,
+    samp_p,
+    samp_d,
+    samp_n,
+    samp_H,
+    samp_z,
+    samp_w,
+    samp_F,
+    samp_dF,
+    energies,
+):
+    """Solve ``r(q) = 0`` for the first ``n_free`` entries of ``q`` (the rest are prescribed).
+
+    Newton with the exact banded Jacobian, every step limited to ``max_step`` (m) per coordinate
+    (a trust region that stops a step from crossing the lumen) and a backtracking line search on
+    ``|r|^2`` (Armijo, halving up to 12 times). Converged when ``max |r_free| <= tol_abs``.
+
+    Returns
+    -------
+    status : int
+        0 converged, 1 iteration limit, 2 singular Jacobian, 3 non-finite residual.
+    iters : int
+        Newton iterations used.
+    res : float
+        Final ``max |r_free|`` (N).
+
+    On return ``r`` and the sample arrays hold the values at the returned ``q``.
+    """
+    n_all = q.shape[0]
+    rhs = np.zeros(n_all)
+    q0 = np.empty(n_all)
+    r_try = np.empty(n_all)
+    status = 1
+    it = 0
+    for it in range(max_iter + 1):
+        assemble(
+            q, q_prev, v_prev, q_ref, nd, n_nodes, kl, link_len, hinge_k, twist_k, node_mass,
+            node_rot, samp_link, samp_alpha, samp_ro, samp_s, samp_d_prev, h, pos, tan, nor,
+            kappa_min_flat, seg_s, seg_rb, seg_ra, seg_flat, cpar, flags, g, dt, r, B, True,
+            samp_p, samp_d, samp_n, samp_H, samp_z, samp_w, samp_F, samp_dF, energies,
+        )  # fmt: skip
+        res = 0.0
+        merit0 = 0.0
+        for i in range(n_free):
+            a = abs(r[i])
+            merit0 += r[i] * r[i]
+            if a > res:
+                res = a
+        if not math.isfinite(merit0):
+            return 3, it, res
+        if res <= tol_abs:
+            return 0, it, res
+        if it == max_iter:
+            break
+        for i in range(n_free):
+            rhs[i] = -r[i]
+        if not band_solve(B, kl, rhs, n_free):
+            return 2, it, res
+        mx = 0.0
+        for i in range(n_free):
+            a = abs(rhs[i])
+            if a > mx:
+                mx = a
+        if not math.isfinite(mx):
+            return 2, it, res
+        scale = 1.0
+        if mx > max_step:
+            scale = max_step / mx
+        q0[:] = q
+        lam = scale
+        for _ls in range(13):
+            update_chain(q0, rhs, lam, nd, n_nodes, n_free, q)
+            assemble(
+                q, q_prev, v_prev, q_ref, nd, n_nodes, kl, link_len, hinge_k, twist_k, node_mass,
+                node_rot, samp_link, samp_alpha, samp_ro, samp_s, samp_d_prev, h, pos, tan, nor,
+                kappa_min_flat, seg_s, seg_rb, seg_ra, seg_flat, cpar, flags, g, dt, r_try, B,
+                False, samp_p, samp_d, samp_n, samp_H, samp_z, samp_w, samp_F, samp_dF, energies,
+            )  # fmt: skip
+            merit = 0.0
+            for i in range(n_free):
+                merit += r_try[i] * r_try[i]
+            if math.isfinite(merit) and merit <= (1.0 - 1e-4 * lam) * merit0:
+                break
+            lam *= 0.5
+        if mx * lam < 1e-15:
+            # stagnation at round-off: accept if the residual is already small
+            status = 1
+            break
+    assemble(
+        q, q_prev, v_prev, q_ref, nd, n_nodes, kl, link_len, hinge_k, twist_k, node_mass, node_rot,
+        samp_link, samp_alpha, samp_ro, samp_s, samp_d_prev, h, pos, tan, nor, kappa_min_flat,
+        seg_s, seg_rb, seg_ra, seg_flat, cpar, flags, g, dt, r, B, False,
+        samp_p, samp_d, samp_n, samp_H, samp_z, samp_w, samp_F, samp_dF, energies,
+    )  # fmt: skip
+    res = 0.0
+    for i in range(n_free):
+        if abs(r[i]) > res:
+            res = abs(r[i])
+    return status, it, res

@@ -1,0 +1,615 @@
+"""The solvers: quasi-static load stepping and implicit (backward-Euler) dynamics.
+
+Both march the input advance ``u`` (the driven proximal end) along a list of waypoints and solve
+the equilibrium (quasi-static) or the implicit equation of motion (dynamic) with the same Newton
+kernel (:func:`ringqa.simulation.solvers._kernels.newton`). What differs:
+
+- quasi-static: increments of ``solver.increment_m``; the step's "time" is
+  ``increment / motion.speed`` (used only by friction, wall damping and the stabilisation);
+  predictor: the previous chain slid along the channel by the increment; a failed step is cut in
+  half (down to 1/256 of the increment); a frictionless, undamped scene has no history, so the
+  increment doubles after easy steps (up to ``JUMP_FACTOR`` increments): it "jumps" to the
+  requested advances;
+- dynamic: time steps of ``solver.time_step_s`` at ``motion.speed``; inertia on; predictor
+  ``q + dt v``; a failed step is sub-stepped.
+
+Jams (push force above ``solver.jam_force_n``, or less than 10 % source progress over
+``solver.jam_length_m`` of forward input) end the run with status 1; a step that fails at the
+smallest increment ends it with status -1. Neither raises.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import asdict
+
+import numpy as np
+
+from ringqa.errors import SceneError, SimulationError
+from ringqa.simulation import _kernels as K
+from ringqa.simulation.chain import build_chain, contact_samples
+from ringqa.simulation.channel import KAPPA_MIN_FLAT, ChannelTable
+from ringqa.simulation.effects import (
+    Bending,
+    Contact,
+    Friction,
+    Gravity,
+    Inertia,
+    Inextensibility,
+    Torsion,
+    WallDamping,
+)
+from ringqa.simulation.effects.base import CPAR, FLAG, N_CPAR, N_FLAGS, positive
+from ringqa.simulation.result import STATUS_FAILED, STATUS_JAMMED, STATUS_SUCCESS, SimResult
+from ringqa.simulation.solvers import _kernels as SK
+from ringqa.units import m_to_mm
+
+#: a frictionless, undamped run may grow its load step up to this many increments ("jump")
+JUMP_FACTOR = 8
+#: smallest step as a fraction of the requested increment before the run is declared failed
+MIN_CUT = 1.0 / 256.0
+#: sub-steps tried without stabilisation before the fallback stabilisation is switched on
+FALLBACK_AFTER = 8
+#: fallback stabilisation: a viscous tether to the predictor of stiffness (coefficient / dt)
+#: equal to this fraction of the wall stiffness per node
+FALLBACK_STIFFNESS_FRACTION = 1e-3
+
+
+class Model:
+    """The assembled problem: channel table, chain, samples, switched-on effects, work arrays.
+
+    Parameters
+    ----------
+    scene : ringqa.simulation.scene.Scene
+    advances_m : (n,) float
+        Requested advances (m).
+    """
+
+    def __init__(self, scene, advances_m: np.ndarray) -> None:
+        self.scene = scene
+        self.warnings: list[str] = []
+        eff = scene.effects
+        solver = scene.solver
+        if solver.kind not in ("quasistatic", "dynamic"):
+            raise SceneError(f"solver.kind: {solver.kind!r} is not 'quasistatic' or 'dynamic'")
+        self.dynamic = solver.kind == "dynamic"
+        if self.dynamic and not eff.inertia:
+            self.warnings.append("solver.kind = 'dynamic' switches inertia on")
+        self.inertia_on = self.dynamic
+        if eff.inertia and not self.dynamic:
+            self.warnings.append(
+                "effects.inertia is on but solver.kind = 'quasistatic': inertia ignored"
+            )
+        self.table = ChannelTable.from_channel(scene.channel)
+        inst = scene.instrument
+        self.cft = positive("instrument.centre_from_tip_m", inst.centre_from_tip_m, True)
+        self.speed = positive("motion.speed_m_s", scene.motion.speed_m_s)
+        self.increment = positive("solver.increment_m", solver.increment_m)
+        self.time_step = positive("solver.time_step_s", solver.time_step_s)
+        self.tol = positive("solver.tol", solver.tol)
+        self.max_iter = int(positive("solver.max_iter", solver.max_iter))
+        self.stab = positive("solver.stabilisation", solver.stabilisation, allow_zero=True)
+        approach = positive("solver.approach_m", solver.approach_m)
+        m = scene.motion
+        self.u_start = (-self.cft) if m.start_m is None else float(m.start_m)
+        u_deep = max(float(np.max(advances_m)), self.u_start)
+        # model length: the deepest tip position + the approach, extended so that the two driven
+        # proximal nodes always stay on the straight extension before the entry (s <= 0)
+        need = u_deep + self.cft + approach
+        chain = build_chain(inst, min(need, inst.length_m))
+        if chain.cum[-2] < u_deep + self.cft:
+            chain = build_chain(inst, min(need + chain.link_len[-1], inst.length_m))
+        if chain.cum[-2] < u_deep + self.cft - 1e-9:
+            raise SimulationError(
+                f"instrument {inst.name!r}: too short to reach advance {u_deep * 1e3:.1f} mm"
+            )
+        self.chain = chain
+        # effects
+        self.torsion = Torsion.from_chain(chain) if eff.torsion else None
+        self.nd = 4 if self.torsion is not None else 3
+        self.bending = Bending.from_chain(chain)
+        self.axial = Inextensibility.from_scene(scene)
+        self.contact = Contact.from_scene(scene) if eff.contact else None
+        self.friction = Friction.from_scene(scene) if eff.contact else None
+        if not eff.contact and eff.friction != "none":
+            self.warnings.append("friction needs contact: effects.friction ignored")
+        self.damping = WallDamping.from_scene(scene) if (eff.contact and eff.wall_damping) else None
+        self.gravity = Gravity.from_scene(scene)
+        self.inertia = Inertia.from_chain(chain) if self.inertia_on else None
+        self.flags = np.zeros(N_FLAGS, dtype=np.int64)
+        self.cpar = np.zeros(N_CPAR, dtype=np.float64)
+        self.g = np.zeros(3)
+        for unit in (
+            self.axial, self.torsion, self.contact, self.friction, self.damping, self.gravity,
+            self.inertia,
+        ):  # fmt: skip
+            if unit is not None:
+                unit.pack(self.flags, self.cpar)
+        if self.gravity is not None:
+            self.g[:] = self.gravity.g
+        if self.stab > 0 and not self.dynamic:
+            self.flags[FLAG["stabilisation"]] = 1
+            self.cpar[CPAR["stabilisation"]] = self.stab
+        # contact samples along the links
+        tb = self.table
+        rb_min = float(np.min(tb.seg_rb))
+        ro_max = float(np.max(chain.link_ro))
+        if ro_max >= rb_min:
+            raise SimulationError(
+                f"instrument radius {ro_max * 1e3:.3f} mm does not fit the lumen "
+                f"(r_b = {rb_min * 1e3:.3f} mm): check the lumen or the instrument"
+            )
+        self.clearance = rb_min - ro_max
+        self.samp_link, self.samp_alpha, self.samp_ro = contact_samples(
+            chain, tb.min_radius_m(), self.clearance, float(solver.contact_bow_fraction)
+        )
+        if self.contact is not None:
+            w_lumen = float(np.max(tb.seg_rb - tb.seg_ra))
+            w = w_lumen if self.contact.transition_m <= 0 else self.contact.transition_m
+            if w > self.contact.max_fraction * self.clearance:
+                self.warnings.append(
+                    f"contact transition zone {w * 1e3:.3f} mm reduced to "
+                    f"{self.contact.max_fraction * self.clearance * 1e3:.4f} mm "
+                    f"({self.contact.max_fraction:g} x the clearance {self.clearance * 1e3:.3f} mm)"
+                )
+        # arrays
+        nn = chain.n_nodes
+        nd = self.nd
+        self.n_nodes = nn
+        self.n_all = nd * nn
+        self.n_free = nd * (nn - 2)
+        self.kl = 3 * nd - 1
+        self.r = np.zeros(self.n_all)
+        self.B = np.zeros((self.n_all, 3 * self.kl + 1))
+        P = self.samp_link.size
+        self.samp_s = np.zeros(P)
+        self.samp_d_prev = np.zeros(P)
+        self.samp_p = np.zeros((P, 3))
+        self.samp_d = np.zeros(P)
+        self.samp_n = np.zeros((P, 3))
+        self.samp_H = np.zeros((P, 3, 3))
+        self.samp_z = np.zeros(P)
+        self.samp_w = np.zeros(P)
+        self.samp_F = np.zeros(P)
+        self.samp_dF = np.zeros(P)
+        self.energies = np.zeros(8)
+        self.node_mass = np.ascontiguousarray(chain.node_mass)
+        self.node_rot = np.ascontiguousarray(chain.node_rot)
+        self.twist_k = np.ascontiguousarray(chain.twist_k)
+        f_ref = float(np.max(self.bending.hinge_k / chain.link_len[1:]))
+        self.tol_abs = self.tol * max(f_ref, 1e-2)
+        self.max_step = 0.5 * self.clearance
+
+    # -- state helpers ---------------------------------------------------------------------
+    def initial_state(self, u: float) -> np.ndarray:
+        """Chain laid along the (extended) centreline with the source centre at advance ``u``."""
+        q = np.zeros(self.n_all)
+        for k in range(self.n_nodes):
+            q[self.nd * k : self.nd * k + 3] = self.table.point(u + self.cft - self.chain.cum[k])
+        # closest points of the samples (global search once)
+        work = np.empty(9)
+        for i in range(self.samp_link.size):
+            j = self.samp_link[i]
+            a = self.samp_alpha[i]
+            p = (1 - a) * q[self.nd * j : self.nd * j + 3] + a * q[
+                self.nd * (j + 1) : self.nd * (j + 1) + 3
+            ]
+            self.samp_s[i] = K.closest_point(
+                self.table.h,
+                self.table.pos,
+                self.table.tan,
+                np.ascontiguousarray(p),
+                0.0,
+                -1.0,
+                work,
+            )
+        return q
+
+    def prescribe(self, q: np.ndarray, u: float) -> None:
+        """Put the two driven proximal nodes on the approach axis for input advance ``u``."""
+        for k in (self.n_nodes - 2, self.n_nodes - 1):
+            q[self.nd * k : self.nd * k + 3] = self.table.point(u + self.cft - self.chain.cum[k])
+            if self.nd == 4:
+                q[self.nd * k + 3] = 0.0
+
+    def nodes(self, q: np.ndarray) -> np.ndarray:
+        """Node positions (n_nodes, 3)."""
+        return q.reshape(self.n_nodes, self.nd)[:, :3].copy()
+
+    def slide(self, q: np.ndarray, du: float) -> np.ndarray:
+        """Predictor: every free node slid ``du`` along the channel keeping its offset."""
+        x = self.nodes(q)
+        hints = np.empty(self.n_nodes)
+        # node hints: a sample sits on every node j at alpha = 0
+        first = np.searchsorted(self.samp_link, np.arange(self.n_nodes - 1))
+        hints[:-1] = self.samp_s[np.minimum(first, self.samp_s.size - 1)]
+        hints[-1] = hints[-2] - self.chain.link_len[-1]
+        out = np.empty_like(x)
+        s_out = np.empty(self.n_nodes)
+        K.slide_points(self.table.h, self.table.pos, self.table.tan, x, hints, du, out, s_out)
+        qn = q.copy()
+        qv = qn.reshape(self.n_nodes, self.nd)
+        qv[:-2, :3] = out[:-2]
+        self.samp_s += du
+        return qn
+
+    def restore_lengths(self, q: np.ndarray) -> None:
+        """Put every free node back at its link length from its proximal neighbour (in place).
+
+        Walks from the driven end to the tip: ``x_j = x_{j+1} + l_j (x_j - x_{j+1}) / |...|``.
+        A predicted chain whose links are off by nanometres would otherwise carry axial penalty
+        forces far above the free cable's buckling load and send Newton astray.
+        """
+        qv = q.reshape(self.n_nodes, self.nd)
+        ll = self.chain.link_len
+        for j in range(self.n_nodes - 3, -1, -1):
+            e = qv[j, :3] - qv[j + 1, :3]
+            qv[j, :3] = qv[j + 1, :3] + ll[j] * e / np.linalg.norm(e)
+
+    def solve(self, q, q_prev, v_prev, dt, q_ref=None):
+        """Run the Newton kernel in place on ``q``; returns (status, iterations, residual)."""
+        tb = self.table
+        return SK.newton(
+            q, self.n_free, q_prev, v_prev, q_prev if q_ref is None else q_ref, self.nd,
+            self.n_nodes, self.kl,
+            self.chain.link_len, self.bending.hinge_k, self.twist_k, self.node_mass,
+            self.node_rot, self.samp_link, self.samp_alpha, self.samp_ro, self.samp_s,
+            self.samp_d_prev, tb.h, tb.pos, tb.tan, tb.nor, KAPPA_MIN_FLAT, tb.seg_s, tb.seg_rb,
+            tb.seg_ra, tb.seg_flat, self.cpar, self.flags, self.g, dt, self.tol_abs,
+            self.max_iter, self.max_step, self.r, self.B, self.samp_p, self.samp_d, self.samp_n,
+            self.samp_H, self.samp_z, self.samp_w, self.samp_F, self.samp_dF, self.energies,
+        )  # fmt: skip
+
+    def set_stabilisation(self, coef: float) -> None:
+        """Switch the stabilisation (viscosity ``coef`` N s/m per node) on (> 0) or off."""
+        self.flags[FLAG["stabilisation"]] = 1 if coef > 0 else 0
+        self.cpar[CPAR["stabilisation"]] = coef
+
+    def fallback_stab(self, dt: float) -> float:
+        """Fallback viscosity (N s/m): tether stiffness ``FALLBACK_STIFFNESS_FRACTION k_wall``."""
+        k = self.contact.stiffness_n_m if self.contact is not None else 1e5
+        return FALLBACK_STIFFNESS_FRACTION * k * dt
+
+    def push_force(self) -> float:
+        """Axial force the driver applies (N, > 0 pushing), from the residual at driven nodes."""
+        t0 = self.table.tan[0]
+        nd = self.nd
+        f = 0.0
+        for k in (self.n_nodes - 2, self.n_nodes - 1):
+            f += float(np.dot(self.r[nd * k : nd * k + 3], t0))
+        return f
+
+    def source(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Source centre (3,), unit direction to the tip (3,), tip (3,)."""
+        x = self.nodes(q)
+        cum = self.chain.cum
+        j = int(np.clip(np.searchsorted(cum, self.cft, side="right") - 1, 0, self.n_nodes - 2))
+        e = x[j] - x[j + 1]
+        le = np.linalg.norm(e)
+        d = e / le
+        src = x[j] - (self.cft - cum[j]) * d
+        return src, d, x[0].copy()
+
+    def node_contact(self) -> np.ndarray:
+        """Normal force magnitude lumped to the nodes (n_nodes,)."""
+        out = np.zeros(self.n_nodes)
+        np.add.at(out, self.samp_link, (1 - self.samp_alpha) * self.samp_F)
+        np.add.at(out, self.samp_link + 1, self.samp_alpha * self.samp_F)
+        return out
+
+    def stored_energy(self) -> float:
+        """Elastic + contact + gravity potential energy of the last assembled state (J)."""
+        return float(np.sum(self.energies[:5]))
+
+    def kinetic(self, v: np.ndarray) -> float:
+        """Kinetic energy (J) for node velocities ``v`` (flat like q)."""
+        vv = v.reshape(self.n_nodes, self.nd)
+        ke = 0.5 * float(np.sum(self.node_mass[:, None] * vv[:, :3] ** 2))
+        if self.nd == 4:
+            ke += 0.5 * float(np.sum(self.node_rot * vv[:, 3] ** 2))
+        return ke
+
+
+def waypoints(scene, advances_m: np.ndarray, u_start: float) -> list[tuple[float, list[int]]]:
+    """The input path: (advance, indices of requested advances recorded there) in travel order."""
+    kind = scene.motion.kind
+    order = np.argsort(advances_m, kind="stable")
+    uniq: dict[float, list[int]] = {}
+    for i in order:
+        uniq.setdefault(float(advances_m[i]), []).append(int(i))
+    asc = sorted(uniq)
+    if kind not in ("constant", "stepwise", "retract"):
+        raise SceneError(f"motion.kind: {kind!r} is not constant, stepwise or retract")
+    backward = kind == "retract" or (kind == "stepwise" and scene.motion.backward)
+    if not backward:
+        return [(u, uniq[u]) for u in asc]
+    desc = asc[::-1]
+    return [(u, uniq[u]) for u in desc]
+
+
+def run(scene, advances_m: np.ndarray, progress: bool = False) -> SimResult:
+    """Simulate ``scene`` and report at ``advances_m`` (see module docstring)."""
+    model = Model(scene, advances_m)
+    dynamic = model.dynamic
+    n_req = advances_m.size
+    nn = model.n_nodes
+    out_src = np.full((n_req, 3), np.nan)
+    out_dir = np.full((n_req, 3), np.nan)
+    out_tip = np.full((n_req, 3), np.nan)
+    out_push = np.full(n_req, np.nan)
+    out_contact = np.full((n_req, nn), np.nan)
+    out_iters = np.zeros(n_req, dtype=np.int64)
+    out_s = np.full(n_req, np.nan)
+    out_off = np.full(n_req, np.nan)
+    out_nodes = np.full((n_req, nn, 3), np.nan)
+    traj = {"advance_m": [], "time_s": [], "nodes_m": [], "push_force_n": []}
+    keep_traj = bool(scene.outputs.trajectory)
+
+    t0 = time.perf_counter()
+    q = model.initial_state(model.u_start)
+    model.prescribe(q, model.u_start)
+    v = np.zeros(model.n_all)
+    dt0 = model.time_step if dynamic else 1.0
+    # initial equilibrium (no history: q_prev = q, static)
+    flags_saved = model.flags.copy()
+    model.flags[FLAG["inertia"]] = 0
+    model.flags[FLAG["friction"]] = 0
+    model.flags[FLAG["wall_damping"]] = 0
+    model.flags[FLAG["stabilisation"]] = 0
+    st, it, _ = model.solve(q, q.copy(), v, dt0)
+    model.flags[:] = flags_saved
+    model.samp_d_prev[:] = model.samp_d
+    status = STATUS_SUCCESS if st in (0, 1) else STATUS_FAILED
+    message = ""
+    total_iters = it
+    iters_since = it
+    u = model.u_start
+    time_s = 0.0
+    push = model.push_force()
+    e_start = model.stored_energy()
+    w_in = w_fr = w_damp = w_stab = 0.0
+    ke0 = 0.0
+    history_u = [u]
+    history_s = [model.table.closest(model.source(q)[0], u)[0]]
+    frictionless = (
+        model.friction is None and model.damping is None and model.stab == 0 and not dynamic
+    )
+    inc = model.increment
+    n_stabilised = 0
+    path = waypoints(scene, advances_m, model.u_start)
+    bar = None
+    if progress:
+        from tqdm import tqdm
+
+        total = sum(
+            abs(b - a)
+            for a, b in zip([u] + [p[0] for p in path[:-1]], [p[0] for p in path], strict=True)
+        )
+        bar = tqdm(total=round(total * 1e3, 3), unit="mm", desc=scene.name or "simulate")
+
+    def record(idx_list, q_now):
+        src, d, tip = model.source(q_now)
+        s, off = model.table.closest(src, u)
+        for i in idx_list:
+            out_src[i] = src
+            out_dir[i] = d
+            out_tip[i] = tip
+            out_push[i] = push
+            out_contact[i] = model.node_contact()
+            out_iters[i] = iters_since
+            out_s[i] = s
+            out_off[i] = off
+            out_nodes[i] = model.nodes(q_now)
+
+    if status != STATUS_SUCCESS:
+        message = f"initial state did not converge at advance {u * 1e3:.2f} mm"
+    for target, idx in path if status == STATUS_SUCCESS else []:
+        dwell_left = scene.motion.dwell_s if (dynamic and scene.motion.kind == "stepwise") else 0.0
+        while status == STATUS_SUCCESS and (abs(target - u) > 1e-12 or dwell_left > 1e-15):
+            # size of this step
+            if dynamic:
+                remaining = target - u
+                if abs(remaining) > 1e-12:
+                    du = np.sign(remaining) * min(abs(remaining), model.speed * model.time_step)
+                    dt = (
+                        abs(du) / model.speed
+                        if abs(du) < model.speed * model.time_step
+                        else model.time_step
+                    )
+                else:
+                    du = 0.0
+                    dt = min(model.time_step, dwell_left)
+            else:
+                du = float(np.clip(target - u, -inc, inc))
+                dt = abs(du) / model.speed
+            q_prev = q.copy()
+            v_prev = v.copy()
+            s_saved = model.samp_s.copy()
+            dprev_saved = model.samp_d_prev.copy()
+            ok = False
+            sub = 1
+            stab = model.stab
+            fallback = False
+            while True:
+                # try the step in `sub` equal sub-steps (with the stabilisation `stab`)
+                q_try = q_prev.copy()
+                v_try = v_prev.copy()
+                model.samp_s[:] = s_saved
+                model.samp_d_prev[:] = dprev_saved
+                model.set_stabilisation(stab)
+                iters_step = 0
+                fr_step = 0.0
+                damp_step = 0.0
+                stab_step = 0.0
+                good = True
+                for k in range(sub):
+                    qp = q_try.copy()
+                    if dynamic:
+                        q_try = q_try + (dt / sub) * v_try
+                    else:
+                        q_try = model.slide(q_try, du / sub)
+                    model.prescribe(q_try, u + du * (k + 1) / sub)
+                    model.restore_lengths(q_try)
+                    q_ref = q_try.copy()
+                    st, it, res = model.solve(q_try, qp, v_try, dt / sub, q_ref)
+                    iters_step += it
+                    if st != 0:
+                        good = False
+                        break
+                    if dynamic:
+                        v_try = (q_try - qp) / (dt / sub)
+                    model.samp_d_prev[:] = model.samp_d
+                    fr_step += model.energies[5]
+                    damp_step += model.energies[6]
+                    if stab > 0 and not dynamic:
+                        dq = (q_try - q_ref).reshape(nn, model.nd)[:, :3]
+                        stab_step += stab * float(np.sum(dq**2)) / (dt / sub)
+                if good:
+                    ok = True
+                    break
+                total_iters += iters_step
+                iters_since += iters_step
+                if not fallback and not dynamic and stab == 0.0 and sub >= FALLBACK_AFTER:
+                    # snap-through / stall: retry the step with the fallback stabilisation
+                    fallback = True
+                    stab = model.fallback_stab(dt)
+                    sub = 1
+                    continue
+                if sub >= int(1 / MIN_CUT):
+                    break
+                sub *= 2
+            model.set_stabilisation(model.stab)
+            if ok and fallback:
+                n_stabilised += 1
+            if not ok:
+                status = STATUS_FAILED
+                message = (
+                    f"Newton did not converge at advance {u * 1e3:.3f} mm even with "
+                    f"{sub} sub-steps (status {st}, residual {res:.3g} N)"
+                )
+                q = q_prev
+                break
+            total_iters += iters_step
+            iters_since += iters_step
+            # bookkeeping
+            push_new = model.push_force()
+            # conservative runs: trapezoidal input work (O(du^2)); with dissipation the friction and
+            # damping work of a step are evaluated at its end (backward Euler), so is the input
+            w_in += (0.5 * (push + push_new) if frictionless else push_new) * du
+            w_fr += fr_step
+            w_damp += damp_step
+            w_stab += stab_step
+            push = push_new
+            q = q_try
+            if dynamic:
+                v = v_try
+            u = u + du
+            time_s += dt
+            if du == 0.0:
+                dwell_left -= dt
+            if bar is not None:
+                bar.update(round(abs(du) * 1e3, 3))
+            if keep_traj:
+                traj["advance_m"].append(u)
+                traj["time_s"].append(time_s)
+                traj["nodes_m"].append(model.nodes(q))
+                traj["push_force_n"].append(push)
+            if frictionless and sub == 1 and it <= 6:
+                inc = min(2 * inc, JUMP_FACTOR * model.increment)
+            elif not frictionless:
+                inc = model.increment
+            elif sub > 1:
+                inc = max(model.increment, inc / sub)
+            # jam detection
+            if push > scene.solver.jam_force_n:
+                status = STATUS_JAMMED
+                message = (
+                    f"jammed at advance {u * 1e3:.2f} mm: push force {push:.2f} N above "
+                    f"solver.jam_force_n = {scene.solver.jam_force_n:g} N"
+                )
+                break
+            if du > 0:
+                s_src = model.table.closest(model.source(q)[0], history_s[-1])[0]
+                history_u.append(u)
+                history_s.append(s_src)
+                jl = scene.solver.jam_length_m
+                if u - history_u[0] >= jl:
+                    k = int(np.searchsorted(history_u, u - jl, side="right") - 1)
+                    if s_src - history_s[k] < 0.1 * (u - history_u[k]):
+                        status = STATUS_JAMMED
+                        message = (
+                            f"jammed at advance {u * 1e3:.2f} mm: the source moved "
+                            f"{(s_src - history_s[k]) * 1e3:.2f} mm over the last "
+                            f"{(u - history_u[k]) * 1e3:.1f} mm of input"
+                        )
+                        break
+            else:
+                history_u = [u]
+                history_s = [model.table.closest(model.source(q)[0], u)[0]]
+        if status != STATUS_SUCCESS:
+            break
+        record(idx, q)
+        iters_since = 0
+    if bar is not None:
+        bar.close()
+    solve_time = time.perf_counter() - t0
+    if status == STATUS_SUCCESS:
+        message = f"reached all {n_req} requested advances"
+    else:
+        missing = int(np.sum(np.isnan(out_push)))
+        message += f"; {missing} of {n_req} requested advances not reached (NaN rows)"
+    if n_stabilised:
+        model.warnings.append(
+            f"{n_stabilised} load step(s) needed the fallback stabilisation (snap-through or "
+            f"stall); its work is {w_stab:.3g} J of {w_in:.3g} J input (work['stabilisation'])"
+        )
+    # work balance
+    e_end = model.stored_energy()
+    ke = model.kinetic(v) if dynamic else 0.0
+    d_el = e_end - e_start
+    spent = d_el + w_fr + w_damp + w_stab + (ke - ke0)
+    bal = abs(w_in - spent) / max(abs(w_in), 1e-300) if w_in != 0 else 0.0
+    work = {
+        "input": w_in,
+        "elastic": d_el,
+        "friction": w_fr,
+        "damping": w_damp,
+        "stabilisation": w_stab,
+        "kinetic": ke - ke0,
+        "balance_error": bal,
+    }
+    settings = {
+        "solver": asdict(scene.solver),
+        "effects": asdict(scene.effects),
+        "n_nodes": nn,
+        "n_contact_samples": int(model.samp_link.size),
+        "model_length_m": float(model.chain.cum[-1]),
+        "dof_per_node": model.nd,
+        "clearance_m": model.clearance,
+        "time_step_s": model.time_step if dynamic else None,
+        "total_newton_iters": int(total_iters),
+        "simulated_time_s": time_s,
+    }
+    trajectory = None
+    if keep_traj:
+        trajectory = {k: np.asarray(v_) for k, v_ in traj.items()}
+    return SimResult(
+        status=status,
+        message=message,
+        advances_mm=m_to_mm(np.asarray(advances_m, dtype=float)),
+        source_pos_m=out_src,
+        source_dir=out_dir,
+        tip_pos_m=out_tip,
+        push_force_n=out_push,
+        contact_force_n=out_contact,
+        newton_iters=out_iters,
+        s_m=out_s,
+        offset_m=out_off,
+        n_elements=model.chain.n_links,
+        solve_time_s=solve_time,
+        settings=settings,
+        warnings=tuple(model.warnings),
+        work=work,
+        nodes_m=out_nodes,
+        trajectory=trajectory,
+    )
