@@ -747,6 +747,9 @@ def run_study(
     for ov in grid_list:
         keys += [k for k in ov if k not in keys]
     base_vals = {k: setting_value(scene, k) for k in keys}
+    base_numeric = {
+        k: v for k, v in base_vals.items() if not is_model_change({k: v}) and v is not None
+    }
     rows = []
     for ov, rec in zip(grid_list, runs, strict=True):
         ok = rec.status == 0
@@ -755,7 +758,7 @@ def run_study(
         row: dict[str, Any] = {"run": len(rows)}
         row.update({k: ov.get(k, base_vals[k]) for k in keys})
         row.update(
-            label=label_of(ov),
+            label=label_of(ov) if ov else f"scene ({label_of(base_numeric)})",
             kind="model" if is_model_change(ov) else "numerical",
             time_s=rec.time_s,
             max_err_mm=_nanmax(pe),
@@ -774,7 +777,10 @@ def run_study(
         )
         rows.append(row)
     table = pd.DataFrame(rows)
-    table["pareto"] = pareto_mask(table["time_s"], table["max_err_mm"])
+    # the front compares numerical settings of the same model; model changes are not candidates
+    numerical = (table["kind"] == "numerical").to_numpy()
+    err_num = np.where(numerical, table["max_err_mm"].to_numpy(float), np.nan)
+    table["pareto"] = pareto_mask(table["time_s"], err_num)
     rec_row = recommend(table, target_mm)
     rec_ov = None
     if rec_row is not None:
@@ -943,7 +949,8 @@ def plot_study(study: AccuracyStudy, path: Path) -> None:
     import matplotlib.pyplot as plt
 
     t = study.table
-    fig, ax = plt.subplots(figsize=(9, 6.5))
+    fig = plt.figure(figsize=(14, 7))
+    ax = fig.add_axes((0.07, 0.09, 0.6, 0.83))
     ok = (t["status"] == 0) & np.isfinite(t["max_err_mm"]) & (t["max_err_mm"] > 0)
     floor = study.reference.agreement_mm if np.isfinite(study.reference.agreement_mm) else 1e-6
     zero = (t["status"] == 0) & (t["max_err_mm"] <= 0)
@@ -989,19 +996,37 @@ def plot_study(study: AccuracyStudy, path: Path) -> None:
             s=60,
             label="jammed / failed (error not measured)",
         )
+    key_lines = []
+    placed: list[tuple[float, float]] = []
     for _, r in t.iterrows():
+        rid = int(r["run"])
+        status = "" if r["status"] == 0 else f" [{r['status_text']}]"
+        err = f"{r['max_err_mm']:.3g} mm" if r["status"] == 0 else "no error"
+        key_lines.append(f"#{rid:<2d} {r['label']}{status}: {r['time_s']:.3g} s, {err}")
         y = r["max_err_mm"] if r["status"] == 0 and r["max_err_mm"] > 0 else None
         if r["status"] != 0:
             y = ymax * 3
         if y is None or not np.isfinite(r["time_s"]):
             continue
+        # stagger ids of (nearly) coincident points so that each stays readable
+        lx, ly = math.log10(r["time_s"]), math.log10(y)
+        n_near = sum(1 for px, py in placed if abs(px - lx) < 0.04 and abs(py - ly) < 0.04)
+        placed.append((lx, ly))
         ax.annotate(
-            r["label"] + ("" if r["status"] == 0 else f" [{r['status_text']}]"),
+            f"#{rid}",
             (r["time_s"], y),
-            fontsize=6,
-            xytext=(3, 2),
+            fontsize=7,
+            xytext=(4, 3 + 8 * n_near),
             textcoords="offset points",
         )
+    fig.text(
+        0.70,
+        0.95,
+        "runs (#: settings: time, max error)\n" + "\n".join(key_lines),
+        fontsize=6,
+        va="top",
+        family="monospace",
+    )
     ax.axhline(study.target_mm, c="C1", ls="--", lw=1, label=f"target {study.target_mm:g} mm")
     if study.recommended:
         ax.scatter(
@@ -1029,7 +1054,6 @@ def plot_study(study: AccuracyStudy, path: Path) -> None:
     ax.set_title(f"Accuracy vs time: {study.scene_name}")
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=7, loc="best")
-    fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)
 
