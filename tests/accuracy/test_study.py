@@ -162,9 +162,10 @@ def test_resume_skips_finished_runs(fake_scene, tmp_path):
 
 
 def test_default_grid_covers_the_settings(fake_scene):
-    """16 element x increment runs, 2 tolerances, the other solver kind, 4 effect toggles."""
+    """16 element x increment runs, 2 tolerances, 2 stabilisations, the other solver kind,
+    4 effect toggles."""
     grid = default_grid(fake_scene)
-    assert len(grid) == 16 + 2 + 1 + 4
+    assert len(grid) == 16 + 2 + 2 + 1 + 4
     assert {"solver.kind": "dynamic", "effects.inertia": True} in grid
     assert {"effects.friction": "none"} in grid
     thin = sorted({g["discretisation.element_length_mm.thin"] for g in grid if
