@@ -906,6 +906,7 @@ def write_study(study: AccuracyStudy, scene, out_dir: str | Path) -> None:
                 "ratio": study.reference.ratio,
                 "levels": list(study.reference.levels),
             },
+            "recommendations": recommendation_summary(study),
             "dose_points": study.dose_points,
             "warnings": list(study.warnings),
             "provenance": Provenance.now(settings={"scene": study.scene_name}).as_dict(),
@@ -923,6 +924,25 @@ def _jsonable(obj):
     if isinstance(obj, float) and not math.isfinite(obj):
         return None
     return obj
+
+
+SUMMARY_TARGETS_MM = (1.0, 0.5, 0.2, 0.1, 0.05, 0.02, 0.01)
+
+
+def recommendation_summary(study: AccuracyStudy, targets=SUMMARY_TARGETS_MM) -> dict:
+    """For each target (mm): the cheapest numerical run meeting it (run, label, time, errors)."""
+    out = {}
+    for target in sorted({*targets, study.target_mm}, reverse=True):
+        row = study.recommend(target)
+        out[f"{target:g}"] = (
+            None
+            if row is None
+            else {
+                k: row[k]
+                for k in ("run", "label", "time_s", "max_err_mm", "max_err_deg", "dose_err_pct")
+            }
+        )
+    return out
 
 
 def write_recommended(study: AccuracyStudy, scene, path: Path) -> None:

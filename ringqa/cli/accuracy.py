@@ -98,6 +98,17 @@ def run(args: argparse.Namespace) -> int:
     )
     for w in study.warnings:
         print(f"ringqa accuracy: warning: {w}")
+    from ringqa.accuracy.study import recommendation_summary
+
+    for target, row in recommendation_summary(study).items():
+        what = (
+            "none in the grid"
+            if row is None
+            else (
+                f"#{row['run']} {row['label']}: {row['max_err_mm']:.3g} mm, {row['time_s']:.3g} s"
+            )
+        )
+        print(f"ringqa accuracy:   cheapest meeting {target} mm: {what}")
     if study.recommended is None:
         print(f"ringqa accuracy: no setting meets {args.target_mm:g} mm -> {args.out}/accuracy.csv")
         return 1
