@@ -102,6 +102,21 @@ def normal_at(h, nor, s, out):
 
 
 @njit(cache=True)
+def normal_rate(h, nor, s, out):
+    """d(nor)/ds at ``s`` from the table (piecewise-constant difference quotient; 0 outside)."""
+    m = nor.shape[0]
+    if s <= 0.0 or s >= (m - 1) * h:
+        for a in range(3):
+            out[a] = 0.0
+        return
+    k = int(s / h)
+    if k > m - 2:
+        k = m - 2
+    for a in range(3):
+        out[a] = (nor[k + 1, a] - nor[k, a]) / h
+
+
+@njit(cache=True)
 def closest_point(h, pos, tan, p, s_hint, window, work):
     """Arc length of the centreline point closest to ``p``.
 
@@ -217,6 +232,20 @@ def slide_points(h, pos, tan, pts, s_hint, ds, out, s_out):
         out[i, 1] = c1[1] + o[1] * cth + kx1 + k1 * fac
         out[i, 2] = c1[2] + o[2] * cth + kx2 + k2 * fac
         s_out[i] = s + ds
+
+
+@njit(cache=True)
+def restore_lengths(q, nd, n_nodes, link_len):
+    """Free nodes put back at their link length from the proximal neighbour (in place)."""
+    for j in range(n_nodes - 3, -1, -1):
+        a = nd * j
+        b = nd * (j + 1)
+        ll = 0.0
+        for c in range(3):
+            ll += (q[a + c] - q[b + c]) ** 2
+        f = link_len[j] / np.sqrt(ll)
+        for c in range(3):
+            q[a + c] = q[b + c] + (q[a + c] - q[b + c]) * f
 
 
 # ------------------------------------------------------------------------------------------

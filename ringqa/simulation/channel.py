@@ -18,8 +18,9 @@ from ringqa.simulation import _kernels as K
 
 #: table spacing (m); Hermite interpolation error ~ h^4 kappa^3 / 384 (< 1 nm at R = 5 mm)
 TABLE_SPACING_M = 0.25e-3
-#: curvature below which a U-shaped lumen is treated as circular (1/m): straight parts
-KAPPA_MIN_FLAT = 1.0
+#: flat sides of U-shaped lumens are honoured wherever the lumen has one (as
+#: ringqa.geometry's wall_distance); a negative value would switch them off
+KAPPA_MIN_FLAT = 0.0
 
 
 @dataclass(frozen=True)

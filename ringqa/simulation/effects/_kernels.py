@@ -15,7 +15,7 @@ import math
 import numpy as np
 from numba import njit
 
-from ringqa.simulation._kernels import closest_point, normal_at
+from ringqa.simulation._kernels import closest_point, normal_at, normal_rate
 
 
 @njit(cache=True, inline="always")
@@ -304,7 +304,8 @@ def contact_geometry(
     For sample i on link j at fraction alpha: p = (1 - alpha) x_j + alpha x_{j+1}; the closest
     centreline point (hint = previous s) gives the offset o; the effective centre distance d is
     |o| (circle) or, where the lumen has a flat side at distance ``flat`` on the outside of the
-    bend (-normal) and the centreline is curved, ``max(|o|, -o.nor + r_b - flat)``. With
+    bend (-normal), a C1 smooth maximum of ``|o|`` and ``-o.nor + r_b - flat`` (corner rounded
+    over 5 % of the clearance; ``kappa_min_flat < 0`` ignores flat sides). With
     b = r_b - r_o, w = min(r_b - r_a, max_frac b), a = b - w and z = (d - a) / w:
     F = 0 (z <= 0), k w z^2 / 2 (0 < z <= 1), k w (z - 1/2) (z > 1) (Khatait et al. 2014), which is
     C1. ``samp_n`` = grad d (outward wall normal), ``samp_H`` = Hessian of d.
@@ -312,6 +313,10 @@ def contact_geometry(
     """
     work = np.empty(9)
     nv = np.empty(3)
+    dnv = np.empty(3)
+    ga = np.empty(3)
+    gb = np.empty(3)
+    Ha = np.empty((3, 3))
     energy = 0.0
     nseg = seg_rb.shape[0]
     for i in range(samp_link.shape[0]):
@@ -343,36 +348,50 @@ def contact_geometry(
             w = max_frac * b
         aa = b - w
         samp_w[i] = w
-        use_flat = False
-        if flat < 1e30:
-            kap = math.sqrt(d2[0] * d2[0] + d2[1] * d2[1] + d2[2] * d2[2])
-            if kap > kappa_min_flat:
-                normal_at(h, nor, s, nv)
-                dflat = -(o0 * nv[0] + o1 * nv[1] + o2 * nv[2]) + rb - flat
-                if dflat > dc:
-                    use_flat = True
-                    dc = dflat
-        samp_d[i] = dc
-        if use_flat:
+        # circle: d = |o|, grad = o/|o|, Hessian (I - n n^T - c' c'^T / D) / |o|
+        if dc > 1e-12:
             for a in range(3):
-                samp_n[i, a] = -nv[a]
-                for bb in range(3):
-                    samp_H[i, a, bb] = 0.0
-        elif dc > 1e-12:
-            samp_n[i, 0] = o0 / dc
-            samp_n[i, 1] = o1 / dc
-            samp_n[i, 2] = o2 / dc
+                ga[a] = (o0, o1, o2)[a] / dc
             for a in range(3):
                 for bb in range(3):
                     dab = 1.0 if a == bb else 0.0
-                    samp_H[i, a, bb] = (
-                        dab - samp_n[i, a] * samp_n[i, bb] - d1[a] * d1[bb] / D
-                    ) / dc
+                    Ha[a, bb] = (dab - ga[a] * ga[bb] - d1[a] * d1[bb] / D) / dc
         else:
             for a in range(3):
-                samp_n[i, a] = 0.0
+                ga[a] = 0.0
                 for bb in range(3):
-                    samp_H[i, a, bb] = 0.0
+                    Ha[a, bb] = 0.0
+        blended = False
+        if flat < rb and kappa_min_flat >= 0.0:
+            # flat side at distance `flat` along -nor: equivalent centre distance
+            # b = -o.nor + r_b - flat, grad -nor, Hessian -(dnor/ds) c'^T / D; the corner
+            # (circle meets flat) is rounded by a C1 smooth maximum of width eps
+            normal_at(h, nor, s, nv)
+            normal_rate(h, nor, s, dnv)
+            dflat = -(o0 * nv[0] + o1 * nv[1] + o2 * nv[2]) + rb - flat
+            eps = 0.05 * b
+            Dd = dc - dflat
+            S = math.sqrt(Dd * Dd + eps * eps)
+            wa = 0.5 * (1.0 + Dd / S)
+            wb = 0.5 * (1.0 - Dd / S)
+            cc = 0.5 * eps * eps / (S * S * S)
+            for a in range(3):
+                gb[a] = -nv[a]
+            for a in range(3):
+                samp_n[i, a] = wa * ga[a] + wb * gb[a]
+                for bb in range(3):
+                    Hb = -dnv[a] * d1[bb] / D
+                    samp_H[i, a, bb] = (
+                        wa * Ha[a, bb] + wb * Hb + cc * (ga[a] - gb[a]) * (ga[bb] - gb[bb])
+                    )
+            dc = 0.5 * (dc + dflat + S)
+            blended = True
+        if not blended:
+            for a in range(3):
+                samp_n[i, a] = ga[a]
+                for bb in range(3):
+                    samp_H[i, a, bb] = Ha[a, bb]
+        samp_d[i] = dc
         z = (dc - aa) / w
         samp_z[i] = z
         if z <= 0.0:

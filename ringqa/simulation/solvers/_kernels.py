@@ -205,7 +205,8 @@ def newton(
     Returns
     -------
     status : int
-        0 converged, 1 iteration limit, 2 singular Jacobian, 3 non-finite residual.
+        0 converged, 1 iteration limit, 2 singular Jacobian, 3 non-finite residual, 4 stalled
+        (the line search cut four consecutive steps below 1/32).
     iters : int
         Newton iterations used.
     res : float
@@ -219,6 +220,7 @@ def newton(
     r_try = np.empty(n_all)
     status = 1
     it = 0
+    n_small = 0
     for it in range(max_iter + 1):
         assemble(
             q, q_prev, v_prev, q_ref, nd, n_nodes, kl, link_len, hinge_k, twist_k, node_mass,
@@ -270,9 +272,18 @@ def newton(
                 break
             lam *= 0.5
         if mx * lam < 1e-15:
-            # stagnation at round-off: accept if the residual is already small
+            # stagnation at round-off
             status = 1
             break
+        # stalled: the line search keeps cutting the step hard (limit point, snap-through):
+        # give up early so the driver can cut the step or stabilise
+        if lam < scale / 32.0:
+            n_small += 1
+            if n_small >= 4:
+                status = 4
+                break
+        else:
+            n_small = 0
     assemble(
         q, q_prev, v_prev, q_ref, nd, n_nodes, kl, link_len, hinge_k, twist_k, node_mass, node_rot,
         samp_link, samp_alpha, samp_ro, samp_s, samp_d_prev, h, pos, tan, nor, kappa_min_flat,

@@ -49,7 +49,7 @@ JUMP_FACTOR = 8
 #: smallest step as a fraction of the requested increment before the run is declared failed
 MIN_CUT = 1.0 / 256.0
 #: sub-steps tried without stabilisation before the fallback stabilisation is switched on
-FALLBACK_AFTER = 8
+FALLBACK_AFTER = 1
 #: fallback stabilisation: a viscous tether to the predictor of stiffness (coefficient / dt)
 #: equal to this fraction of the wall stiffness per node
 FALLBACK_STIFFNESS_FRACTION = 1e-3
@@ -240,11 +240,7 @@ class Model:
         A predicted chain whose links are off by nanometres would otherwise carry axial penalty
         forces far above the free cable's buckling load and send Newton astray.
         """
-        qv = q.reshape(self.n_nodes, self.nd)
-        ll = self.chain.link_len
-        for j in range(self.n_nodes - 3, -1, -1):
-            e = qv[j, :3] - qv[j + 1, :3]
-            qv[j, :3] = qv[j + 1, :3] + ll[j] * e / np.linalg.norm(e)
+        K.restore_lengths(q, self.nd, self.n_nodes, self.chain.link_len)
 
     def solve(self, q, q_prev, v_prev, dt, q_ref=None):
         """Run the Newton kernel in place on ``q``; returns (status, iterations, residual)."""
