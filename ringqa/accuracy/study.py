@@ -754,7 +754,10 @@ def run_study(
         keys += [k for k in ov if k not in keys]
     base_vals = {k: setting_value(scene, k) for k in keys}
     base_numeric = {
-        k: v for k, v in base_vals.items() if not is_model_change({k: v}) and v is not None
+        k: v
+        for k, v in base_vals.items()
+        if (".element_length_mm." in k or k in ("solver.increment_mm", "solver.time_step_s"))
+        and v is not None
     }
     rows = []
     for ov, rec in zip(grid_list, runs, strict=True):
