@@ -159,7 +159,9 @@ def closest_point(h, pos, tan, p, s_hint, window, work):
         sp = 0.0
         for a in range(3):
             sp += (p[a] - pos[m - 1, a]) * tan[m - 1, a]
-        if sp > 0.0:
+        # beyond the tip only a short way (the lumen ends there; a long ray could pass near
+        # other parts of a curled channel)
+        if 0.0 < sp < 0.02:
             dd = 0.0
             for a in range(3):
                 dd += (p[a] - pos[m - 1, a] - sp * tan[m - 1, a]) ** 2

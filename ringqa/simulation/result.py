@@ -75,6 +75,9 @@ class SimResult:
         With ``outputs.trajectory``: ``advance_m`` (k,), ``time_s`` (k,),
         ``nodes_m`` (k, n_nodes, 3), ``push_force_n`` (k,) for every load/time step.
     provenance : ringqa.provenance.Provenance or None
+    max_penetration_m : float
+        Largest penetration of the instrument's surface beyond the lumen wall r_b over the whole
+        run (m; 0 if it never reached the wall), over all contact sample points.
     """
 
     status: int
@@ -96,6 +99,7 @@ class SimResult:
     nodes_m: np.ndarray | None = None
     trajectory: dict[str, np.ndarray] | None = None
     provenance: Any = None
+    max_penetration_m: float = 0.0
 
     @property
     def success(self) -> bool:

@@ -140,6 +140,28 @@ class Model:
                 f"(r_b = {rb_min * 1e3:.3f} mm): check the lumen or the instrument"
             )
         self.clearance = rb_min - ro_max
+        # guard: a straight link cannot fit a bend at all when its bow l^2/(8R) exceeds the
+        # lumen's width 2c; check each section against the tightest bend it can reach
+        for k, name in enumerate(chain.section_names):
+            sel = chain.link_section == k
+            if not np.any(sel) or not np.all(np.isfinite(chain.link_ei[sel])):
+                continue
+            l_max = float(np.max(chain.link_len[sel]))
+            front = u_deep + self.cft - float(chain.cum[np.argmax(sel)])
+            s_tab = np.arange(self.table.pos.shape[0]) * self.table.h
+            kap = self.table.kappa[s_tab <= front + 1e-9]
+            if kap.size == 0 or np.max(kap) <= 0:
+                continue
+            c_sec = rb_min - float(np.max(chain.link_ro[sel]))
+            bow = l_max**2 * float(np.max(kap)) / 8.0
+            if bow > 2.0 * c_sec:
+                self.warnings.append(
+                    f"section {name!r}: {l_max * 1e3:.1f} mm links bow {bow * 1e3:.2f} mm across "
+                    f"the tightest bend they reach, more than the lumen's free width "
+                    f"{2 * c_sec * 1e3:.2f} mm: they cannot fit; use links <= "
+                    f"{np.sqrt(16 * c_sec / np.max(kap)) * 1e3:.1f} mm "
+                    "(discretisation.element_length_mm)"
+                )
         self.samp_link, self.samp_alpha, self.samp_ro = contact_samples(
             chain, tb.min_radius_m(), self.clearance, float(solver.contact_bow_fraction)
         )
@@ -372,6 +394,7 @@ def run(scene, advances_m: np.ndarray, progress: bool = False) -> SimResult:
     )
     inc = model.increment
     n_stabilised = 0
+    max_pen = 0.0
     path = waypoints(scene, advances_m, model.u_start)
     bar = None
     if progress:
@@ -455,6 +478,8 @@ def run(scene, advances_m: np.ndarray, progress: bool = False) -> SimResult:
                     if dynamic:
                         v_try = (q_try - qp) / (dt / sub)
                     model.samp_d_prev[:] = model.samp_d
+                    pen = float(np.max((model.samp_z - 1.0) * model.samp_w, initial=0.0))
+                    max_pen = max(max_pen, pen if model.contact is not None else 0.0)
                     fr_step += model.energies[5]
                     damp_step += model.energies[6]
                     if stab > 0 and not dynamic:
@@ -554,6 +579,12 @@ def run(scene, advances_m: np.ndarray, progress: bool = False) -> SimResult:
     else:
         missing = int(np.sum(np.isnan(out_push)))
         message += f"; {missing} of {n_req} requested advances not reached (NaN rows)"
+    if max_pen > 0.1 * model.clearance:
+        model.warnings.append(
+            f"the instrument sank up to {max_pen * 1e3:.3f} mm into the wall "
+            f"({100 * max_pen / model.clearance:.0f} % of the clearance): raise "
+            "contact.stiffness_n_m for a tight lumen"
+        )
     if n_stabilised:
         model.warnings.append(
             f"{n_stabilised} load step(s) needed the fallback stabilisation (snap-through or "
@@ -585,6 +616,8 @@ def run(scene, advances_m: np.ndarray, progress: bool = False) -> SimResult:
         "time_step_s": model.time_step if dynamic else None,
         "total_newton_iters": int(total_iters),
         "simulated_time_s": time_s,
+        "max_penetration_m": max_pen,
+        "n_stabilised_steps": n_stabilised,
     }
     trajectory = None
     if keep_traj:
@@ -608,4 +641,5 @@ def run(scene, advances_m: np.ndarray, progress: bool = False) -> SimResult:
         work=work,
         nodes_m=out_nodes,
         trajectory=trajectory,
+        max_penetration_m=max_pen,
     )

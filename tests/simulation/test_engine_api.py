@@ -1,0 +1,132 @@
+"""simulate()/SimResult contract: columns, shapes, statuses, switched-off effects leave no trace."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+from sim_builders import flexitron, ring_channel, scene
+
+from ringqa.errors import SimulationError
+from ringqa.simulation import SimResult, simulate
+from ringqa.simulation.result import DWELL_COLUMNS
+from ringqa.simulation.scene import ContactParams, Effects, Motion, Outputs, SolverSettings
+
+ADV = np.array([70.0, 60.0, 80.0])
+
+
+@pytest.fixture(scope="module")
+def ring():
+    return ring_channel()
+
+
+def test_result_contract(ring):
+    """One row per requested advance, in the requested order; the dwell table's contract
+    columns; offsets, s and directions consistent with the positions."""
+    res = simulate(scene(ring, flexitron(), effects=Effects(friction="stribeck")), ADV)
+    assert isinstance(res, SimResult) and res.success and res.status == 0
+    n = ADV.size
+    assert res.source_pos_m.shape == (n, 3) and res.source_dir.shape == (n, 3)
+    assert res.contact_force_n.shape == (n, res.n_elements + 1)
+    np.testing.assert_allclose(np.linalg.norm(res.source_dir, axis=1), 1.0, atol=1e-12)
+    df = res.dwell_table()
+    assert tuple(df.columns[: len(DWELL_COLUMNS)]) == DWELL_COLUMNS
+    np.testing.assert_array_equal(df["advance_mm"], ADV)
+    # source 2.4 mm behind the tip along the capsule axis
+    np.testing.assert_allclose(
+        res.tip_pos_m - res.source_pos_m, 2.4e-3 * res.source_dir, atol=1e-12
+    )
+    # the s/offset columns describe the source centre: |pos - c(s)| = offset
+    from ringqa.simulation.channel import ChannelTable
+
+    tb = ChannelTable.from_channel(ring)
+    for p, s, off in zip(res.source_pos_m, res.s_m, res.offset_m, strict=True):
+        assert np.linalg.norm(p - tb.point(s)) == pytest.approx(off, abs=1e-9)
+    # the source is near (not necessarily behind: a thin cable can bow to the inner wall
+    # between contacts) where the centreline model would put it
+    assert np.all(np.abs(res.s_m * 1e3 - ADV) < 2.0)
+    assert res.solve_time_s > 0 and res.settings["n_nodes"] == res.n_elements + 1
+    assert {"input", "elastic", "friction", "balance_error"} <= set(res.work)
+
+
+def test_no_advances_is_an_error(ring):
+    with pytest.raises(SimulationError, match="advances"):
+        simulate(scene(ring, flexitron()), [])
+
+
+def test_trajectory_on_request(ring):
+    sc = scene(ring, flexitron(), outputs=Outputs(trajectory=True))
+    res = simulate(sc, [30.0])
+    tr = res.trajectory
+    assert tr["nodes_m"].shape[1:] == (res.n_elements + 1, 3)
+    assert tr["advance_m"].shape == tr["push_force_n"].shape == (tr["nodes_m"].shape[0],)
+    assert tr["advance_m"][-1] == pytest.approx(0.03)
+
+
+def _same(a, b):
+    for f in ("source_pos_m", "source_dir", "tip_pos_m", "push_force_n", "nodes_m"):
+        np.testing.assert_array_equal(getattr(a, f), getattr(b, f))
+    np.testing.assert_array_equal(a.newton_iters, b.newton_iters)
+
+
+def test_switched_off_effects_leave_no_trace(ring):
+    """An effect switched on with a zero coefficient gives bit-identical results to the effect
+    switched off (so the off path really skips it and the on path adds nothing else):
+    gravity (0, 0, 0) vs None; wall damping c_w = 0 vs off; Coulomb friction mu = 0 vs none
+    (both with zero-damping on, so both take the same load steps)."""
+    base = scene(ring, flexitron(), effects=Effects(friction="stribeck"))
+    on = base.replace(effects=Effects(friction="stribeck", gravity_m_s2=(0.0, 0.0, 0.0)))
+    _same(simulate(base, ADV), simulate(on, ADV))
+    on = base.replace(effects=Effects(friction="stribeck", wall_damping=True),
+                      contact=ContactParams(damping_ns_m=0.0))  # fmt: skip
+    _same(simulate(base, ADV), simulate(on, ADV))
+    zero_c = ContactParams(damping_ns_m=0.0, mu_s=0.0, mu_k=0.0)
+    off = base.replace(effects=Effects(friction="none", wall_damping=True), contact=zero_c)
+    on = base.replace(effects=Effects(friction="coulomb", wall_damping=True), contact=zero_c)
+    _same(simulate(off, ADV), simulate(on, ADV))
+
+
+def test_torsion_without_friction_changes_nothing(ring):
+    """Without friction the twist decouples: torsion on (4 DOFs per node) gives the same chain
+    as torsion off (3 DOFs) to round-off (a different elimination order in the banded solve)."""
+    off = scene(ring, flexitron(), effects=Effects(friction="none"))
+    on = off.replace(effects=Effects(friction="none", torsion=True))
+    a, b = simulate(off, ADV), simulate(on, ADV)
+    assert a.settings["dof_per_node"] == 3 and b.settings["dof_per_node"] == 4
+    np.testing.assert_allclose(a.source_pos_m, b.source_pos_m, atol=1e-9)
+
+
+def test_dynamic_solver_reports_step_and_matches_quasistatic_roughly(ring):
+    """Backward-Euler dynamics at 0.5 m/s with the paper's scaled mass: dwell positions within
+    1 mm of the quasi-static ones (inertia small by design of the paper's scaling), and the time
+    step used is reported."""
+    qs = scene(ring, flexitron(), effects=Effects(friction="stribeck"))
+    dyn = qs.replace(
+        effects=Effects(friction="stribeck", inertia=True, wall_damping=True),
+        solver=SolverSettings(kind="dynamic", time_step_s=1e-3),
+        motion=Motion(speed_m_s=0.5),
+    )
+    a, b = simulate(qs, ADV), simulate(dyn, ADV)
+    assert b.success and b.settings["time_step_s"] == 1e-3
+    assert np.max(np.linalg.norm(a.source_pos_m - b.source_pos_m, axis=1)) < 1e-3
+    assert b.settings["simulated_time_s"] == pytest.approx((0.08 + 2.4e-3) / 0.5, rel=1e-6)
+
+
+def test_newton_failure_is_a_status_not_an_exception(ring):
+    """max_iter = 1 cannot converge: status -1, message says where, rows NaN."""
+    sc = scene(ring, flexitron(), solver=SolverSettings(max_iter=1, tol=1e-14))
+    res = simulate(sc, ADV)
+    assert res.status == -1 and "did not converge" in res.message
+    assert np.all(np.isnan(res.push_force_n))
+
+
+def test_scene_errors_name_the_key(ring):
+    from ringqa.errors import SceneError
+
+    bad = scene(ring, flexitron(), effects=Effects(friction="sticky"))
+    with pytest.raises(SceneError, match="effects.friction"):
+        simulate(bad, ADV)
+    bad = scene(ring, flexitron(), solver=dataclasses.replace(SolverSettings(), increment_m=0.0))
+    with pytest.raises(SceneError, match="solver.increment_m"):
+        simulate(bad, ADV)
