@@ -453,7 +453,20 @@ def _check_clearance(app, channel, scene) -> None:
         )
 
 
-def _simulate(app, channel, rel_mm, *, cable, scene_overrides, simulator, scene_factory):
+#: Refinements of the input increment tried when the engine FAILS to converge (status -1; a
+#: jam, status 1, is a result and is not retried): the scene's increment times these factors.
+RETRY_INCREMENT_FACTORS = (0.5, 0.25)
+
+
+def _run_engine(simulate, scene, advances):
+    res = simulate(scene, advances_mm=advances, progress=False)
+    status = int(getattr(res, "status", 0))
+    pos_m = np.asarray(res.source_pos_m, dtype=float).reshape(-1, 3)
+    ok = status == 0 and pos_m.shape[0] >= advances.size and bool(np.all(np.isfinite(pos_m)))
+    return res, status, pos_m, ok
+
+
+def _simulate(app, channel, rel_mm, *, cable, scene_overrides, simulator, scene_factory, notes):
     scene = (scene_factory or _default_scene_factory)(channel, cable)
     if scene_overrides:
         scene = scene.with_overrides(dict(scene_overrides))
@@ -466,17 +479,32 @@ def _simulate(app, channel, rel_mm, *, cable, scene_overrides, simulator, scene_
     if getattr(motion, "backward", False) or getattr(motion, "kind", "") == "retract":
         advances = advances[::-1]  # backward stepping / retraction: most distal dwell first
     t0 = time.perf_counter()
-    res = simulate(scene, advances_mm=advances, progress=False)
+    res, status, pos_m, ok = _run_engine(simulate, scene, advances)
+    inc_m = getattr(getattr(scene, "solver", None), "increment_m", None)
+    if not ok and status == -1 and inc_m and hasattr(scene, "with_overrides"):
+        first_message = str(getattr(res, "message", ""))
+        for factor in RETRY_INCREMENT_FACTORS:
+            inc_mm = m_to_mm(float(inc_m)) * factor
+            retry = scene.with_overrides({"solver.increment_mm": inc_mm})
+            res, status, pos_m, ok = _run_engine(simulate, retry, advances)
+            if ok:
+                notes.append(
+                    f"The simulation did not converge with an input increment of "
+                    f"{m_to_mm(float(inc_m)):g} mm ({first_message}); it was repeated with "
+                    f"{inc_mm:g} mm, which converged (solver.increment_mm = {inc_mm:g})."
+                )
+                scene = retry
+                break
     wall = time.perf_counter() - t0
-    status = int(getattr(res, "status", 0))
     got_adv = np.asarray(getattr(res, "advances_mm", advances), dtype=float).reshape(-1)
-    pos_m = np.asarray(res.source_pos_m, dtype=float).reshape(-1, 3)
     dirs = np.asarray(res.source_dir, dtype=float).reshape(-1, 3)
-    if status != 0 or pos_m.shape[0] < advances.size:
-        reached = got_adv[: pos_m.shape[0]]
+    if not ok:
+        n = min(pos_m.shape[0], got_adv.size)
+        finite = np.all(np.isfinite(pos_m[:n]), axis=1)
+        reached = got_adv[:n][finite]
         where = (
-            f"after advance {reached[-1]:.1f} mm "
-            f"(relative position {s_ref_mm - reached[-1]:.1f} mm)"
+            f"after advance {reached[-1]:.1f} mm (relative position "
+            f"{s_ref_mm - reached[-1]:.1f} mm; {reached.size} of {advances.size} dwells reached)"
             if reached.size
             else "before the first dwell"
         )
@@ -484,7 +512,7 @@ def _simulate(app, channel, rel_mm, *, cable, scene_overrides, simulator, scene_
         raise SimulationJammedError(
             f"applicator {app.name}: the simulated source cable {kind} {where}: "
             f"{getattr(res, 'message', '') or 'no message'} (check the lumen and the scene "
-            "settings, e.g. --set solver.increment_mm=0.5 or --set effects.friction=coulomb)"
+            "settings, e.g. --set solver.increment_mm=0.25 or --set effects.friction=coulomb)"
         )
     lookup = {round(float(a), 6): i for i, a in enumerate(got_adv)}
     idx = []
@@ -732,7 +760,7 @@ def commission(
     t0 = time.perf_counter()
     sim_pos, sim_dir, sim_info, scene_dict, afterloader = _simulate(
         app, ring, rel, cable=cable, scene_overrides=scene_overrides, simulator=simulator,
-        scene_factory=scene_factory,
+        scene_factory=scene_factory, notes=notes,
     )  # fmt: skip
     timings["simulation_s"] = time.perf_counter() - t0
     cl_pos, cl_dir = _centreline_dwells(ring, rel)

@@ -207,3 +207,41 @@ def test_backward_stepping_gets_decreasing_advances(fakes):
 def test_engine_warnings_reach_the_notes(fakes):
     res = _run(fakes, sim=fakes.simulator(warnings=("Newton did not converge at 12.5 mm",)))
     assert any("Newton did not converge at 12.5 mm" in n for n in res.notes)
+
+
+def test_non_convergence_is_retried_with_a_finer_increment(fakes):
+    """The engine fails (status -1, NaN rows) unless the increment is <= 0.5 mm: the pipeline
+    repeats the run at 0.5 mm (default 1 mm x 0.5), succeeds, and says so in the notes. With an
+    engine that never converges the error names the dwells reached."""
+    base, good = fakes.scene_factory(), fakes.simulator()
+
+    def factory(channel, cable):
+        scene = base(channel, cable)
+        scene.solver = SimpleNamespace(increment_m=1e-3)
+
+        def with_overrides(d):
+            new = factory(channel, cable)
+            new.solver = SimpleNamespace(increment_m=d.get("solver.increment_mm", 1.0) * 1e-3)
+            return new
+
+        scene.with_overrides = with_overrides
+        return scene
+
+    tried = []
+
+    def picky(scene, advances_mm=None, progress=False):
+        tried.append(scene.solver.increment_m)
+        res = good(scene, advances_mm=advances_mm)
+        if scene.solver.increment_m > 0.6e-3 or picky.never:
+            res.status, res.message = -1, "Newton did not converge"
+            res.source_pos_m = res.source_pos_m.copy()
+            res.source_pos_m[-4:] = np.nan
+        return res
+
+    picky.never = False
+    res = commission(fakes.applicator(), simulator=picky, scene_factory=factory)
+    assert tried == [1e-3, 0.5e-3]
+    assert any("repeated with 0.5 mm" in n for n in res.notes)
+    picky.never = True
+    with pytest.raises(SimulationJammedError, match=r"failed after .* 26 of 30 dwells reached"):
+        commission(fakes.applicator(), simulator=picky, scene_factory=factory)
