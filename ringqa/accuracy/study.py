@@ -302,8 +302,10 @@ def execute(scene, overrides, simulator, repeats: int = 3, max_repeat_s: float =
     pos = np.asarray(res.source_pos_m, dtype=float).reshape(-1, 3)
     dirs = np.asarray(res.source_dir, dtype=float).reshape(-1, 3)
     bad = not (np.all(np.isfinite(pos)) and np.all(np.isfinite(dirs)))
-    status = int(res.status) if not bad else -1
-    message = str(res.message) if not bad else f"{res.message} (non-finite positions)"
+    # a "success" with non-finite positions is a failure; a jam keeps its status
+    status = -1 if (bad and res.status == 0) else int(res.status)
+    message = f"{res.message} (non-finite positions)" if (bad and res.status == 0) else res.message
+    message = str(message)
     return RunRecord(
         key=key,
         overrides=dict(overrides),
