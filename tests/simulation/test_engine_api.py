@@ -125,8 +125,8 @@ def test_scene_errors_name_the_key(ring):
     from ringqa.errors import SceneError
 
     bad = scene(ring, flexitron(), effects=Effects(friction="sticky"))
-    with pytest.raises(SceneError, match="effects.friction"):
+    with pytest.raises(SceneError, match=r"effects\.friction"):
         simulate(bad, ADV)
     bad = scene(ring, flexitron(), solver=dataclasses.replace(SolverSettings(), increment_m=0.0))
-    with pytest.raises(SceneError, match="solver.increment_m"):
+    with pytest.raises(SceneError, match=r"solver\.increment_m"):
         simulate(bad, ADV)

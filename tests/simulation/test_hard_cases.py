@@ -80,7 +80,8 @@ def test_bend_radius_5mm():
 
 def test_ten_mm_links_do_not_cut_a_13mm_bend():
     """mechanics.md item 9: a 10 mm link across a 13 mm-radius bend bows l^2 / (8R) = 0.96 mm,
-    comparable to the clearance c = r_b - r_o = 1.5 - 0.3 = 1.2 mm and ~8 x its 10 %. Checked with points every 0.25 mm along every link: with contact
+    comparable to the clearance c = r_b - r_o = 1.5 - 0.3 = 1.2 mm and ~8 x its 10 %.
+    Checked with points every 0.25 mm along every link: with contact
     at the nodes only (``contact_bow_fraction`` huge) the links cut the wall by > 0.5 mm; with the
     default samples along the links the chain stays within 10 % of the clearance."""
     ch = arc_channel(radius_m=0.013, angle_rad=1.5 * np.pi, entry_m=0.03)
