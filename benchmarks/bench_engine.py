@@ -98,6 +98,11 @@ def main() -> int:
     ref, t_ref = timed(refined(base, 0.25, "solver.increment_mm"), 1)
     out["quasistatic"] = [row("default (3/10 mm, inc 1 mm)", res, t, err_mm(res, ref)),
                           row("4x refined (0.75/2.5 mm, inc 0.25 mm)", ref, t_ref)]  # fmt: skip
+    half = base.with_overrides({"discretisation.element_length_mm": {"thin": 1.5, "thick": 5.0}})
+    rh, th = timed(half, reps)
+    rhr, thr = timed(refined(half, 0.25, "solver.increment_mm"), 1)
+    out["quasistatic"] += [row("links 1.5/5 mm (inc 1 mm)", rh, th, err_mm(rh, rhr)),
+                           row("its 4x refined (0.375/1.25/0.25 mm)", rhr, thr)]  # fmt: skip
 
     print("\n2. scaling with element count (increment fixed)")
     pts = []
