@@ -77,7 +77,7 @@ def _text_page(plt, title: str):
     return fig
 
 
-def _title_page(plt, res) -> object:
+def _title_page(plt, res) -> list:
     fig = _text_page(plt, textwrap.shorten(f"ringqa commissioning report: {res.applicator}", 60))
     prov = res.provenance
     s = res.settings
@@ -140,18 +140,26 @@ def _title_page(plt, res) -> object:
     y -= 0.01
     fig.text(0.06, y, "Notes", fontsize=12, weight="bold", va="top")
     y -= 0.028
+    figs = [fig]
     for note in res.notes:
         wrapped = textwrap.fill(note, 100)
+        height = 0.017 * (wrapped.count("\n") + 1) + 0.006
+        if y - height < 0.09:  # continue on a new page, keep the signature line free
+            fig = _text_page(plt, "Notes (continued)")
+            figs.append(fig)
+            y = 0.92
         fig.text(0.06, y, "- " + wrapped.replace("\n", "\n  "), fontsize=8.5, va="top")
-        y -= 0.017 * (wrapped.count("\n") + 1) + 0.006
-    fig.text(
+        y -= height
+    figs[0].text(
         0.06,
         0.05,
         "Checked by: ______________________   Signature: ____________________   "
         "Date: ______________",
         fontsize=10,
     )
-    return fig
+    if len(figs) > 1:
+        figs[0].text(0.06, 0.075, "Notes continue on the next page.", fontsize=8.5, style="italic")
+    return figs
 
 
 def _settings_page(plt, res):
@@ -623,7 +631,7 @@ def write_pdf(
     path = Path(path)
     with PdfPages(path) as pdf:
         figs = [
-            _title_page(plt, result),
+            *_title_page(plt, result),
             _positions_page(plt, result),
             _deviation_page(plt, result),
             _dose_page(plt, result),
