@@ -158,7 +158,7 @@ def run(args: argparse.Namespace) -> int:
         )
         return 0
     batch = commission_batch(items, progress=not args.quiet, **kwargs)
-    write_batch(batch, args.out, pdf=not args.no_pdf)
+    write_batch(batch, args.out, pdf=not args.no_pdf, progress=not args.quiet)
     n = len(batch.results) + len(batch.failures)
     print(f"ringqa commission: {len(batch.results)} of {n} applicators commissioned -> {args.out}")
     if batch.failures:

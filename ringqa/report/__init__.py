@@ -79,12 +79,14 @@ def write_report(result, out_dir, *, pdf: bool = True, accuracy_csv=None) -> Pat
     return Path(out_dir)
 
 
-def write_batch(batch, out_dir, *, pdf: bool = True) -> Path:
+def write_batch(batch, out_dir, *, pdf: bool = True, progress: bool = False) -> Path:
     """Write a BatchResult: ``out_dir/<applicator>/`` per result, plus the cross-applicator
     ``summary.csv``, ``all_dwells.csv``, ``all_doses.csv``, ``batch.json`` and ``summary.pdf``.
     Failed applicators appear in summary.csv / batch.json with their error (no subfolder)."""
+    from tqdm import tqdm
+
     with staged_output(out_dir) as stage:
-        for res in batch.results:
+        for res in tqdm(batch.results, desc="reports", unit="applicator", disable=not progress):
             _write_one(res, stage / _safe(res.applicator), pdf)
         write_batch_tables(batch, stage)
         if pdf:

@@ -682,11 +682,12 @@ def write_batch_pdf(batch, path: Path, *, png_dir: Path | None = None) -> Path:
         lim_rec, lim_req = (
             batch.results[0].settings["position_limits_mm"] if batch.results else (1.0, 2.0)
         )
-        ax.axhline(lim_rec, color="#ef6c00", ls="--", lw=1)
-        ax.axhline(lim_req, color="#c62828", ls="--", lw=1)
+        ax.axhline(lim_rec, color="#ef6c00", ls="--", lw=1, label=f"{lim_rec:g} mm recommended")
+        ax.axhline(lim_req, color="#c62828", ls="--", lw=1, label=f"{lim_req:g} mm required")
+        ax.legend(fontsize=7, loc="upper right")
         ax.set_ylabel("3D distance to the reference path (mm)")
         ax.set_title(
-            "Distances per applicator (paper Figure 5). Box: interquartile range, line: "
+            "Distances per applicator (paper Figure 5)\nbox: interquartile range, line: "
             "median, whiskers: extremes without outliers, x: outliers",
             fontsize=8,
         )
