@@ -35,7 +35,7 @@ from ringqa.units import m_to_mm
 FLEXITRON_CAPSULE_LENGTH_M = 4.6e-3  # capsule length (egs_brachy Flexisource)
 FLEXITRON_CENTRE_FROM_TIP_M = 2.4e-3  # tip to centre of activity
 FLEXITRON_THIN_LENGTH_M = 0.105  # thin section next to the source (Table 1, L thin)
-FLEXITRON_THICK_LENGTH_M = 0.616  # thick section (Table 1, L thick); trimmed to the channel
+FLEXITRON_THICK_LENGTH_M = 0.616  # thick section (Table 1); the engine models what it needs
 PAPER_MASS_RIGID_LINK_KG_M = 0.04  # Table 1 m/l for the rigid-link model (scaled up)
 
 _STEEL_KG_M3 = 7900.0
