@@ -270,6 +270,41 @@ def add_viscous(q, q_ref, nd, n_nodes, coef, dt, r, B, kl, jac):
 # contact: sample points along the links, Khatait three-region normal force
 
 
+#: lumen changes (a step in r_b, the start of a flat side) are tapered over this length (m)
+LUMEN_RAMP_M = 1.0e-3
+#: the U-shaped lumen's corners (circle meets flat) are rounded over this fraction of the clearance
+CORNER_FRACTION = 0.05
+
+
+@njit(cache=True)
+def _seg_params(seg_rb, seg_ra, seg_flat, g, ro):
+    rb = seg_rb[g]
+    flat = seg_flat[g]
+    if not flat < rb:
+        flat = rb + 0.5 * (rb - ro)  # a flat side too far out to matter (a circle)
+    return rb, seg_ra[g], flat
+
+
+@njit(cache=True)
+def _lumen_at(seg_s, seg_rb, seg_ra, seg_flat, g, s, ro):
+    """(r_b, r_a, flat) at arc length s in segment g, tapered linearly over LUMEN_RAMP_M
+    around each break (real channels have no infinitely sharp steps; a sharp one makes the wall
+    distance jump and Newton cycle). Circular segments return flat = +inf unless tapering."""
+    nseg = seg_rb.shape[0]
+    half = 0.5 * LUMEN_RAMP_M
+    if g > 0 and s - seg_s[g] < half:
+        t = 0.5 + (s - seg_s[g]) / LUMEN_RAMP_M
+        r0, a0, f0 = _seg_params(seg_rb, seg_ra, seg_flat, g - 1, ro)
+        r1, a1, f1 = _seg_params(seg_rb, seg_ra, seg_flat, g, ro)
+    elif g < nseg - 1 and seg_s[g + 1] - s < half:
+        t = 0.5 - (seg_s[g + 1] - s) / LUMEN_RAMP_M
+        r0, a0, f0 = _seg_params(seg_rb, seg_ra, seg_flat, g, ro)
+        r1, a1, f1 = _seg_params(seg_rb, seg_ra, seg_flat, g + 1, ro)
+    else:
+        return seg_rb[g], seg_ra[g], seg_flat[g]
+    return (1 - t) * r0 + t * r1, (1 - t) * a0 + t * a1, (1 - t) * f0 + t * f1
+
+
 @njit(cache=True)
 def contact_geometry(
     q,
@@ -338,10 +373,8 @@ def contact_geometry(
         g = 0
         while g < nseg - 1 and s >= seg_s[g + 1]:
             g += 1
-        rb = seg_rb[g]
-        ra = seg_ra[g]
-        flat = seg_flat[g]
         ro = samp_ro[i]
+        rb, ra, flat = _lumen_at(seg_s, seg_rb, seg_ra, seg_flat, g, s, ro)
         b = rb - ro
         w = (rb - ra) if transition <= 0.0 else transition
         if w > max_frac * b:
@@ -369,7 +402,7 @@ def contact_geometry(
             normal_at(h, nor, s, nv)
             normal_rate(h, nor, s, dnv)
             dflat = -(o0 * nv[0] + o1 * nv[1] + o2 * nv[2]) + rb - flat
-            eps = 0.05 * b
+            eps = CORNER_FRACTION * b
             Dd = dc - dflat
             S = math.sqrt(Dd * Dd + eps * eps)
             wa = 0.5 * (1.0 + Dd / S)

@@ -206,7 +206,8 @@ def newton(
     -------
     status : int
         0 converged, 1 iteration limit, 2 singular Jacobian, 3 non-finite residual, 4 stalled
-        (the line search cut four consecutive steps below 1/32).
+        (the line search cut four consecutive steps below 1/32), 5 no progress (the residual has
+        not halved in 20 iterations).
     iters : int
         Newton iterations used.
     res : float
@@ -221,6 +222,8 @@ def newton(
     status = 1
     it = 0
     n_small = 0
+    best = np.inf
+    it_best = 0
     for it in range(max_iter + 1):
         assemble(
             q, q_prev, v_prev, q_ref, nd, n_nodes, kl, link_len, hinge_k, twist_k, node_mass,
@@ -240,6 +243,12 @@ def newton(
         if res <= tol_abs:
             return 0, it, res
         if it == max_iter:
+            break
+        if res < 0.5 * best:
+            best = res
+            it_best = it
+        elif it - it_best >= 20:
+            status = 5  # no progress: the residual has not halved in 20 iterations
             break
         for i in range(n_free):
             rhs[i] = -r[i]
