@@ -24,11 +24,13 @@ frame (analytic channels) the points are built from a circle fitted to the refer
 
 Runs that fail or jam have no error (NaN); they appear with their status and are never on the
 Pareto front nor recommended. Finished runs are cached in ``DIR/runs.jsonl`` (one JSON line per
-run, keyed by the scene's settings), so an interrupted study resumes without losing them.
+run, keyed by the scene's settings, the channel geometry and the engine's source), so an
+interrupted study resumes without losing them and a changed engine or applicator is re-run.
 """
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import json
 import math
@@ -194,10 +196,44 @@ def label_of(overrides: Mapping[str, Any]) -> str:
     return " | ".join(parts)
 
 
-def run_key(scene_dict: Mapping[str, Any]) -> str:
-    """Cache key of a run: hash of the scene in user units (name excluded)."""
+def run_key(scene_dict: Mapping[str, Any], salt: str = "") -> str:
+    """Cache key of a run: hash of the scene in user units (name excluded) and ``salt``."""
     d = {k: v for k, v in scene_dict.items() if k not in ("name", "description")}
-    return hashlib.sha256(json.dumps(d, sort_keys=True, default=str).encode()).hexdigest()[:20]
+    text = json.dumps(d, sort_keys=True, default=str) + salt
+    return hashlib.sha256(text.encode()).hexdigest()[:20]
+
+
+@functools.lru_cache(maxsize=1)
+def engine_fingerprint() -> str:
+    """Hash of the installed engine's source (ringqa/simulation/**/*.py) and ringqa's version:
+    cached runs of an older engine are not reused."""
+    from ringqa import __version__
+
+    root = Path(__file__).resolve().parents[1] / "simulation"
+    h = hashlib.sha256(__version__.encode())
+    for path in sorted(root.rglob("*.py")):
+        h.update(path.name.encode())
+        h.update(path.read_bytes())
+    return h.hexdigest()[:16]
+
+
+def channel_fingerprint(channel) -> str:
+    """Hash of a channel's geometry (centreline points, lumen arrays, s_ref): a changed
+    applicator file invalidates cached runs that name it."""
+    h = hashlib.sha256()
+    pts = getattr(channel.centreline, "points_m", None)
+    if pts is not None:
+        h.update(np.ascontiguousarray(pts, dtype=float).tobytes())
+    else:
+        h.update(str(channel.centreline.length_m).encode())
+    for arr in channel.lumen.kernel_arrays():
+        h.update(np.ascontiguousarray(arr, dtype=float).tobytes())
+    h.update(repr(float(channel.s_ref_m)).encode())
+    return h.hexdigest()[:16]
+
+
+def _salt(scene) -> str:
+    return engine_fingerprint() + channel_fingerprint(scene.channel)
 
 
 # ------------------------------------------------------------------------------------------------
@@ -290,7 +326,7 @@ def execute(scene, overrides, simulator, repeats: int = 3, max_repeat_s: float =
     that. Repeats stop early once a single run takes more than ``max_repeat_s``.
     """
     s = scene.with_overrides(overrides) if overrides else scene
-    key = run_key(s.to_dict())
+    key = run_key(s.to_dict(), _salt(s))
     times: list[float] = []
     res = None
     for _ in range(max(1, repeats)):
@@ -816,7 +852,8 @@ def run_study(
 
 
 def _key_of(scene, overrides) -> str:
-    return run_key((scene.with_overrides(overrides) if overrides else scene).to_dict())
+    s = scene.with_overrides(overrides) if overrides else scene
+    return run_key(s.to_dict(), _salt(s))
 
 
 def _dedupe(scene, grid_list: list[dict]) -> list[dict]:
@@ -825,7 +862,7 @@ def _dedupe(scene, grid_list: list[dict]) -> list[dict]:
     out = []
     for ov in grid_list:
         try:
-            key = run_key((scene.with_overrides(ov) if ov else scene).to_dict())
+            key = _key_of(scene, ov)
         except RingQAError as exc:
             raise AccuracyError(f"grid entry {ov}: {exc}") from None
         if key not in seen:
