@@ -950,6 +950,7 @@ def write_study(study: AccuracyStudy, scene, out_dir: str | Path) -> None:
             },
             "recommendations": recommendation_summary(study),
             "dose_points": study.dose_points,
+            "engine_fingerprint": engine_fingerprint(),
             "warnings": list(study.warnings),
             "provenance": Provenance.now(settings={"scene": study.scene_name}).as_dict(),
         }
