@@ -208,24 +208,21 @@ class Model:
         q = np.zeros(self.n_all)
         for k in range(self.n_nodes):
             q[self.nd * k : self.nd * k + 3] = self.table.point(u + self.cft - self.chain.cum[k])
-        # closest points of the samples (global search once)
+        self.set_hints(q)
+        return q
+
+    def set_hints(self, q: np.ndarray) -> None:
+        """Closest-point hints of every contact sample for state ``q`` (a global search)."""
         work = np.empty(9)
+        nd = self.nd
         for i in range(self.samp_link.size):
             j = self.samp_link[i]
             a = self.samp_alpha[i]
-            p = (1 - a) * q[self.nd * j : self.nd * j + 3] + a * q[
-                self.nd * (j + 1) : self.nd * (j + 1) + 3
-            ]
+            p = (1 - a) * q[nd * j : nd * j + 3] + a * q[nd * (j + 1) : nd * (j + 1) + 3]
             self.samp_s[i] = K.closest_point(
-                self.table.h,
-                self.table.pos,
-                self.table.tan,
-                np.ascontiguousarray(p),
-                0.0,
-                -1.0,
+                self.table.h, self.table.pos, self.table.tan, np.ascontiguousarray(p), 0.0, -1.0,
                 work,
-            )
-        return q
+            )  # fmt: skip
 
     def prescribe(self, q: np.ndarray, u: float) -> None:
         """Put the two driven proximal nodes on the approach axis for input advance ``u``."""
