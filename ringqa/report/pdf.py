@@ -669,7 +669,8 @@ def write_batch_pdf(batch, path: Path, *, png_dir: Path | None = None) -> Path:
                     continue
                 sub = r.dwells[r.dwells["path"] == path]["dist_to_reference_mm"].to_numpy()
                 data.append(sub)
-                labels.append(f"{r.applicator}\n{path[:3]}. vs {r.reference[:4]}.")
+                name = textwrap.shorten(r.applicator, 22, placeholder="...")
+                labels.append(f"{name}\n{path[:3]}. vs {r.reference[:4]}.")
                 colours.append(COLOURS[path])
         if data:
             bp = ax.boxplot(data, patch_artist=True, sym="x")
@@ -712,13 +713,14 @@ def write_batch_pdf(batch, path: Path, *, png_dir: Path | None = None) -> Path:
             ("median_dist_sim_mm", "sim. median (mm)", "{:.2f}"),
             ("max_dist_sim_mm", "sim. max (mm)", "{:.2f}"),
             ("max_dist_centreline_mm", "cl. max (mm)", "{:.2f}"),
-            ("max_abs_diff_surface_simulated_pct", "sim. surface max |dD| %", "{:.1f}"),
+            ("max_abs_diff_surface_simulated_pct", "sim. surface\nmax |dD| (%)", "{:.1f}"),
             ("verdict", "verdict", "{}"),
         ]
         cells = []
         for row in batch.summary.to_dict("records"):
+            row["applicator"] = textwrap.shorten(str(row.get("applicator")), 22, placeholder="...")
             cells.append([_fmt(row.get(k), f) for k, _, f in cols])
-        ax = fig.add_axes((0.04, 0.05, 0.92, 0.38))
+        ax = fig.add_axes((0.04, 0.25, 0.92, 0.18))
         ax.axis("off")
         if cells:
             t = ax.table(
@@ -727,22 +729,72 @@ def write_batch_pdf(batch, path: Path, *, png_dir: Path | None = None) -> Path:
             t.auto_set_font_size(False)
             t.set_fontsize(7)
             t.scale(1, 1.3)
-        y = 0.12
+            for (r, _), cell in t.get_celld().items():
+                if r == 0:
+                    cell.set_height(cell.get_height() * 1.8)
+        rows = table2_rows(batch.results)
+        if rows:
+            ax = fig.add_axes((0.04, 0.02, 0.92, 0.15))
+            ax.axis("off")
+            ax.set_title(
+                "|Dose difference| between the plans over the applicators, median (range), % "
+                "(paper Table 2)",
+                fontsize=9,
+                loc="left",
+            )
+            t = ax.table(
+                cellText=rows,
+                colLabels=["plans (applicators)", "Point A", "lateral surface", "lateral 5 mm"],
+                loc="upper center",
+                cellLoc="center",
+            )
+            t.auto_set_font_size(False)
+            t.set_fontsize(8)
+            t.scale(1, 1.3)
+        y = 0.245
         for item, err in batch.failures:
             fig.text(
                 0.06,
                 y,
-                textwrap.fill(f"FAILED {item}: {err}", 110),
-                fontsize=8,
+                textwrap.shorten(f"FAILED {item}: {err}", 150),
+                fontsize=7,
                 color="#c62828",
                 va="top",
             )
-            y -= 0.03
+            y -= 0.015
         pdf.savefig(fig)
         if png_dir is not None:
             fig.savefig(Path(png_dir) / "summary.png", dpi=80)
         plt.close(fig)
     return Path(path)
+
+
+def table2_rows(results) -> list[list[str]]:
+    """Paper Table 2 over applicators: median (range) of |dose difference| per point kind.
+
+    One row per comparison (reference plan - other plan, e.g. "measured - centreline");
+    each applicator contributes the max |difference| of its left/right points of that kind.
+    """
+    groups: dict[tuple[str, str], dict[str, list[float]]] = {}
+    for r in results:
+        for plan in ("centreline", "simulated"):
+            d = r.doses[r.doses["plan"] == plan]
+            if plan == r.reference or d.empty:
+                continue
+            per_kind = groups.setdefault(
+                (r.reference, plan), {"point_a": [], "surface": [], "depth5": [], "n": []}
+            )
+            for kind in ("point_a", "surface", "depth5"):
+                per_kind[kind].append(float(d.loc[d["kind"] == kind, "diff_pct"].abs().max()))
+            per_kind["n"].append(1.0)
+    rows = []
+    for (ref, plan), per_kind in groups.items():
+        cells = [f"{ref} - {plan} ({len(per_kind['n'])})"]
+        for kind in ("point_a", "surface", "depth5"):
+            v = np.asarray(per_kind[kind])
+            cells.append(f"{np.median(v):.1f} ({v.min():.1f} - {v.max():.1f})")
+        rows.append(cells)
+    return rows
 
 
 def _fmt(value, fmt: str) -> str:

@@ -97,3 +97,22 @@ def test_accuracy_page(result, tmp_path):
     with pytest.raises(RingQAError, match="max_err_mm"):
         write_report(result, tmp_path / "out2", accuracy_csv=bad)
     assert not (tmp_path / "out2").exists()
+
+
+def test_table2_rows_median_and_range():
+    """Two applicators, reference 'measured'; centreline plan diffs at Point A left/right of
+    (+1, -2) % and (+3, +0.5) %: per applicator max |diff| = 2 and 3, so median 2.5 (2.0 - 3.0);
+    surface (4, -8) and (1, 1) -> 8 and 1 -> 4.5 (1.0 - 8.0)."""
+    from types import SimpleNamespace
+
+    from ringqa.report.pdf import table2_rows
+
+    def fake(a, s, d):
+        kinds = ["point_a", "point_a", "surface", "surface", "depth5", "depth5"]
+        diffs = [*a, *s, *d]
+        doses = pd.DataFrame({"plan": "centreline", "kind": kinds, "diff_pct": diffs})
+        return SimpleNamespace(reference="measured", doses=doses)
+
+    rows = table2_rows([fake((1, -2), (4, -8), (0, 0)), fake((3, 0.5), (1, 1), (2, 2))])
+    assert rows == [["measured - centreline (2)", "2.5 (2.0 - 3.0)", "4.5 (1.0 - 8.0)",
+                     "1.0 (0.0 - 2.0)"]]  # fmt: skip
