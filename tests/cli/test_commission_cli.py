@@ -177,3 +177,16 @@ def test_empty_folder_is_refused(tmp_path, capsys):
     (tmp_path / "empty").mkdir()
     assert main(["commission", str(tmp_path / "empty"), "--out", str(tmp_path / "o")]) == 2
     assert "no applicator in this folder" in capsys.readouterr().err
+
+
+def test_real_jam_is_clean(tmp_path, capsys):
+    """The real engine with a 0.05 N jam threshold jams on the way into ring26x60: exit 2, one
+    line naming the jam, and no output folder."""
+    if real_engine() is None:
+        pytest.skip("the simulation engine is not installed")
+    out = tmp_path / "out"
+    code = main(["commission", "ring26x60", "--out", str(out), "--set", "solver.jam_force_n=0.05"])
+    assert code == 2
+    err = capsys.readouterr().err.strip()
+    assert "jammed" in err and len(err.splitlines()) == 1
+    assert list(tmp_path.iterdir()) == []

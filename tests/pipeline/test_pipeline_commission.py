@@ -245,3 +245,24 @@ def test_non_convergence_is_retried_with_a_finer_increment(fakes):
     picky.never = True
     with pytest.raises(SimulationJammedError, match=r"failed after .* 26 of 30 dwells reached"):
         commission(fakes.applicator(), simulator=picky, scene_factory=factory)
+
+
+def test_real_applicator_with_a_lumen_narrower_than_the_cable():
+    """ring26x60 with its ring lumen replaced by a 0.6 mm bore: the Flexitron cable's thick
+    section (r_o = 0.425 mm) cannot pass; refused before any simulation."""
+    import dataclasses
+
+    from ringqa.geometry import Lumen
+    from ringqa.io.applicator_file import load_applicator
+
+    app = load_applicator("ring26x60")
+    ring = dataclasses.replace(app.channel("ring"), lumen=Lumen.circular(0.3e-3, 0.25e-3))
+    app = dataclasses.replace(
+        app, channels=tuple(ring if c.name == "ring" else c for c in app.channels)
+    )
+
+    def never(*a, **k):
+        raise AssertionError("must not simulate")
+
+    with pytest.raises(RingQAError, match=r"lumen radius 0.30 mm .* 0.42 mm: the cable cannot"):
+        commission(app, simulator=never)
