@@ -149,7 +149,7 @@ def run(args: argparse.Namespace) -> int:
     }
     items = _inputs(args)
     if len(items) == 1 and not args.all_shipped and expand_folder(Path(args.inputs[0])) is None:
-        res = commission(items[0], **kwargs)
+        res = commission(items[0], progress=not args.quiet, **kwargs)
         write_report(res, args.out, pdf=not args.no_pdf, accuracy_csv=args.accuracy_csv)
         verdicts = "; ".join(f"{v.status} {v.check}" for v in res.verdicts)
         print(

@@ -458,15 +458,17 @@ def _check_clearance(app, channel, scene) -> None:
 RETRY_INCREMENT_FACTORS = (0.5, 0.25)
 
 
-def _run_engine(simulate, scene, advances):
-    res = simulate(scene, advances_mm=advances, progress=False)
+def _run_engine(simulate, scene, advances, progress=False):
+    res = simulate(scene, advances_mm=advances, progress=progress)
     status = int(getattr(res, "status", 0))
     pos_m = np.asarray(res.source_pos_m, dtype=float).reshape(-1, 3)
     ok = status == 0 and pos_m.shape[0] >= advances.size and bool(np.all(np.isfinite(pos_m)))
     return res, status, pos_m, ok
 
 
-def _simulate(app, channel, rel_mm, *, cable, scene_overrides, simulator, scene_factory, notes):
+def _simulate(
+    app, channel, rel_mm, *, cable, scene_overrides, simulator, scene_factory, notes, progress
+):
     scene = (scene_factory or _default_scene_factory)(channel, cable)
     if scene_overrides:
         scene = scene.with_overrides(dict(scene_overrides))
@@ -479,14 +481,14 @@ def _simulate(app, channel, rel_mm, *, cable, scene_overrides, simulator, scene_
     if getattr(motion, "backward", False) or getattr(motion, "kind", "") == "retract":
         advances = advances[::-1]  # backward stepping / retraction: most distal dwell first
     t0 = time.perf_counter()
-    res, status, pos_m, ok = _run_engine(simulate, scene, advances)
+    res, status, pos_m, ok = _run_engine(simulate, scene, advances, progress)
     inc_m = getattr(getattr(scene, "solver", None), "increment_m", None)
     if not ok and status == -1 and inc_m and hasattr(scene, "with_overrides"):
         first_message = str(getattr(res, "message", ""))
         for factor in RETRY_INCREMENT_FACTORS:
             inc_mm = m_to_mm(float(inc_m)) * factor
             retry = scene.with_overrides({"solver.increment_mm": inc_mm})
-            res, status, pos_m, ok = _run_engine(simulate, retry, advances)
+            res, status, pos_m, ok = _run_engine(simulate, retry, advances, progress)
             if ok:
                 notes.append(
                     f"The simulation did not converge with an input increment of "
@@ -657,6 +659,7 @@ def commission(
     position_limits_mm: tuple[float, float] = (POSITION_RECOMMENDED_MM, POSITION_REQUIRED_MM),
     dose_action_pct: float = DOSE_ACTION_PCT,
     require_measured: bool | None = None,
+    progress: bool = False,
     simulator: Callable | None = None,
     scene_factory: Callable | None = None,
 ) -> CommissioningResult:
@@ -693,9 +696,11 @@ def commission(
         Refuse an applicator without a measured source path. Default: True for user files
         (folder, JSON, RT Plan), False for shipped applicators and Applicator objects (which are
         then compared simulated vs centreline).
+    progress : bool
+        Show the engine's progress bar (tqdm, on stderr).
     simulator, scene_factory : callable, optional
         Replace ``ringqa.simulation.simulate`` / ``Scene.for_channel(channel, cable=...)``
-        (tests, other engines). ``simulator(scene, advances_mm=..., progress=False)`` must return
+        (tests, other engines). ``simulator(scene, advances_mm=..., progress=...)`` must return
         an object with ``status, message, advances_mm, source_pos_m, source_dir``.
 
     Returns
@@ -760,7 +765,7 @@ def commission(
     t0 = time.perf_counter()
     sim_pos, sim_dir, sim_info, scene_dict, afterloader = _simulate(
         app, ring, rel, cable=cable, scene_overrides=scene_overrides, simulator=simulator,
-        scene_factory=scene_factory, notes=notes,
+        scene_factory=scene_factory, notes=notes, progress=progress,
     )  # fmt: skip
     timings["simulation_s"] = time.perf_counter() - t0
     cl_pos, cl_dir = _centreline_dwells(ring, rel)

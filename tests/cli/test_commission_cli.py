@@ -185,7 +185,8 @@ def test_real_jam_is_clean(tmp_path, capsys):
     if real_engine() is None:
         pytest.skip("the simulation engine is not installed")
     out = tmp_path / "out"
-    code = main(["commission", "ring26x60", "--out", str(out), "--set", "solver.jam_force_n=0.05"])
+    args = ["commission", "ring26x60", "--out", str(out), "--set", "solver.jam_force_n=0.05"]
+    code = main([*args, "--quiet"])
     assert code == 2
     err = capsys.readouterr().err.strip()
     assert "jammed" in err and len(err.splitlines()) == 1
