@@ -200,13 +200,13 @@ def newton(
 
     Newton with the exact banded Jacobian, every step limited to ``max_step`` (m) per coordinate
     (a trust region that stops a step from crossing the lumen) and a backtracking line search on
-    ``|r|^2`` (Armijo, halving up to 12 times). Converged when ``max |r_free| <= tol_abs``.
+    ``|r|^2`` (Armijo, halving up to 8 times). Converged when ``max |r_free| <= tol_abs``.
 
     Returns
     -------
     status : int
         0 converged, 1 iteration limit, 2 singular Jacobian, 3 non-finite residual, 4 stalled
-        (the line search cut four consecutive steps below 1/32), 5 no progress (the residual has
+        (the line search cut three consecutive steps below 1/32), 5 no progress (the residual has
         not halved in 20 iterations).
     iters : int
         Newton iterations used.
@@ -224,13 +224,17 @@ def newton(
     n_small = 0
     best = np.inf
     it_best = 0
+    fresh = False  # r and B already hold the values at q (from the accepted line-search trial)
     for it in range(max_iter + 1):
-        assemble(
-            q, q_prev, v_prev, q_ref, nd, n_nodes, kl, link_len, hinge_k, twist_k, node_mass,
-            node_rot, samp_link, samp_alpha, samp_ro, samp_s, samp_d_prev, h, pos, tan, nor,
-            kappa_min_flat, seg_s, seg_rb, seg_ra, seg_flat, cpar, flags, g, dt, r, B, True,
-            samp_p, samp_d, samp_n, samp_H, samp_z, samp_w, samp_F, samp_dF, energies,
-        )  # fmt: skip
+        if not fresh:
+            assemble(
+                q, q_prev, v_prev, q_ref, nd, n_nodes, kl, link_len, hinge_k, twist_k,
+                node_mass, node_rot, samp_link, samp_alpha, samp_ro, samp_s, samp_d_prev, h,
+                pos, tan, nor, kappa_min_flat, seg_s, seg_rb, seg_ra, seg_flat, cpar, flags, g,
+                dt, r, B, True, samp_p, samp_d, samp_n, samp_H, samp_z, samp_w, samp_F, samp_dF,
+                energies,
+            )  # fmt: skip
+        fresh = False
         res = 0.0
         merit0 = 0.0
         for i in range(n_free):
@@ -266,13 +270,13 @@ def newton(
             scale = max_step / mx
         q0[:] = q
         lam = scale
-        for _ls in range(13):
+        for _ls in range(9):
             update_chain(q0, rhs, lam, nd, n_nodes, n_free, q)
             assemble(
                 q, q_prev, v_prev, q_ref, nd, n_nodes, kl, link_len, hinge_k, twist_k, node_mass,
                 node_rot, samp_link, samp_alpha, samp_ro, samp_s, samp_d_prev, h, pos, tan, nor,
                 kappa_min_flat, seg_s, seg_rb, seg_ra, seg_flat, cpar, flags, g, dt, r_try, B,
-                False, samp_p, samp_d, samp_n, samp_H, samp_z, samp_w, samp_F, samp_dF, energies,
+                True, samp_p, samp_d, samp_n, samp_H, samp_z, samp_w, samp_F, samp_dF, energies,
             )  # fmt: skip
             merit = 0.0
             for i in range(n_free):
@@ -280,6 +284,9 @@ def newton(
             if math.isfinite(merit) and merit <= (1.0 - 1e-4 * lam) * merit0:
                 break
             lam *= 0.5
+        # the last trial's residual and Jacobian are those of the new q: reuse them
+        r[:] = r_try
+        fresh = True
         if mx * lam < 1e-15:
             # stagnation at round-off
             status = 1
@@ -288,7 +295,7 @@ def newton(
         # give up early so the driver can cut the step or stabilise
         if lam < scale / 32.0:
             n_small += 1
-            if n_small >= 4:
+            if n_small >= 3:
                 status = 4
                 break
         else:

@@ -26,6 +26,7 @@ from dataclasses import asdict
 import numpy as np
 
 from ringqa.errors import SceneError, SimulationError
+from ringqa.provenance import Provenance
 from ringqa.simulation import _kernels as K
 from ringqa.simulation.chain import build_chain, contact_samples
 from ringqa.simulation.channel import KAPPA_MIN_FLAT, ChannelTable
@@ -639,4 +640,5 @@ def run(scene, advances_m: np.ndarray, progress: bool = False) -> SimResult:
         nodes_m=out_nodes,
         trajectory=trajectory,
         max_penetration_m=max_pen,
+        provenance=Provenance.now(settings={"scene": scene.name, **settings}),
     )
