@@ -411,9 +411,11 @@ def _dose_page(plt, res):
         ax1.plot(pu[k], pv[k], "*", color=colour, ms=9)
         ax2.plot(pu[k], ph[k], "*", color=colour, ms=9)
         label = short.get(name, name)
-        off = {"point_a": (-6, 9), "surface": (-12, -13), "depth5": (3, -13)}.get(
-            pts["kind"].iloc[k], (4, 4)
-        )
+        off = {  # labels point away from each other on both sides (offsets in points)
+            "point_a_left": (-6, 9), "point_a_right": (-6, 9),
+            "surface_left": (-14, -13), "surface_right": (3, -13),
+            "depth5_left": (3, -13), "depth5_right": (-14, -13),
+        }.get(name, (4, 4))  # fmt: skip
         for ax, yy in ((ax1, pv[k]), (ax2, ph[k])):
             ax.annotate(label, (pu[k], yy), xytext=off, textcoords="offset points", fontsize=7)
     # zoom on the dwells and points (the channels' long stems would dwarf them)
