@@ -11,10 +11,12 @@ Definitions (``DosePointSpec`` defaults; every distance is configurable):
   -- 20 mm cranial of the ring's cranial surface, which the Oncentra 26 mm / 60 degree plan puts
   6.9 mm above the channel plane -- and ``point_a_lateral_mm`` = 20 mm lateral of the axis.
 - **Lateral ring surface left/right** (Berger et al. 2007): in the ring plane, along
-  ``ring_lateral``, at ``ring radius + surface_offset_mm`` from the ring centre. ASSUMPTION: the
-  ring's lateral outer surface lies ``surface_offset_mm`` = 4.0 mm outside the channel centreline
-  (1.5 mm lumen radius + 2.5 mm wall/cap); ringqa ships no surface mesh, so change it to your
-  applicator's measured outer radius.
+  ``ring_lateral``, at ``ring radius + surface_offset_mm`` from the ring centre. The ring's lateral
+  outer surface lies ``surface_offset_mm`` = 6.25 mm outside the channel centreline: measured on
+  the surface mesh ("skin") of the Ring CT/MR 26 mm / 60 deg ring (part 110350-06) in the Oncentra
+  library of data/examples/oncentra_ring26x60 (outer radius 19.25 mm in the ring plane around a
+  13.0 mm centreline; tests/plan/test_plan_points.py repeats the measurement). ASSUMED the same
+  for the 30 and 34 mm rings (same cap design); set it to your applicator's outer radius - R.
 - **Lateral 5 mm left/right**: ``depth_mm`` = 5 mm further out along the same lateral line.
 """
 
@@ -51,14 +53,14 @@ class DosePointSpec:
         Distance of Point A from the ring normal through the ring centre (20 mm).
     surface_offset_mm : float
         Distance of the ring's lateral outer surface outside the channel centreline, in the ring
-        plane (4.0 mm, an assumption: 1.5 mm lumen radius + 2.5 mm wall).
+        plane (6.25 mm, measured on the Oncentra library mesh of the 26 mm Ring CT/MR).
     depth_mm : float
         Depth of the deeper vaginal points beyond the lateral surface (5 mm).
     """
 
     point_a_height_mm: float = 26.9
     point_a_lateral_mm: float = 20.0
-    surface_offset_mm: float = 4.0
+    surface_offset_mm: float = 6.25
     depth_mm: float = 5.0
 
     def __post_init__(self) -> None:

@@ -443,7 +443,7 @@ def _dose_page(plt, res):
             f"A L/R = Point A left/right: {spec['point_a_lateral_mm']:g} mm lateral of the ring "
             f"axis, {spec['point_a_height_mm']:g} mm cranial of the ring channel plane. S L/R = "
             f"lateral ring surface, {spec['surface_offset_mm']:g} mm outside the channel "
-            "centreline in the ring plane (assumed outer surface). 5 L/R = "
+            "centreline in the ring plane (outer surface of the Ring CT/MR mesh). 5 L/R = "
             f"{spec['depth_mm']:g} mm deeper. Purple: the RT Plan's own points.",
             115,
         ),

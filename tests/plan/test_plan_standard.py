@@ -10,6 +10,7 @@ from hypothesis import strategies as st
 import tg43
 from ringqa.errors import RingQAError
 from ringqa.plan import (
+    DosePointSpec,
     DwellSet,
     Plan,
     applicator_dose_points,
@@ -21,11 +22,14 @@ from ringqa.plan import (
 )
 
 RING_RADIUS_MM = 13.0
+#: The hand-derived values below assume the lateral surface 4 mm outside the centreline
+#: (surface points at 17 mm, 5 mm deeper at 22 mm from the ring centre).
+SPEC = DosePointSpec(surface_offset_mm=4.0)
 
 
 def _ring_plan(source, ring_frame, path):
     rel, pos, dirs = resample_path(path, 2.5, 5.0)
-    pts = applicator_dose_points(ring_frame)
+    pts = applicator_dose_points(ring_frame, SPEC)
     plan = standard_plan([DwellSet("ring", rel, pos, dirs)], points_array_mm(pts[:2]), source)
     return plan, pts
 
@@ -139,7 +143,7 @@ def test_one_sided_plan_changes_that_side_most(mhdr, ring_frame, ring_path):
     path = ring_path(n=40, phi0_deg=90.0, step_mm=1.0)  # azimuth 90 -> about -86 deg: x > 0
     rel, pos, dirs = resample_path(path, 1.0, 5.0)
     assert np.all(pos[:, 0] > 0)
-    pts = applicator_dose_points(ring_frame)
+    pts = applicator_dose_points(ring_frame, SPEC)
     plan = standard_plan([DwellSet("ring", rel, pos, dirs)], points_array_mm(pts[:2]), mhdr)
     radial = pos.copy()
     radial[:, :2] *= 14.0 / 13.0
