@@ -719,6 +719,13 @@ def commission(
     if not (np.isfinite(prescription_gy) and prescription_gy > 0):
         raise RingQAError(f"--prescription-gy {prescription_gy!r}: must be a number > 0")
     rec, req = (float(x) for x in position_limits_mm)
+    if not (np.isfinite(rec) and np.isfinite(req) and 0 < rec <= req):
+        raise RingQAError(
+            f"position_limits_mm {position_limits_mm!r}: give (recommended, required) with "
+            "0 < recommended <= required, e.g. (1, 2)"
+        )
+    if not (np.isfinite(dose_action_pct) and dose_action_pct > 0):
+        raise RingQAError(f"--dose-action-pct {dose_action_pct!r}: must be a number > 0")
     app, rtplan, kind, input_files = _load_input(input)
     timings["load_s"] = time.perf_counter() - t_start
     ring = _channel(app, channel)

@@ -169,6 +169,10 @@ def test_lumen_smaller_than_cable(fakes):
 def test_bad_settings(fakes):
     with pytest.raises(RingQAError, match="prescription"):
         _run(fakes, prescription_gy=-1)
+    with pytest.raises(RingQAError, match="dose-action-pct"):
+        _run(fakes, dose_action_pct=0)
+    with pytest.raises(RingQAError, match="recommended <= required"):
+        _run(fakes, position_limits_mm=(2, 1))
     with pytest.raises(RingQAError, match="multiple"):
         _run(fakes, plan_step_mm=4.0)
     with pytest.raises(RingQAError, match="no channel 'ovoid'"):
