@@ -373,6 +373,37 @@ def _dose_verdict(check: str, diff_pct: np.ndarray, action: float) -> Verdict:
     )  # fmt: skip
 
 
+def _loaded_text(app, ring, kind: str) -> str:
+    """One sentence: what was loaded (channels, lengths, lumen, measured path)."""
+    parts = []
+    for ch in app.channels:
+        text = f"{ch.name} channel {m_to_mm(float(ch.centreline.length_m)):.1f} mm long"
+        lumen = getattr(ch, "lumen", None)
+        if lumen is not None and hasattr(lumen, "kernel_arrays"):
+            rb = np.asarray(lumen.kernel_arrays()[1], dtype=float)
+            if rb.size:
+                lo, hi = 2 * m_to_mm(float(rb.min())), 2 * m_to_mm(float(rb.max()))
+                text += (
+                    f", lumen {lo:.2f} mm"
+                    if abs(hi - lo) < 1e-9
+                    else f", lumen {lo:.2f}-{hi:.2f} mm"
+                )
+        path = getattr(ch, "measured_path_m", None)
+        if path is not None:
+            step = getattr(ch, "measured_step_m", None)
+            step_txt = f" at {m_to_mm(float(step)):g} mm" if step else ""
+            text += f", measured path {len(path)} positions{step_txt}"
+        else:
+            text += ", no measured path"
+        parts.append(text)
+    radius = m_to_mm(float(app.ring_radius_m))
+    s_ref = m_to_mm(ring.s_ref_m)
+    return (
+        f"Loaded ({kind}): {app.name}; " + "; ".join(parts)
+        + f"; ring centreline radius {radius:.2f} mm; s_ref ({ring.name}) = {s_ref:.2f} mm."
+    )  # fmt: skip
+
+
 def _verdict_meanings(verdicts, ref_kind: str) -> list[str]:
     """What a physicist should conclude from the verdicts that are not PASS."""
     out = []
@@ -758,6 +789,7 @@ def commission(
             f"applicator {app.name}: {n_out} measured positions lie beyond the channel entry "
             f"(relative position > s_ref = {s_ref_mm:.1f} mm): check s_ref / the measured path"
         )
+    notes.append(_loaded_text(app, ring, kind))
     if ref_kind == "centreline":
         notes.append(
             "No measured source path ships with this applicator: the reference is the channel "
