@@ -191,3 +191,41 @@ def test_real_jam_is_clean(tmp_path, capsys):
     err = capsys.readouterr().err.strip()
     assert "jammed" in err and len(err.splitlines()) == 1
     assert list(tmp_path.iterdir()) == []
+
+
+def test_user_folder_with_measured_path(tmp_path):
+    """A user's folder (applicator.json + centreline.csv + measured_path.csv): the measured path is
+    the ring26x60 centreline at s_ref - p (p = 0, 2.5, ..., 50 mm, all on the circle) moved 0.5 mm
+    radially outward, so centreline vs measured is 0.5 mm at every dwell (radial -0.5 mm), and the
+    report compares against the MEASURED path."""
+    import json as _json
+
+    import numpy as np
+
+    from ringqa.io.applicator_file import load_applicator
+    from ringqa.io.points import write_points
+
+    ring = load_applicator("ring26x60").channel("ring")
+    folder = tmp_path / "my_ring"
+    folder.mkdir()
+    s = np.linspace(0, ring.centreline.length_m, 600)
+    write_points(folder / "centreline.csv", ring.centreline.position(s))
+    p = ring.centreline.position(ring.s_ref_m - np.arange(21) * 2.5e-3)
+    outward = p.copy()
+    outward[:, 2] = 0
+    outward /= np.linalg.norm(outward, axis=1)[:, None]
+    write_points(folder / "measured_path.csv", p + 0.5e-3 * outward)
+    meta = {"format": "ringqa-applicator", "format_version": 1, "name": "my_ring", "units": "mm",
+            "lumen": {"kind": "circular", "r_b_mm": 1.5, "r_a_mm": 1.4},
+            "s_ref_mm": ring.s_ref_m * 1e3, "measured_step_mm": 2.5,
+            "ring_frame": {"centre_mm": [0, 0, 0], "normal": [0, 0, 1], "lateral": [1, 0, 0],
+                           "radius_mm": 13.0}}  # fmt: skip
+    (folder / "applicator.json").write_text(_json.dumps(meta))
+    out = tmp_path / "out"
+    assert main(["commission", str(folder), "--out", str(out), "--quiet", "--no-pdf"]) == 0
+    dwells = pd.read_csv(out / "dwells.csv")
+    cl = dwells[dwells.path == "centreline"]
+    assert len(cl) == 21
+    np.testing.assert_allclose(cl["dist_to_measured_mm"], 0.5, atol=0.01)
+    np.testing.assert_allclose(cl["radial_mm"], -0.5, atol=0.01)
+    assert json.loads((out / "results.json").read_text())["reference"] == "measured"
