@@ -18,9 +18,13 @@ from ringqa.simulation import _kernels as K
 
 #: table spacing (m); Hermite interpolation error ~ h^4 kappa^3 / 384 (< 1 nm at R = 5 mm)
 TABLE_SPACING_M = 0.25e-3
-#: flat sides of U-shaped lumens are honoured wherever the lumen has one (as
-#: ringqa.geometry's wall_distance); a negative value would switch them off
-KAPPA_MIN_FLAT = 0.0
+#: a U-shaped lumen's flat side lies on the outside of the bend (along -normal, as
+#: ringqa.geometry's wall_distance) where the centreline's curvature exceeds 2 x this (1/m:
+#: radius < 20 mm, every ring), and fades out smoothly below (gone at radius > 40 mm): at an
+#: S-bend's inflection the normal flips and the flat would jump to the other side (on the
+#: Oncentra 26/60 library channel that made every load step past the inflection fail: 76
+#: stabilised steps and 0.8 s; with the fade 12 and 0.24 s)
+KAPPA_MIN_FLAT = 25.0
 
 
 @dataclass(frozen=True)

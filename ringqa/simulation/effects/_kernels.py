@@ -396,6 +396,16 @@ def contact_geometry(
                     Ha[a, bb] = 0.0
         blended = False
         if flat < rb and kappa_min_flat >= 0.0:
+            # the flat side lies on the outside of the bend (-nor); where the centreline is
+            # nearly straight (an S-bend's inflection) the normal flips, so the flat fades out
+            # smoothly between curvature 2 kappa_min_flat and kappa_min_flat
+            kap = math.sqrt(d2[0] * d2[0] + d2[1] * d2[1] + d2[2] * d2[2])
+            if kap < 2.0 * kappa_min_flat:
+                fade = (kap - kappa_min_flat) / kappa_min_flat
+                fade = 0.0 if fade < 0.0 else fade
+                fade = fade * fade * (3.0 - 2.0 * fade)
+                flat = fade * flat + (1.0 - fade) * (rb + 0.5 * b)
+        if flat < rb and kappa_min_flat >= 0.0:
             # flat side at distance `flat` along -nor: equivalent centre distance
             # b = -o.nor + r_b - flat, grad -nor, Hessian -(dnor/ds) c'^T / D; the corner
             # (circle meets flat) is rounded by a C1 smooth maximum of width eps
