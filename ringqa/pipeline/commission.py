@@ -266,7 +266,12 @@ def _ring_arc_mm(app, channel, step_mm: float) -> float:
 def _reference(app, channel, step_mm: float | None):
     """Reference dwells of the ring: (kind, rel_mm, pos_mm, dirs, step_mm)."""
     path = getattr(channel, "measured_path_m", None)
-    if path is not None and len(path) >= 2:
+    if path is not None and len(path) < 2:
+        raise RingQAError(
+            f"applicator {app.name}, channel {channel.name}: the measured path has "
+            f"{len(path)} position(s); it needs at least 2 (most distal first)"
+        )
+    if path is not None:
         step = getattr(channel, "measured_step_m", None)
         if step is None or not step > 0:
             raise RingQAError(

@@ -290,11 +290,9 @@ def _positions_page(plt, res):
     ax2.set_ylabel("cranial (mm), orthogonal to the ring plane")
     ax2.set_title("orthogonal to the ring plane (seen from anterior/posterior)", fontsize=9)
     ax2.grid(alpha=0.3)
-    sub = d[d["path"] != res.reference]
     _, _, hh = _project(d[["x_mm", "y_mm", "z_mm"]].to_numpy(), geo)
     span = max(3.0, float(np.max(np.abs(hh))) * 1.3) if hh.size else 3.0
     ax2.set_ylim(-span, span)
-    _ = sub
     fig.subplots_adjust(left=0.12, right=0.95, bottom=0.06, top=0.92, hspace=0.25)
     return fig
 
