@@ -19,6 +19,9 @@ def warm_up() -> None:
     global _WARM
     if _WARM:
         return
+    from ringqa.simulation._cache import ensure_fresh_kernel_cache
+
+    ensure_fresh_kernel_cache()
     from ringqa.simulation.solvers.driver import run
     from ringqa.simulation.warmup import tiny_scenes
 

@@ -28,6 +28,7 @@ import numpy as np
 from ringqa.errors import SceneError, SimulationError
 from ringqa.provenance import Provenance
 from ringqa.simulation import _kernels as K
+from ringqa.simulation._cache import ensure_fresh_kernel_cache
 from ringqa.simulation.chain import build_chain, contact_samples
 from ringqa.simulation.channel import KAPPA_MIN_FLAT, ChannelTable
 from ringqa.simulation.effects import (
@@ -67,6 +68,7 @@ class Model:
     """
 
     def __init__(self, scene, advances_m: np.ndarray) -> None:
+        ensure_fresh_kernel_cache()
         self.scene = scene
         self.warnings: list[str] = []
         eff = scene.effects

@@ -1,0 +1,42 @@
+"""Keep numba's on-disk cache of the engine's kernels consistent across the kernel files.
+
+Numba keys a cached function on its own file's time stamp only. The solver kernels
+(``solvers/_kernels.py``) compile the effect kernels (``effects/_kernels.py``) and the channel
+kernels (``_kernels.py``) into themselves, so after a change to those files alone (an edit, a
+``git rebase``) the cached solver would keep running the old code. Before the first kernel call
+:func:`ensure_fresh_kernel_cache` hashes the three files and, when the hash differs from the one
+stamped at the last compile, removes their cached ``*.nbi``/``*.nbc`` files so numba recompiles.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from pathlib import Path
+
+_ROOT = Path(__file__).resolve().parent
+_FILES = ("_kernels.py", "effects/_kernels.py", "solvers/_kernels.py")
+_checked = False
+
+
+def ensure_fresh_kernel_cache() -> None:
+    """Drop stale cached kernels (once per process; silent where the cache is not writable)."""
+    global _checked
+    if _checked:
+        return
+    _checked = True
+    try:
+        h = hashlib.sha256()
+        for f in _FILES:
+            h.update((_ROOT / f).read_bytes())
+        digest = h.hexdigest()
+        stamp = _ROOT / "solvers" / "__pycache__" / "ringqa_kernels.sha256"
+        if stamp.is_file() and stamp.read_text().strip() == digest:
+            return
+        for f in _FILES:
+            cache = (_ROOT / f).parent / "__pycache__"
+            for p in cache.glob("_kernels.*.nb[ic]"):
+                p.unlink(missing_ok=True)
+        stamp.parent.mkdir(parents=True, exist_ok=True)
+        stamp.write_text(digest)
+    except OSError:  # pragma: no cover - read-only install: numba caches elsewhere
+        pass
