@@ -251,3 +251,17 @@ def test_pulled_rod_lies_on_inner_wall():
             inner.append(np.min(np.hypot(pts[:, 0] - centre[0], pts[:, 1] - centre[1])) - 0.013)
     assert len(inner) >= 8
     assert np.median(inner) == pytest.approx(-0.2e-3, rel=0.05)
+
+
+def test_cantilever_under_its_own_weight():
+    """Gravity effect: a clamped rod under a uniform weight w per length deflects
+    w L^4 / (8 EI) at the tip (small deflection). 0.04 kg/m, L = 0.1 m, EI = 5e-4 N m^2 and
+    g = 1.25 m/s^2 -> w L^3 / EI = 0.1, deflection 1.25 mm (the large-deflection correction is
+    ~1e-4 relative). 50 links with lumped masses; within 1 %."""
+    m, q = _cantilever(50, Effects(friction="none", contact=False, gravity_m_s2=(0.0, -1.25, 0.0)))
+    L = m.chain.cum[-2]
+    status, _, _ = m.solve(q, q.copy(), q * 0, 1.0)
+    assert status == 0
+    x = m.nodes(q)
+    w = 0.04 * 1.25
+    assert -(x[0, 1] - x[-2, 1]) == pytest.approx(w * L**4 / (8 * EI), rel=0.01)
