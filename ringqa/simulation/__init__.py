@@ -7,5 +7,14 @@ from ringqa.simulation.engine import simulate
 from ringqa.simulation.instruments import CABLE_PRESETS, CONTACT_PRESETS, cable_preset
 from ringqa.simulation.result import SimResult
 from ringqa.simulation.scene import Scene
+from ringqa.simulation.scenefile import load_scene
 
-__all__ = ["CABLE_PRESETS", "CONTACT_PRESETS", "Scene", "SimResult", "cable_preset", "simulate"]
+__all__ = [
+    "CABLE_PRESETS",
+    "CONTACT_PRESETS",
+    "Scene",
+    "SimResult",
+    "cable_preset",
+    "load_scene",
+    "simulate",
+]
