@@ -117,6 +117,11 @@ class ContactParams:
         The transition zone is at most this fraction of the clearance r_b - r_o (engine).
     friction_v_reg_m_s : float or None
         Regularisation velocity of the tanh in the friction law (m/s); None = v_brk / 10 (paper).
+    friction_slip_min_m : float
+        Quasi-static only: the regularisation never acts over less slip per load step than this
+        (m), i.e. v_reg >= friction_slip_min_m / dt. With dt = increment / speed the tanh would
+        otherwise sharpen without bound as a step is cut (0.2 um at 1 mm steps, 0.4 nm cut 256
+        times) and Newton stall. 0.1 um: a micro-slip well below anything reported.
     """
 
     stiffness_n_m: float = 1.0e5
@@ -127,6 +132,7 @@ class ContactParams:
     transition_m: float | None = None
     transition_max_fraction: float = 0.2
     friction_v_reg_m_s: float | None = None
+    friction_slip_min_m: float = 1.0e-7
 
 
 @dataclass(frozen=True)

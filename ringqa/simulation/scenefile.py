@@ -115,6 +115,7 @@ SCHEMA: dict[str, dict[str, tuple[Any, Any, Any]]] = {
         "transition_mm": (_NUM, None, "positive"),
         "transition_max_fraction": (_NUM, None, "positive"),
         "friction_v_reg_mm_s": (_NUM, None, "positive"),
+        "friction_slip_min_m": (_NUM, None, "nonneg"),
     },
     "motion": {
         "kind": ((str,), "constant", MOTION_KINDS),
@@ -147,6 +148,7 @@ EXTRA_FIELDS = {
     "contact": {
         "transition_max_fraction": ("transition_max_fraction", "1"),
         "friction_v_reg_mm_s": ("friction_v_reg_m_s", "mm"),
+        "friction_slip_min_m": ("friction_slip_min_m", "1"),
     },
     "solver": {
         "axial_stiffness_n": ("axial_stiffness_n", "1"),

@@ -28,9 +28,10 @@ CPAR = {
     "v_reg": 7,
     "stabilisation": 8,
     "k_axial": 9,
+    "slip_min": 10,
 }
 N_FLAGS = 7
-N_CPAR = 10
+N_CPAR = 11
 
 
 def positive(key: str, value, allow_zero: bool = False) -> float:

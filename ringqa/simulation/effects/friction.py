@@ -5,7 +5,8 @@
 ``contact.friction_v_reg_m_s`` is set. Quasi-statically the contact velocity is the tangential slip
 over the load step divided by the step's time ``increment / motion.speed`` (an incremental slip
 law: a node that slips less than ~ v_reg dt per step is sticking); dynamically it is the
-backward-Euler velocity.
+backward-Euler velocity. Quasi-statically v_reg is floored at ``contact.friction_slip_min_m / dt``
+(0.1 um of slip per step) so that cutting a load step does not sharpen the law without bound.
 """
 
 from __future__ import annotations
@@ -27,6 +28,7 @@ class Friction:
     mu_k: float
     v_brk: float
     v_reg: float
+    slip_min: float = 1.0e-7
 
     @classmethod
     def from_scene(cls, scene) -> Friction | None:
@@ -49,7 +51,10 @@ class Friction:
             if c.friction_v_reg_m_s is None
             else positive("contact.friction_v_reg_m_s", c.friction_v_reg_m_s)
         )
-        return cls(LAWS[law], mu_s, mu_k, v_brk, v_reg)
+        slip_min = positive("contact.friction_slip_min_m", c.friction_slip_min_m, allow_zero=True)
+        if scene.solver.kind == "dynamic":
+            slip_min = 0.0  # real time: the velocity is physical
+        return cls(LAWS[law], mu_s, mu_k, v_brk, v_reg, slip_min)
 
     def pack(self, flags, cpar) -> None:
         """Write the parameters into the kernel arrays and switch the effect on."""
@@ -58,3 +63,4 @@ class Friction:
         cpar[CPAR["mu_k"]] = self.mu_k
         cpar[CPAR["v_brk"]] = self.v_brk
         cpar[CPAR["v_reg"]] = self.v_reg
+        cpar[CPAR["slip_min"]] = self.slip_min

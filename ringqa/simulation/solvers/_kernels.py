@@ -4,7 +4,7 @@
 inertia, gravity, torsion, stabilisation]. An effect whose flag is 0 is not called at all.
 ``q_ref``: the predicted state the stabilisation's viscosity acts against.
 ``cpar`` (float64 array): [k_wall, transition (<= 0: from the lumen), transition_max_fraction,
-c_w, mu_s, mu_k, v_brk, v_reg, stabilisation, k_axial].
+c_w, mu_s, mu_k, v_brk, v_reg, stabilisation, k_axial, slip_min].
 ``energies`` (float64 (8,)): axial, bending, torsion, contact, gravity potential, friction work of
 the step, damping work of the step, kinetic (not filled here).
 """
@@ -99,10 +99,11 @@ def assemble(
             clamp_normal(samp_F, samp_dF)
         apply_normal(nd, samp_link, samp_alpha, samp_n, samp_H, samp_F, samp_dF, r, B, kl, jac)
         if flags[1]:
+            v_reg = max(cpar[7], cpar[10] / dt)
             energies[5] = add_friction(
                 q, q_prev, nd, samp_link, samp_alpha, samp_ro, samp_p, samp_n, samp_H, samp_F,
                 samp_dF,
-                flags[1], cpar[4], cpar[5], cpar[6], cpar[7], dt, flags[5] != 0, r, B, kl, jac,
+                flags[1], cpar[4], cpar[5], cpar[6], v_reg, dt, flags[5] != 0, r, B, kl, jac,
             )  # fmt: skip
     if flags[4]:
         energies[4] = add_gravity(q, nd, n_nodes, node_mass, g, r)
