@@ -118,8 +118,8 @@ class ContactParams:
     friction_v_reg_m_s : float or None
         Regularisation velocity of the tanh in the friction law (m/s); None = v_brk / 10 (paper).
     friction_slip_min_m : float
-        Quasi-static only: the regularisation never acts over less slip per load step than this
-        (m), i.e. v_reg >= friction_slip_min_m / dt. With dt = increment / speed the tanh would
+        The regularisation never acts over less slip per (load or time) step than this (m), i.e.
+        v_reg >= friction_slip_min_m / dt. With dt = increment / speed the tanh would
         otherwise sharpen without bound as a step is cut (0.2 um at 1 mm steps, 0.4 nm cut 256
         times) and Newton stall. 0.1 um: a micro-slip well below anything reported.
     """

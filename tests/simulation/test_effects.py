@@ -181,13 +181,13 @@ def test_contact_params_validation_names_key():
 
 
 def test_u_lumen_jacobian_is_close():
-    """U-shaped lumen (flat 0.3 mm from the centreline on the outside of a 13 mm arc, corners
+    """U-shaped lumen (flat 0.32 mm from the centreline on the outside of a 13 mm arc, corners
     rounded): the contact Jacobian matches finite differences to 1 % of its largest entry (the
     flat's normal is interpolated from the table, its rate taken piecewise constant)."""
     from ringqa.simulation.analytic import ArcCentreline, SimpleChannel, SimpleLumen
 
     cl = ArcCentreline(0.04, 0.013, 1.9 * np.pi)
-    lumen = SimpleLumen((0.0, np.inf), (0.5e-3,), (0.45e-3,), (0.3e-3,))
+    lumen = SimpleLumen((0.0, np.inf), (0.5e-3,), (0.45e-3,), (0.32e-3,))
     sc = scene(SimpleChannel("u", cl, lumen, 0.1), rod(), effects=Effects(friction="none"),
                solver=SolverSettings(axial_stiffness_n=1.0))  # fmt: skip
     m = Model(sc, np.array([0.06]))

@@ -5,8 +5,9 @@
 ``contact.friction_v_reg_m_s`` is set. Quasi-statically the contact velocity is the tangential slip
 over the load step divided by the step's time ``increment / motion.speed`` (an incremental slip
 law: a node that slips less than ~ v_reg dt per step is sticking); dynamically it is the
-backward-Euler velocity. Quasi-statically v_reg is floored at ``contact.friction_slip_min_m / dt``
-(0.1 um of slip per step) so that cutting a load step does not sharpen the law without bound.
+backward-Euler velocity. v_reg is floored at ``contact.friction_slip_min_m / dt`` (0.1 um of slip
+per step) so that cutting a step does not sharpen the law without bound (dynamically this is
+inactive at the default 1 ms step: 0.1 um / 1 ms = v_brk / 10).
 """
 
 from __future__ import annotations
@@ -52,8 +53,6 @@ class Friction:
             else positive("contact.friction_v_reg_m_s", c.friction_v_reg_m_s)
         )
         slip_min = positive("contact.friction_slip_min_m", c.friction_slip_min_m, allow_zero=True)
-        if scene.solver.kind == "dynamic":
-            slip_min = 0.0  # real time: the velocity is physical
         return cls(LAWS[law], mu_s, mu_k, v_brk, v_reg, slip_min)
 
     def pack(self, flags, cpar) -> None:

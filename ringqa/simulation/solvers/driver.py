@@ -142,6 +142,12 @@ class Model:
                 f"instrument radius {ro_max * 1e3:.3f} mm does not fit the lumen "
                 f"(r_b = {rb_min * 1e3:.3f} mm): check the lumen or the instrument"
             )
+        flat_min = float(np.min(tb.seg_flat))
+        if flat_min <= ro_max:
+            raise SimulationError(
+                f"instrument radius {ro_max * 1e3:.3f} mm does not fit the U-shaped lumen "
+                f"(flat side {flat_min * 1e3:.3f} mm from the centreline): check the lumen"
+            )
         self.clearance = rb_min - ro_max
         # guard: a straight link cannot fit a bend at all when its bow l^2/(8R) exceeds the
         # lumen's width 2c; check each section against the tightest bend it can reach
