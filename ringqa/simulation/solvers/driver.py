@@ -334,6 +334,42 @@ class Model:
         return ke
 
 
+def initial_equilibrium(model: Model, q: np.ndarray, v: np.ndarray, dt: float) -> tuple[int, int]:
+    """Static equilibrium of the starting chain (in place); returns (Newton status, iterations).
+
+    Friction, damping and inertia are off (no history). If the direct solve fails (e.g. gravity
+    drops the whole cable onto the wall at once) the loads are ramped in ten steps, each carried by
+    the fallback stabilisation's pseudo-time steps and finished by a plain solve.
+    """
+    flags_saved = model.flags.copy()
+    for name in ("inertia", "friction", "wall_damping", "stabilisation"):
+        model.flags[FLAG[name]] = 0
+    q0 = q.copy()
+    st, it, _ = model.solve(q, q.copy(), v, dt)
+    if st != 0:
+        q[:] = q0
+        g_full = model.g.copy()
+        stab = model.fallback_stab(1e-3)
+        for f in np.linspace(0.1, 1.0, 10):
+            model.g[:] = f * g_full
+            for _ in range(50):  # pseudo-time steps towards the loaded state
+                model.set_stabilisation(stab)
+                st, k, _ = model.solve(q, q.copy(), v, 1e-3, q.copy())
+                it += k
+                model.set_stabilisation(0.0)
+                qs = q.copy()
+                st, k, _ = model.solve(q, q.copy(), v, dt)
+                it += k
+                if st == 0:
+                    break
+                q[:] = qs
+            if st != 0:
+                break
+        model.g[:] = g_full
+    model.flags[:] = flags_saved
+    return st, it
+
+
 def waypoints(scene, advances_m: np.ndarray, u_start: float) -> list[tuple[float, list[int]]]:
     """The input path: (advance, indices of requested advances recorded there) in travel order."""
     kind = scene.motion.kind
@@ -375,15 +411,9 @@ def run(scene, advances_m: np.ndarray, progress: bool = False) -> SimResult:
     v = np.zeros(model.n_all)
     dt0 = model.time_step if dynamic else 1.0
     # initial equilibrium (no history: q_prev = q, static)
-    flags_saved = model.flags.copy()
-    model.flags[FLAG["inertia"]] = 0
-    model.flags[FLAG["friction"]] = 0
-    model.flags[FLAG["wall_damping"]] = 0
-    model.flags[FLAG["stabilisation"]] = 0
-    st, it, _ = model.solve(q, q.copy(), v, dt0)
-    model.flags[:] = flags_saved
+    st, it = initial_equilibrium(model, q, v, dt0)
     model.samp_d_prev[:] = model.samp_d
-    status = STATUS_SUCCESS if st in (0, 1) else STATUS_FAILED
+    status = STATUS_SUCCESS if st == 0 else STATUS_FAILED
     message = ""
     total_iters = it
     iters_since = it
