@@ -338,8 +338,10 @@ def initial_equilibrium(model: Model, q: np.ndarray, v: np.ndarray, dt: float) -
     """Static equilibrium of the starting chain (in place); returns (Newton status, iterations).
 
     Friction, damping and inertia are off (no history). If the direct solve fails (e.g. gravity
-    drops the whole cable onto the wall at once) the loads are ramped in ten steps, each carried by
-    the fallback stabilisation's pseudo-time steps and finished by a plain solve.
+    drops the whole cable onto the wall at once) the chain is walked there by pseudo-time steps:
+    each solves with a viscous tether to the previous pseudo-state whose stiffness (10 x the
+    heaviest node's weight per clearance) lets a node move about a tenth of the clearance per
+    step; every 5 steps a plain solve is tried from the current state.
     """
     flags_saved = model.flags.copy()
     for name in ("inertia", "friction", "wall_damping", "stabilisation"):
@@ -348,24 +350,19 @@ def initial_equilibrium(model: Model, q: np.ndarray, v: np.ndarray, dt: float) -
     st, it, _ = model.solve(q, q.copy(), v, dt)
     if st != 0:
         q[:] = q0
-        g_full = model.g.copy()
-        stab = model.fallback_stab(1e-3)
-        for f in np.linspace(0.1, 1.0, 10):
-            model.g[:] = f * g_full
-            for _ in range(50):  # pseudo-time steps towards the loaded state
-                model.set_stabilisation(stab)
-                st, k, _ = model.solve(q, q.copy(), v, 1e-3, q.copy())
-                it += k
-                model.set_stabilisation(0.0)
+        weight = float(np.max(model.node_mass)) * float(np.linalg.norm(model.g))
+        k_tether = 10.0 * max(weight, 1e-4) / model.clearance
+        for i in range(300):
+            model.set_stabilisation(k_tether)  # with dt = 1: stiffness k_tether per node
+            model.solve(q, q.copy(), v, 1.0, q.copy())
+            model.set_stabilisation(0.0)
+            if i % 5 == 4:
                 qs = q.copy()
                 st, k, _ = model.solve(q, q.copy(), v, dt)
                 it += k
                 if st == 0:
                     break
                 q[:] = qs
-            if st != 0:
-                break
-        model.g[:] = g_full
     model.flags[:] = flags_saved
     return st, it
 
