@@ -13,7 +13,8 @@ kernel (:func:`ringqa.simulation.solvers._kernels.newton`). What differs:
 - dynamic: time steps of ``solver.time_step_s`` at ``motion.speed``; inertia on; predictor
   ``q + dt v``; a failed step is sub-stepped.
 
-Jams (push force above ``solver.jam_force_n``, or less than 10 % source progress over
+Jams (push force above ``solver.jam_force_n``, or less than 10 % progress of the tip, which
+carries the source, over
 ``solver.jam_length_m`` of forward input) end the run with status 1; a step that fails at the
 smallest increment ends it with status -1. Neither raises.
 """
@@ -174,6 +175,7 @@ class Model:
         self.samp_link, self.samp_alpha, self.samp_ro = contact_samples(
             chain, tb.min_radius_m(), self.clearance, float(solver.contact_bow_fraction)
         )
+        self._node_sample = np.searchsorted(self.samp_link, np.arange(chain.n_nodes - 1))
         if self.contact is not None:
             w_lumen = float(np.max(tb.seg_rb - tb.seg_ra))
             w = w_lumen if self.contact.transition_m <= 0 else self.contact.transition_m
@@ -249,8 +251,7 @@ class Model:
         x = self.nodes(q)
         hints = np.empty(self.n_nodes)
         # node hints: a sample sits on every node j at alpha = 0
-        first = np.searchsorted(self.samp_link, np.arange(self.n_nodes - 1))
-        hints[:-1] = self.samp_s[np.minimum(first, self.samp_s.size - 1)]
+        hints[:-1] = self.samp_s[self._node_sample]
         hints[-1] = hints[-2] - self.chain.link_len[-1]
         out = np.empty_like(x)
         s_out = np.empty(self.n_nodes)
@@ -421,7 +422,7 @@ def run(scene, advances_m: np.ndarray, progress: bool = False) -> SimResult:
     w_in = w_fr = w_damp = w_stab = 0.0
     ke0 = 0.0
     history_u = [u]
-    history_s = [model.table.closest(model.source(q)[0], u)[0]]
+    history_s = [float(model.samp_s[0])]  # the tip's closest arc length (sample 0 is the tip)
     frictionless = (
         model.friction is None and model.damping is None and model.stab == 0 and not dynamic
     )
@@ -583,7 +584,7 @@ def run(scene, advances_m: np.ndarray, progress: bool = False) -> SimResult:
                 )
                 break
             if du > 0:
-                s_src = model.table.closest(model.source(q)[0], history_s[-1])[0]
+                s_src = float(model.samp_s[0])
                 history_u.append(u)
                 history_s.append(s_src)
                 jl = scene.solver.jam_length_m
@@ -592,14 +593,14 @@ def run(scene, advances_m: np.ndarray, progress: bool = False) -> SimResult:
                     if s_src - history_s[k] < 0.1 * (u - history_u[k]):
                         status = STATUS_JAMMED
                         message = (
-                            f"jammed at advance {u * 1e3:.2f} mm: the source moved "
+                            f"jammed at advance {u * 1e3:.2f} mm: the tip moved "
                             f"{(s_src - history_s[k]) * 1e3:.2f} mm over the last "
                             f"{(u - history_u[k]) * 1e3:.1f} mm of input"
                         )
                         break
             else:
                 history_u = [u]
-                history_s = [model.table.closest(model.source(q)[0], u)[0]]
+                history_s = [float(model.samp_s[0])]
         if status != STATUS_SUCCESS:
             break
         record(idx, q)
