@@ -19,6 +19,10 @@ import numpy as np
 
 from ringqa.errors import SimulationError
 
+#: the cable length that carries the scene's wall stiffness and damping (m): the paper's
+#: contact parameters (Table 1) are per node of its 3 mm rigid-link elements
+WALL_REFERENCE_LENGTH_M = 3.0e-3
+
 
 @dataclass(frozen=True)
 class Chain:
@@ -161,25 +165,35 @@ def contact_samples(
     ``0, 1/m, ..., (m-1)/m``, so the bow between samples is at most ``bow_fraction`` of the
     clearance c. The tip node is a sample; the driven proximal node is not.
 
+    Each sample stands for the cable length ``l / m`` of its link; with
+    ``contact.stiffness_per_length`` its wall stiffness and damping are the scene's values times
+    ``(l / m) / WALL_REFERENCE_LENGTH_M``: a stiffness per unit length (a Winkler foundation), so
+    the contact converges as the links shrink instead of stiffening with every added sample. The
+    paper's k = 1e5 N/m is per node of its 3 mm links (the default: weight 1 at every sample).
+
     Returns
     -------
     samp_link : (P,) int64
     samp_alpha : (P,) float64
     samp_ro : (P,) float64
+    samp_wt : (P,) float64
+        Stiffness weight of each sample (1 for a 3 mm piece of cable).
     """
     if np.isfinite(min_radius_m):
         spacing = np.sqrt(8.0 * min_radius_m * bow_fraction * max(min_clearance_m, 1e-6))
     else:
         spacing = np.inf
-    links, alphas, ros = [], [], []
+    links, alphas, ros, wts = [], [], [], []
     for j, length in enumerate(chain.link_len):
         m = 1 if not np.isfinite(spacing) else max(1, int(np.ceil(length / spacing - 1e-9)))
         for k in range(m):
             links.append(j)
             alphas.append(k / m)
             ros.append(chain.link_ro[j])
+            wts.append(length / m / WALL_REFERENCE_LENGTH_M)
     return (
         np.asarray(links, dtype=np.int64),
         np.asarray(alphas, dtype=np.float64),
         np.asarray(ros, dtype=np.float64),
+        np.asarray(wts, dtype=np.float64),
     )

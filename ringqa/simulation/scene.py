@@ -122,6 +122,11 @@ class ContactParams:
         v_reg >= friction_slip_min_m / dt. With dt = increment / speed the tanh would
         otherwise sharpen without bound as a step is cut (0.2 um at 1 mm steps, 0.4 nm cut 256
         times) and Newton stall. 0.1 um: a micro-slip well below anything reported.
+    stiffness_per_length : bool
+        False (the paper): ``stiffness_n_m`` and ``damping_ns_m`` act at every contact sample.
+        True: they are per 3 mm of cable (the paper's element), each sample getting its share, so
+        the wall is a stiffness per unit length and refining the links does not stiffen it (for
+        convergence studies; tight bends then sink deeper into the wall with the paper's k).
     """
 
     stiffness_n_m: float = 1.0e5
@@ -133,6 +138,7 @@ class ContactParams:
     transition_max_fraction: float = 0.2
     friction_v_reg_m_s: float | None = None
     friction_slip_min_m: float = 1.0e-7
+    stiffness_per_length: bool = False
 
 
 @dataclass(frozen=True)

@@ -116,6 +116,7 @@ SCHEMA: dict[str, dict[str, tuple[Any, Any, Any]]] = {
         "transition_max_fraction": (_NUM, None, "positive"),
         "friction_v_reg_mm_s": (_NUM, None, "positive"),
         "friction_slip_min_m": (_NUM, None, "nonneg"),
+        "stiffness_per_length": ((bool,), None, None),
     },
     "motion": {
         "kind": ((str,), "constant", MOTION_KINDS),
@@ -149,6 +150,7 @@ EXTRA_FIELDS = {
         "transition_max_fraction": ("transition_max_fraction", "1"),
         "friction_v_reg_mm_s": ("friction_v_reg_m_s", "mm"),
         "friction_slip_min_m": ("friction_slip_min_m", "1"),
+        "stiffness_per_length": ("stiffness_per_length", "bool"),
     },
     "solver": {
         "axial_stiffness_n": ("axial_stiffness_n", "1"),
@@ -167,6 +169,9 @@ def _extra_in(ck: _Checker, section: str, obj):
             continue
         if not hasattr(obj, fname):
             raise ck.fail(f"{section}.{key}", "not supported by this engine", "remove the key")
+        if unit == "bool":
+            changes[fname] = bool(ck.value(section, key, sec=sec))
+            continue
         val = float(ck.value(section, key, sec=sec))
         changes[fname] = mm_to_m(val) if unit == "mm" else val
     return replace(obj, **changes) if changes else obj
@@ -177,7 +182,7 @@ def _extra_out(obj, section: str) -> dict:
     for key, (fname, unit) in EXTRA_FIELDS[section].items():
         val = getattr(obj, fname, None)
         if val is not None:
-            out[key] = m_to_mm(val) if unit == "mm" else val
+            out[key] = bool(val) if unit == "bool" else (m_to_mm(val) if unit == "mm" else val)
     return out
 
 

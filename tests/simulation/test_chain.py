@@ -66,7 +66,8 @@ def test_contact_samples_bound_the_bow(length, radius, clearance):
     ch = build_chain(
         Instrument("u", (CableSection("u", 1.0, 0.3e-3, 1e-4, 1e-4, 0.04, length),), 0.0), 0.1
     )
-    link, alpha, _ = contact_samples(ch, radius, clearance, 0.1)
+    link, alpha, _, wt = contact_samples(ch, radius, clearance, 0.1)
+    np.testing.assert_allclose(np.sum(wt) * 3e-3, ch.cum[-1], rtol=1e-12)  # stiffness per length
     for j in range(ch.n_links):
         a = np.sort(alpha[link == j])
         assert a[0] == 0.0

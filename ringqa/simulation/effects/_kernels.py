@@ -312,6 +312,7 @@ def contact_geometry(
     samp_link,
     samp_alpha,
     samp_ro,
+    samp_wt,
     h,
     pos,
     tan,
@@ -343,7 +344,9 @@ def contact_geometry(
     over 5 % of the clearance; ``kappa_min_flat < 0`` ignores flat sides). With
     b = r_b - r_o, w = min(r_b - r_a, max_frac b), a = b - w and z = (d - a) / w:
     F = 0 (z <= 0), k w z^2 / 2 (0 < z <= 1), k w (z - 1/2) (z > 1) (Khatait et al. 2014), which is
-    C1. ``samp_n`` = grad d (outward wall normal), ``samp_H`` = Hessian of d.
+    C1, k scaled by ``samp_wt`` (the cable length the sample stands for / the reference length:
+    a wall stiffness per unit length). ``samp_n`` = grad d (outward wall normal), ``samp_H`` =
+    Hessian of d.
     Returns the elastic contact energy.
     """
     work = np.empty(9)
@@ -437,22 +440,23 @@ def contact_geometry(
         samp_d[i] = dc
         z = (dc - aa) / w
         samp_z[i] = z
+        kw = k_wall * samp_wt[i]  # the wall stiffness of the cable length this sample stands for
         if z <= 0.0:
             samp_F[i] = 0.0
             samp_dF[i] = 0.0
         elif z <= 1.0:
-            samp_F[i] = 0.5 * k_wall * w * z * z
-            samp_dF[i] = k_wall * z
-            energy += k_wall * w * w * z * z * z / 6.0
+            samp_F[i] = 0.5 * kw * w * z * z
+            samp_dF[i] = kw * z
+            energy += kw * w * w * z * z * z / 6.0
         else:
-            samp_F[i] = k_wall * w * (z - 0.5)
-            samp_dF[i] = k_wall
-            energy += k_wall * w * w * (0.5 * z * z - 0.5 * z + 1.0 / 6.0)
+            samp_F[i] = kw * w * (z - 0.5)
+            samp_dF[i] = kw
+            energy += kw * w * w * (0.5 * z * z - 0.5 * z + 1.0 / 6.0)
     return energy
 
 
 @njit(cache=True)
-def add_wall_damping(samp_d, samp_d_prev, samp_z, samp_w, c_w, dt, samp_F, samp_dF):
+def add_wall_damping(samp_d, samp_d_prev, samp_z, samp_w, samp_wt, c_w, dt, samp_F, samp_dF):
     """Khatait wall damping ``c_w (3 - 2z) z^2 v_n`` (``c_w v_n`` beyond the wall), v_n = dd/dt.
 
     Returns the damping power times dt (the work of this term over the step, J).
@@ -469,9 +473,10 @@ def add_wall_damping(samp_d, samp_d_prev, samp_z, samp_w, c_w, dt, samp_F, samp_
         else:
             sh = 1.0
             dsh = 0.0
-        fd = c_w * sh * vn
+        cw = c_w * samp_wt[i]
+        fd = cw * sh * vn
         samp_F[i] += fd
-        samp_dF[i] += c_w * (dsh * vn + sh / dt)
+        samp_dF[i] += cw * (dsh * vn + sh / dt)
         work += fd * (samp_d[i] - samp_d_prev[i])
     return work
 

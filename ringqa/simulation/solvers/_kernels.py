@@ -49,6 +49,7 @@ def assemble(
     samp_link,
     samp_alpha,
     samp_ro,
+    samp_wt,
     samp_s,
     samp_d_prev,
     h,
@@ -88,13 +89,13 @@ def assemble(
         energies[2] = add_torsion(q, nd, n_nodes, twist_k, r, B, kl, jac)
     if flags[0]:
         energies[3] = contact_geometry(
-            q, nd, samp_link, samp_alpha, samp_ro, h, pos, tan, nor, kappa_min_flat,
+            q, nd, samp_link, samp_alpha, samp_ro, samp_wt, h, pos, tan, nor, kappa_min_flat,
             seg_s, seg_rb, seg_ra, seg_flat, cpar[1], cpar[2], cpar[0],
             samp_s, samp_p, samp_d, samp_n, samp_H, samp_z, samp_w, samp_F, samp_dF,
         )  # fmt: skip
         if flags[2]:
             energies[6] = add_wall_damping(
-                samp_d, samp_d_prev, samp_z, samp_w, cpar[3], dt, samp_F, samp_dF
+                samp_d, samp_d_prev, samp_z, samp_w, samp_wt, cpar[3], dt, samp_F, samp_dF
             )
             clamp_normal(samp_F, samp_dF)
         apply_normal(nd, samp_link, samp_alpha, samp_n, samp_H, samp_F, samp_dF, r, B, kl, jac)
@@ -167,6 +168,7 @@ def newton(
     samp_link,
     samp_alpha,
     samp_ro,
+    samp_wt,
     samp_s,
     samp_d_prev,
     h,
@@ -230,10 +232,10 @@ def newton(
         if not fresh:
             assemble(
                 q, q_prev, v_prev, q_ref, nd, n_nodes, kl, link_len, hinge_k, twist_k,
-                node_mass, node_rot, samp_link, samp_alpha, samp_ro, samp_s, samp_d_prev, h,
-                pos, tan, nor, kappa_min_flat, seg_s, seg_rb, seg_ra, seg_flat, cpar, flags, g,
-                dt, r, B, True, samp_p, samp_d, samp_n, samp_H, samp_z, samp_w, samp_F, samp_dF,
-                energies,
+                node_mass, node_rot, samp_link, samp_alpha, samp_ro, samp_wt, samp_s,
+                samp_d_prev, h, pos, tan, nor, kappa_min_flat, seg_s, seg_rb, seg_ra, seg_flat,
+                cpar, flags, g, dt, r, B, True, samp_p, samp_d, samp_n, samp_H, samp_z, samp_w,
+                samp_F, samp_dF, energies,
             )  # fmt: skip
         fresh = False
         res = 0.0
@@ -275,7 +277,8 @@ def newton(
             update_chain(q0, rhs, lam, nd, n_nodes, n_free, q)
             assemble(
                 q, q_prev, v_prev, q_ref, nd, n_nodes, kl, link_len, hinge_k, twist_k, node_mass,
-                node_rot, samp_link, samp_alpha, samp_ro, samp_s, samp_d_prev, h, pos, tan, nor,
+                node_rot, samp_link, samp_alpha, samp_ro, samp_wt, samp_s, samp_d_prev, h, pos,
+                tan, nor,
                 kappa_min_flat, seg_s, seg_rb, seg_ra, seg_flat, cpar, flags, g, dt, r_try, B,
                 True, samp_p, samp_d, samp_n, samp_H, samp_z, samp_w, samp_F, samp_dF, energies,
             )  # fmt: skip
@@ -303,7 +306,8 @@ def newton(
             n_small = 0
     assemble(
         q, q_prev, v_prev, q_ref, nd, n_nodes, kl, link_len, hinge_k, twist_k, node_mass, node_rot,
-        samp_link, samp_alpha, samp_ro, samp_s, samp_d_prev, h, pos, tan, nor, kappa_min_flat,
+        samp_link, samp_alpha, samp_ro, samp_wt, samp_s, samp_d_prev, h, pos, tan, nor,
+        kappa_min_flat,
         seg_s, seg_rb, seg_ra, seg_flat, cpar, flags, g, dt, r, B, False,
         samp_p, samp_d, samp_n, samp_H, samp_z, samp_w, samp_F, samp_dF, energies,
     )  # fmt: skip

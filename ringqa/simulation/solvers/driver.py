@@ -172,9 +172,11 @@ class Model:
                     f"{np.sqrt(16 * c_sec / np.max(kap)) * 1e3:.1f} mm "
                     "(discretisation.element_length_mm)"
                 )
-        self.samp_link, self.samp_alpha, self.samp_ro = contact_samples(
+        self.samp_link, self.samp_alpha, self.samp_ro, self.samp_wt = contact_samples(
             chain, tb.min_radius_m(), self.clearance, float(solver.contact_bow_fraction)
         )
+        if not scene.contact.stiffness_per_length:
+            self.samp_wt[:] = 1.0  # the paper's law: k and c_w at every contact point
         self._node_sample = np.searchsorted(self.samp_link, np.arange(chain.n_nodes - 1))
         if self.contact is not None:
             w_lumen = float(np.max(tb.seg_rb - tb.seg_ra))
@@ -278,7 +280,8 @@ class Model:
             q, self.n_free, q_prev, v_prev, q_prev if q_ref is None else q_ref, self.nd,
             self.n_nodes, self.kl,
             self.chain.link_len, self.bending.hinge_k, self.twist_k, self.node_mass,
-            self.node_rot, self.samp_link, self.samp_alpha, self.samp_ro, self.samp_s,
+            self.node_rot, self.samp_link, self.samp_alpha, self.samp_ro, self.samp_wt,
+            self.samp_s,
             self.samp_d_prev, tb.h, tb.pos, tb.tan, tb.nor, KAPPA_MIN_FLAT, tb.seg_s, tb.seg_rb,
             tb.seg_ra, tb.seg_flat, self.cpar, self.flags, self.g, dt, self.tol_abs,
             self.max_iter, self.max_step, self.r, self.B, self.samp_p, self.samp_d, self.samp_n,
