@@ -371,6 +371,51 @@ def initial_equilibrium(model: Model, q: np.ndarray, v: np.ndarray, dt: float) -
     return st, it
 
 
+#: dynamic runs: the input accelerates from rest to motion.speed over this time and decelerates
+#: likewise into every stop (a jump to full speed in one time step is an impulse ~ 1/dt)
+MOTION_RAMP_S = 0.01
+
+
+def stop_points(scene, path, u_start: float) -> list[int]:
+    """For each waypoint index, the index of the waypoint where the input next comes to rest.
+
+    Stepwise motion stops at every waypoint; otherwise the input stops where it reverses and at
+    the last waypoint.
+    """
+    n = len(path)
+    stop = [False] * n
+    stop[-1] = True if n else False
+    prev = u_start
+    for i in range(n - 1):
+        d_now = path[i][0] - prev
+        d_next = path[i + 1][0] - path[i][0]
+        if scene.motion.kind == "stepwise" or d_now * d_next < 0:
+            stop[i] = True
+        prev = path[i][0]
+    out = [0] * n
+    nxt = n - 1
+    for i in range(n - 1, -1, -1):
+        if stop[i]:
+            nxt = i
+        out[i] = nxt
+    return out
+
+
+def ramped_step(rem_target, rem_stop, t_move, speed, dt):
+    """(|du|, dt) of the next dynamic step on a trapezoidal input-velocity profile.
+
+    Accelerates at ``speed / MOTION_RAMP_S`` from rest, cruises at ``speed`` and decelerates at
+    the same rate so as to reach the next stop at rest; a step that would pass the target
+    waypoint is shortened to land on it.
+    """
+    acc = speed / MOTION_RAMP_S
+    v = min(speed, acc * (t_move + dt), np.sqrt(2.0 * acc * rem_stop))
+    v = max(v, acc * dt)  # never crawl: at least one step's worth of acceleration
+    if rem_target <= v * dt:
+        return rem_target, (dt if rem_target >= rem_stop - 1e-15 else rem_target / v)
+    return v * dt, dt
+
+
 def waypoints(scene, advances_m: np.ndarray, u_start: float) -> list[tuple[float, list[int]]]:
     """The input path: (advance, indices of requested advances recorded there) in travel order."""
     kind = scene.motion.kind
@@ -459,19 +504,21 @@ def run(scene, advances_m: np.ndarray, progress: bool = False) -> SimResult:
 
     if status != STATUS_SUCCESS:
         message = f"initial state did not converge at advance {u * 1e3:.2f} mm"
-    for target, idx in path if status == STATUS_SUCCESS else []:
+    stops = stop_points(scene, path, model.u_start)
+    t_move = 0.0  # time since the input last started from rest (dynamic)
+    for i_path, (target, idx) in enumerate(path if status == STATUS_SUCCESS else []):
         dwell_left = scene.motion.dwell_s if (dynamic and scene.motion.kind == "stepwise") else 0.0
+        u_stop = path[stops[i_path]][0]
         while status == STATUS_SUCCESS and (abs(target - u) > 1e-12 or dwell_left > 1e-15):
             # size of this step
             if dynamic:
                 remaining = target - u
                 if abs(remaining) > 1e-12:
-                    du = np.sign(remaining) * min(abs(remaining), model.speed * model.time_step)
-                    dt = (
-                        abs(du) / model.speed
-                        if abs(du) < model.speed * model.time_step
-                        else model.time_step
+                    du, dt = ramped_step(
+                        abs(remaining), abs(u_stop - u), t_move, model.speed, model.time_step
                     )
+                    du = float(np.sign(remaining)) * du
+                    t_move += dt
                 else:
                     du = 0.0
                     dt = min(model.time_step, dwell_left)
@@ -606,6 +653,8 @@ def run(scene, advances_m: np.ndarray, progress: bool = False) -> SimResult:
                 history_s = [float(model.samp_s[0])]
         if status != STATUS_SUCCESS:
             break
+        if stops[i_path] == i_path:
+            t_move = 0.0  # the input stopped here: the next move starts from rest
         record(idx, q)
         iters_since = 0
     if bar is not None:
