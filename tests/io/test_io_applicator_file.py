@@ -59,6 +59,11 @@ def test_shipped_files_match_the_generator(repo_root):
     finally:
         sys.path.pop(0)
     assert make_applicators.main(["--check", "--out", str(repo_root / "data" / "applicators")]) == 0
+    # the comparison forgives one rounding unit (1e-6 mm) and nothing more
+    tree = {"centreline_mm": [[1.000001, 2.0, 3.0]], "name": "x"}
+    assert make_applicators.same(tree, {"centreline_mm": [[1.000000, 2.0, 3.0]], "name": "x"})
+    assert not make_applicators.same(tree, {"centreline_mm": [[1.00001, 2.0, 3.0]], "name": "x"})
+    assert not make_applicators.same(tree, {"centreline_mm": [[1.000001, 2.0, 3.0]], "name": "y"})
 
 
 def _same(a: Applicator, b: Applicator) -> None:
