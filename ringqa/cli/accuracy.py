@@ -21,6 +21,8 @@ import argparse
 import math
 from pathlib import Path
 
+from ringqa.cli._options import add_set_option
+
 
 def add_parser(subparsers) -> None:
     p = subparsers.add_parser(
@@ -32,14 +34,7 @@ def add_parser(subparsers) -> None:
     p.add_argument("scene", help="scene TOML file, or a shipped scene name (ring26-flexitron)")
     p.add_argument("--out", required=True, type=Path, help="output folder")
     p.add_argument("--target-mm", type=float, default=0.1, help="accuracy to meet (mm, 0.1)")
-    p.add_argument(
-        "--set",
-        dest="overrides",
-        action="append",
-        default=[],
-        metavar="KEY=VALUE",
-        help="override a scene key before the study (repeatable)",
-    )
+    add_set_option(p)
     p.add_argument("--repeats", type=int, default=3, help="timed repeats per run (median; 3)")
     p.add_argument(
         "--factors",

@@ -15,9 +15,9 @@ from __future__ import annotations
 
 import argparse
 import sys
-import tomllib
 from pathlib import Path
 
+from ringqa.cli._options import add_set_option
 from ringqa.errors import RingQAError
 
 
@@ -52,14 +52,7 @@ def add_parser(subparsers) -> None:
     p.add_argument(
         "--dose-action-pct", type=float, default=5.0, help="dose-difference action level, %% (5)"
     )
-    p.add_argument(
-        "--set",
-        dest="overrides",
-        action="append",
-        default=[],
-        metavar="KEY=VALUE",
-        help="scene setting, e.g. --set solver.increment_mm=0.5 (repeatable)",
-    )
+    add_set_option(p)
     p.add_argument(
         "--centreline-reference",
         action="store_true",
@@ -74,21 +67,6 @@ def add_parser(subparsers) -> None:
     p.add_argument("--no-pdf", action="store_true", help="write the CSV/JSON files only")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
-
-
-def parse_overrides(items: list[str]) -> dict:
-    """``["a.b=1", "c=x"]`` -> ``{"a.b": 1, "c": "x"}`` (values read as TOML, else text)."""
-    out = {}
-    for item in items:
-        key, sep, value = item.partition("=")
-        key = key.strip()
-        if not sep or not key:
-            raise RingQAError(f"--set {item!r}: expected KEY=VALUE, e.g. solver.increment_mm=0.5")
-        try:
-            out[key] = tomllib.loads(f"v = {value.strip()}")["v"]
-        except tomllib.TOMLDecodeError:
-            out[key] = value.strip()
-    return out
 
 
 def _is_applicator_folder(path: Path) -> bool:
@@ -138,10 +116,11 @@ def run(args: argparse.Namespace) -> int:
     from ringqa.outdir import check_writable
     from ringqa.pipeline import commission, commission_batch
     from ringqa.report import write_batch, write_report
+    from ringqa.simulation.scenefile import parse_set_args
 
     check_writable(args.out)  # fail before the (long) simulations
     kwargs = {
-        "scene_overrides": parse_overrides(args.overrides),
+        "scene_overrides": parse_set_args(args.overrides),
         "source": args.source,
         "prescription_gy": args.prescription_gy,
         "dose_action_pct": args.dose_action_pct,

@@ -13,6 +13,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from ringqa.cli._options import add_set_option
+
 EXIT_JAMMED = 1
 EXIT_FAILED = 3
 
@@ -26,15 +28,7 @@ def add_parser(subparsers) -> None:
     )
     p.add_argument("scene", help="scene TOML file, or a shipped scene name (ring26-flexitron)")
     p.add_argument("--out", required=True, type=Path, help="output folder")
-    p.add_argument(
-        "--set",
-        dest="overrides",
-        action="append",
-        default=[],
-        metavar="KEY=VALUE",
-        help="override a scene key (dotted TOML path, user units), e.g. solver.increment_mm=0.5; "
-        "repeatable",
-    )
+    add_set_option(p)
     p.add_argument("--trajectory", action="store_true", help="also write DIR/trajectory.h5")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=run)

@@ -1,0 +1,24 @@
+"""Command-line options shared by several sub-commands (one definition, one parser)."""
+
+from __future__ import annotations
+
+import argparse
+
+SET_HELP = (
+    "override a scene key (dotted TOML path, user units), e.g. solver.increment_mm=0.5; repeatable"
+)
+
+
+def add_set_option(parser: argparse.ArgumentParser) -> None:
+    """``--set KEY=VALUE`` (repeatable) into ``args.overrides``.
+
+    Parse the collected strings with :func:`ringqa.simulation.scenefile.parse_set_args`.
+    """
+    parser.add_argument(
+        "--set",
+        dest="overrides",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help=SET_HELP,
+    )
