@@ -25,21 +25,10 @@ import numpy as np
 
 from ringqa.outdir import staged_output
 from ringqa.provenance import Provenance
+from ringqa.simulation.result import DWELL_COLUMNS
 from ringqa.units import m_to_mm
 
 TRAJECTORY_FORMAT_VERSION = "1.0"
-DWELL_COLUMNS = (
-    "advance_mm",
-    "x_mm",
-    "y_mm",
-    "z_mm",
-    "dir_x",
-    "dir_y",
-    "dir_z",
-    "push_force_n",
-    "s_mm",
-    "offset_mm",
-)
 
 # result attribute -> (dataset name, units, factor to the stored unit)
 _H5_FIELDS = (

@@ -12,8 +12,12 @@ import pytest
 
 import ringqa.simulation as sim
 from ringqa.cli import main
-from ringqa.simulation.output import DWELL_COLUMNS, write_outputs
+from ringqa.simulation.output import write_outputs
 from ringqa.simulation.scenefile import load_scene
+
+#: the issue-4 contract, written out here so that a change to the code's list cannot pass
+CONTRACT_COLUMNS = ("advance_mm", "x_mm", "y_mm", "z_mm", "dir_x", "dir_y", "dir_z", "push_force_n",
+                    "s_mm", "offset_mm")  # fmt: skip
 
 SCENE = Path(__file__).resolve().parents[2] / "data" / "scenes" / "arc-frictionless.toml"
 
@@ -57,7 +61,7 @@ def test_outputs_follow_the_contract(tmp_path):
     res = fake_result(scene)
     write_outputs(tmp_path, res, scene, inputs=[SCENE], trajectory=True)
     table = pd.read_csv(tmp_path / "dwells.csv")
-    assert list(table.columns[: len(DWELL_COLUMNS)]) == list(DWELL_COLUMNS)
+    assert list(table.columns[: len(CONTRACT_COLUMNS)]) == list(CONTRACT_COLUMNS)
     assert len(table) == len(scene.motion.advances_m)
     assert table["offset_mm"].to_numpy() == pytest.approx(0.5)
     assert table["s_mm"].to_numpy() == pytest.approx(table["advance_mm"].to_numpy(), abs=1e-6)
