@@ -262,12 +262,26 @@ def band_solve(B, kl, rhs, n):
     described in the module docstring; O(n kl^2). ``B`` and ``rhs`` are overwritten, the
     solution is returned in ``rhs[:n]``.
 
+    Each row's last possibly non-zero column is tracked (``last``: from the assembled entries,
+    carried along by row swaps and eliminations), and the row operations stop there: the
+    skipped terms are exact zeros (``x - f * 0 = x``), so the result is the same, bit for bit,
+    as running every row out to the full fill-in width ``2 kl``; without row swaps a row's fill
+    stays within ``kl`` and the work halves.
+
     Returns
     -------
     ok : bool
         False when a pivot is exactly zero (singular matrix).
     """
     ku = 2 * kl
+    W = B.shape[1]
+    Bf = B.reshape(-1)  # flat view: row operations index it with unsigned offsets (no wraparound)
+    last = np.empty(n, dtype=np.int64)
+    for i in range(n):
+        jl = min(n - 1, i + kl)
+        while jl > i and B[i, kl + jl - i] == 0.0:
+            jl -= 1
+        last[i] = jl
     for k in range(n):
         # pivot search in column k, rows k .. k + kl
         imax = min(n - 1, k + kl)
@@ -280,8 +294,8 @@ def band_solve(B, kl, rhs, n):
                 p = i
         if vmax == 0.0:
             return False
-        jmax = min(n - 1, k + ku)
         if p != k:
+            jmax = max(last[k], last[p])
             for j in range(k, jmax + 1):
                 a = B[k, kl + j - k]
                 B[k, kl + j - k] = B[p, kl + j - p]
@@ -289,18 +303,27 @@ def band_solve(B, kl, rhs, n):
             a = rhs[k]
             rhs[k] = rhs[p]
             rhs[p] = a
+            jl = last[k]
+            last[k] = last[p]
+            last[p] = jl
         piv = B[k, kl]
+        jmax = min(n - 1, k + ku, last[k])
+        bk = np.uint64(k * W + kl - k)  # B[k, kl + j - k] == Bf[bk + j]
         for i in range(k + 1, imax + 1):
             f = B[i, kl + k - i] / piv
             if f != 0.0:
                 B[i, kl + k - i] = 0.0
-                for j in range(k + 1, jmax + 1):
-                    B[i, kl + j - i] -= f * B[k, kl + j - k]
+                bi = np.uint64(i * W + kl - i)
+                for j in range(np.uint64(k + 1), np.uint64(jmax + 1)):
+                    Bf[bi + j] -= f * Bf[bk + j]
                 rhs[i] -= f * rhs[k]
+                if jmax > last[i]:
+                    last[i] = jmax
     for k in range(n - 1, -1, -1):
         acc = rhs[k]
-        jmax = min(n - 1, k + ku)
-        for j in range(k + 1, jmax + 1):
-            acc -= B[k, kl + j - k] * rhs[j]
+        jmax = min(n - 1, k + ku, last[k])
+        bk = np.uint64(k * W + kl - k)
+        for j in range(np.uint64(k + 1), np.uint64(jmax + 1)):
+            acc -= Bf[bk + j] * rhs[j]
         rhs[k] = acc / B[k, kl]
     return True
