@@ -35,7 +35,10 @@ VARIANTS = {
                    "effects.wall_damping": True, "motion.speed_mm_s": 500.0,
                    "solver.time_step_s": 1e-3},
 }  # fmt: skip
-KEYS = ("source_pos_m", "source_dir", "tip_pos_m", "push_force_n", "newton_iters", "s_m")
+KEYS = (
+    "source_pos_m", "source_dir", "tip_pos_m", "push_force_n", "newton_iters", "s_m", "offset_m",
+    "contact_force_n",
+)  # fmt: skip
 
 
 def cases():
@@ -63,13 +66,16 @@ def main() -> int:
         dt = float(np.nanmax(np.abs(got["tip_pos_m"] - ref["tip_pos_m"])))
         df = float(np.nanmax(np.abs(got["push_force_n"] - ref["push_force_n"])))
         same_it = bool(np.array_equal(got["newton_iters"], ref["newton_iters"]))
+        others = max(
+            float(np.nanmax(np.abs(got[k] - ref[k]), initial=0.0)) for k in KEYS if k in ref
+        )
         nan_ref = np.isnan(ref["source_pos_m"])
         nan_same = bool(np.array_equal(np.isnan(got["source_pos_m"]), nan_ref))
         worst = max(worst, dp, dt)
         print(
             f"{name:22s} status {res.status}/{int(ref['status'])}  max|dsrc| {dp:.3e} m  "
             f"max|dtip| {dt:.3e} m  max|dF| {df:.3e} N  iters same {same_it}  "
-            f"NaN same {nan_same}  {res.solve_time_s * 1e3:8.1f} ms"
+            f"NaN same {nan_same}  all outputs {others:.1e}  {res.solve_time_s * 1e3:6.1f} ms"
         )
     if mode == "compare":
         print(f"worst position difference {worst:.3e} m ({'OK' if worst <= 1e-9 else 'FAIL'})")

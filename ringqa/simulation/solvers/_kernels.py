@@ -16,7 +16,7 @@ import math
 import numpy as np
 from numba import njit
 
-from ringqa.simulation._kernels import band_solve
+from ringqa.simulation._kernels import band_solve, curve_eval, restore_lengths, slide_points
 from ringqa.simulation.effects._kernels import (
     add_axial,
     add_bending,
@@ -316,3 +316,55 @@ def newton(
         if abs(r[i]) > res:
             res = abs(r[i])
     return status, it, res
+
+
+@njit(cache=True)
+def predict(q, slide, du, u_new, nd, n_nodes, link_len, cum, cft, node_sample, samp_s, h, pos, tan):
+    """Load-step predictor in place on ``q`` (one call instead of four from Python).
+
+    With ``slide`` every free node is slid ``du`` along the channel keeping its offset
+    (``slide_points``; node hints from the samples at the nodes, ``samp_s`` advanced by ``du``);
+    then the two driven proximal nodes are put on the approach axis for input advance ``u_new``
+    (twist 0) and the free nodes' link lengths are restored. The same arithmetic as the driver's
+    ``Model.slide``, ``Model.prescribe`` and ``Model.restore_lengths``.
+    """
+    if slide:
+        x = np.empty((n_nodes, 3))
+        for k in range(n_nodes):
+            for a in range(3):
+                x[k, a] = q[nd * k + a]
+        hints = np.empty(n_nodes)
+        for k in range(n_nodes - 1):
+            hints[k] = samp_s[node_sample[k]]
+        hints[n_nodes - 1] = hints[n_nodes - 2] - link_len[n_nodes - 2]
+        out = np.empty((n_nodes, 3))
+        s_out = np.empty(n_nodes)
+        slide_points(h, pos, tan, x, hints, du, out, s_out)
+        for k in range(n_nodes - 2):
+            for a in range(3):
+                q[nd * k + a] = out[k, a]
+        for i in range(samp_s.shape[0]):
+            samp_s[i] += du
+    c = np.empty(3)
+    d1 = np.empty(3)
+    d2 = np.empty(3)
+    for k in range(n_nodes - 2, n_nodes):
+        curve_eval(h, pos, tan, u_new + cft - cum[k], c, d1, d2)
+        for a in range(3):
+            q[nd * k + a] = c[a]
+        if nd == 4:
+            q[nd * k + 3] = 0.0
+    restore_lengths(q, nd, n_nodes, link_len)
+
+
+@njit(cache=True)
+def lump_to_nodes(samp_link, samp_alpha, samp_F, out):
+    """Add each sample's force to its link's nodes by fraction (in place on ``out``).
+
+    The same order and arithmetic as ``np.add.at(out, link, (1 - alpha) F)`` followed by
+    ``np.add.at(out, link + 1, alpha F)``.
+    """
+    for i in range(samp_link.shape[0]):
+        out[samp_link[i]] += (1 - samp_alpha[i]) * samp_F[i]
+    for i in range(samp_link.shape[0]):
+        out[samp_link[i] + 1] += samp_alpha[i] * samp_F[i]

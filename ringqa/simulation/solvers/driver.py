@@ -177,7 +177,14 @@ class Model:
         )
         if not scene.contact.stiffness_per_length:
             self.samp_wt[:] = 1.0  # the paper's law: k and c_w at every contact point
-        self._node_sample = np.searchsorted(self.samp_link, np.arange(chain.n_nodes - 1))
+        self._node_sample = np.ascontiguousarray(
+            np.searchsorted(self.samp_link, np.arange(chain.n_nodes - 1)), dtype=np.int64
+        )
+        self._cum = np.ascontiguousarray(chain.cum, dtype=np.float64)
+        # the link that carries the source centre (the capsule)
+        self._src_link = int(
+            np.clip(np.searchsorted(chain.cum, self.cft, side="right") - 1, 0, chain.n_nodes - 2)
+        )
         if self.contact is not None:
             w_lumen = float(np.max(tb.seg_rb - tb.seg_ra))
             w = w_lumen if self.contact.transition_m <= 0 else self.contact.transition_m
@@ -264,6 +271,15 @@ class Model:
         self.samp_s += du
         return qn
 
+    def predict(self, q: np.ndarray, du: float, u_new: float, slide: bool) -> None:
+        """In place: ``slide`` (if True), ``prescribe(q, u_new)``, ``restore_lengths`` in one
+        kernel call (the same arithmetic; saves the Python overhead of a load step)."""
+        tb = self.table
+        SK.predict(
+            q, slide, du, u_new, self.nd, self.n_nodes, self.chain.link_len, self._cum,
+            self.cft, self._node_sample, self.samp_s, tb.h, tb.pos, tb.tan,
+        )  # fmt: skip
+
     def restore_lengths(self, q: np.ndarray) -> None:
         """Put every free node back at its link length from its proximal neighbour (in place).
 
@@ -311,7 +327,7 @@ class Model:
         """Source centre (3,), unit direction to the tip (3,), tip (3,)."""
         x = self.nodes(q)
         cum = self.chain.cum
-        j = int(np.clip(np.searchsorted(cum, self.cft, side="right") - 1, 0, self.n_nodes - 2))
+        j = self._src_link
         e = x[j] - x[j + 1]
         le = np.linalg.norm(e)
         d = e / le
@@ -321,8 +337,7 @@ class Model:
     def node_contact(self) -> np.ndarray:
         """Normal force magnitude lumped to the nodes (n_nodes,)."""
         out = np.zeros(self.n_nodes)
-        np.add.at(out, self.samp_link, (1 - self.samp_alpha) * self.samp_F)
-        np.add.at(out, self.samp_link + 1, self.samp_alpha * self.samp_F)
+        SK.lump_to_nodes(self.samp_link, self.samp_alpha, self.samp_F, out)
         return out
 
     def stored_energy(self) -> float:
@@ -491,16 +506,18 @@ def run(scene, advances_m: np.ndarray, progress: bool = False) -> SimResult:
     def record(idx_list, q_now):
         src, d, tip = model.source(q_now)
         s, off = model.table.closest(src, u)
+        contact = model.node_contact()
+        nodes = model.nodes(q_now)
         for i in idx_list:
             out_src[i] = src
             out_dir[i] = d
             out_tip[i] = tip
             out_push[i] = push
-            out_contact[i] = model.node_contact()
+            out_contact[i] = contact
             out_iters[i] = iters_since
             out_s[i] = s
             out_off[i] = off
-            out_nodes[i] = model.nodes(q_now)
+            out_nodes[i] = nodes
 
     if status != STATUS_SUCCESS:
         message = f"initial state did not converge at advance {u * 1e3:.2f} mm"
@@ -550,9 +567,8 @@ def run(scene, advances_m: np.ndarray, progress: bool = False) -> SimResult:
                     if dynamic:
                         q_try = q_try + (dt / sub) * v_try
                     else:
-                        q_try = model.slide(q_try, du / sub)
-                    model.prescribe(q_try, u + du * (k + 1) / sub)
-                    model.restore_lengths(q_try)
+                        q_try = q_try.copy()
+                    model.predict(q_try, du / sub, u + du * (k + 1) / sub, not dynamic)
                     q_ref = q_try.copy()
                     st, it, res = model.solve(q_try, qp, v_try, dt / sub, q_ref)
                     iters_step += it
