@@ -33,6 +33,21 @@ def _add_block(B, kl, nd, ni, nj, w, K):
             B[bi + a, kl + bj + b - bi - a] += w * K[a, b]
 
 
+@njit(cache=True, inline="always")
+def _add_block_flat(Bf, W, kl, nd, ni, nj, w, K):
+    """``_add_block`` through a flat view ``Bf = B.reshape(-1)`` (``W = B.shape[1]``).
+
+    ``B[i, kl + j - i]`` is ``Bf[i (W - 1) + kl + j]``; unsigned offsets skip numba's
+    negative-index wraparound test on every entry. Same additions in the same order.
+    """
+    step = np.uint64(W - 1)
+    base = np.uint64(nd * ni) * step + np.uint64(kl + nd * nj)
+    for a in range(3):
+        ra = base + np.uint64(a) * step
+        for b in range(3):
+            Bf[ra + np.uint64(b)] += w * K[a, b]
+
+
 # ------------------------------------------------------------------------------------------
 # inextensibility (stiff axial penalty)
 
@@ -97,6 +112,8 @@ def add_bending(q, nd, n_nodes, hinge_k, r, B, kl, jac):
     tests/simulation/test_effects.py).
     """
     energy = 0.0
+    W = B.shape[1]
+    Bf = B.reshape(-1)
     a = np.empty(3)
     b = np.empty(3)
     ah = np.empty(3)
@@ -178,22 +195,22 @@ def add_bending(q, nd, n_nodes, hinge_k, r, B, kl, jac):
         n0 = i - 1
         n1 = i
         n2 = i + 1
-        _add_block(B, kl, nd, n0, n0, 1.0, Haa)
-        _add_block(B, kl, nd, n0, n1, -1.0, Haa)
-        _add_block(B, kl, nd, n0, n1, 1.0, Hab)
-        _add_block(B, kl, nd, n0, n2, -1.0, Hab)
-        _add_block(B, kl, nd, n1, n0, -1.0, Haa)
-        _add_block(B, kl, nd, n1, n0, 1.0, Hba)
-        _add_block(B, kl, nd, n1, n1, 1.0, Haa)
-        _add_block(B, kl, nd, n1, n1, -1.0, Hab)
-        _add_block(B, kl, nd, n1, n1, -1.0, Hba)
-        _add_block(B, kl, nd, n1, n1, 1.0, Hbb)
-        _add_block(B, kl, nd, n1, n2, 1.0, Hab)
-        _add_block(B, kl, nd, n1, n2, -1.0, Hbb)
-        _add_block(B, kl, nd, n2, n0, -1.0, Hba)
-        _add_block(B, kl, nd, n2, n1, 1.0, Hba)
-        _add_block(B, kl, nd, n2, n1, -1.0, Hbb)
-        _add_block(B, kl, nd, n2, n2, 1.0, Hbb)
+        _add_block_flat(Bf, W, kl, nd, n0, n0, 1.0, Haa)
+        _add_block_flat(Bf, W, kl, nd, n0, n1, -1.0, Haa)
+        _add_block_flat(Bf, W, kl, nd, n0, n1, 1.0, Hab)
+        _add_block_flat(Bf, W, kl, nd, n0, n2, -1.0, Hab)
+        _add_block_flat(Bf, W, kl, nd, n1, n0, -1.0, Haa)
+        _add_block_flat(Bf, W, kl, nd, n1, n0, 1.0, Hba)
+        _add_block_flat(Bf, W, kl, nd, n1, n1, 1.0, Haa)
+        _add_block_flat(Bf, W, kl, nd, n1, n1, -1.0, Hab)
+        _add_block_flat(Bf, W, kl, nd, n1, n1, -1.0, Hba)
+        _add_block_flat(Bf, W, kl, nd, n1, n1, 1.0, Hbb)
+        _add_block_flat(Bf, W, kl, nd, n1, n2, 1.0, Hab)
+        _add_block_flat(Bf, W, kl, nd, n1, n2, -1.0, Hbb)
+        _add_block_flat(Bf, W, kl, nd, n2, n0, -1.0, Hba)
+        _add_block_flat(Bf, W, kl, nd, n2, n1, 1.0, Hba)
+        _add_block_flat(Bf, W, kl, nd, n2, n1, -1.0, Hbb)
+        _add_block_flat(Bf, W, kl, nd, n2, n2, 1.0, Hbb)
     return energy
 
 

@@ -115,6 +115,65 @@ def assemble(
 
 
 @njit(cache=True)
+def assemble_jacobian(
+    q,
+    q_prev,
+    v_prev,
+    q_ref,
+    nd,
+    n_nodes,
+    kl,
+    link_len,
+    hinge_k,
+    twist_k,
+    node_mass,
+    node_rot,
+    samp_link,
+    samp_alpha,
+    samp_ro,
+    samp_p,
+    samp_n,
+    samp_H,
+    samp_F,
+    samp_dF,
+    cpar,
+    flags,
+    dt,
+    r_scratch,
+    B,
+):
+    """The banded Jacobian ``B`` at ``q`` after :func:`assemble` ran there without it.
+
+    Uses the contact samples that assemble left (closest points, normals, forces including
+    wall damping); adds the same terms in the same order as ``assemble(..., jac=True)``, so
+    ``B`` is bit-identical to it. The effects' residual contributions go to ``r_scratch``
+    (discarded). Lets the line search evaluate trial points without the Jacobian and build it
+    only where Newton continues.
+    """
+    B[:, :] = 0.0
+    add_axial(q, nd, n_nodes, link_len, cpar[9], r_scratch, B, kl, True)
+    add_bending(q, nd, n_nodes, hinge_k, r_scratch, B, kl, True)
+    if flags[5]:
+        add_torsion(q, nd, n_nodes, twist_k, r_scratch, B, kl, True)
+    if flags[0]:
+        apply_normal(
+            nd, samp_link, samp_alpha, samp_n, samp_H, samp_F, samp_dF, r_scratch, B, kl, True
+        )
+        if flags[1]:
+            v_reg = max(cpar[7], cpar[10] / dt)
+            add_friction(
+                q, q_prev, nd, samp_link, samp_alpha, samp_ro, samp_p, samp_n, samp_H, samp_F,
+                samp_dF,
+                flags[1], cpar[4], cpar[5], cpar[6], v_reg, dt, flags[5] != 0, r_scratch, B, kl,
+                True,
+            )  # fmt: skip
+    if flags[3]:
+        add_inertia(q, q_prev, v_prev, nd, n_nodes, node_mass, node_rot, dt, r_scratch, B, kl, True)
+    if flags[6]:
+        add_viscous(q, q_ref, nd, n_nodes, cpar[8], dt, r_scratch, B, kl, True)
+
+
+@njit(cache=True)
 def update_chain(q0, dq, lam, nd, n_nodes, n_free, q):
     """``q = q0 + lam dq`` with every link's length following its LINEARISED change.
 
@@ -227,7 +286,9 @@ def newton(
     n_small = 0
     best = np.inf
     it_best = 0
-    fresh = False  # r and B already hold the values at q (from the accepted line-search trial)
+    r_scratch = np.empty(n_all)
+    fresh = False  # r already holds the residual at q (from the accepted line-search trial)
+    need_jac = False  # ... but B not yet the Jacobian there (built only if Newton goes on)
     for it in range(max_iter + 1):
         if not fresh:
             assemble(
@@ -257,6 +318,13 @@ def newton(
         elif it - it_best >= 20:
             status = 5  # no progress: the residual has not halved in 20 iterations
             break
+        if need_jac:
+            assemble_jacobian(
+                q, q_prev, v_prev, q_ref, nd, n_nodes, kl, link_len, hinge_k, twist_k,
+                node_mass, node_rot, samp_link, samp_alpha, samp_ro, samp_p, samp_n, samp_H,
+                samp_F, samp_dF, cpar, flags, dt, r_scratch, B,
+            )  # fmt: skip
+            need_jac = False
         for i in range(n_free):
             rhs[i] = -r[i]
         if not band_solve(B, kl, rhs, n_free):
@@ -280,7 +348,7 @@ def newton(
                 node_rot, samp_link, samp_alpha, samp_ro, samp_wt, samp_s, samp_d_prev, h, pos,
                 tan, nor,
                 kappa_min_flat, seg_s, seg_rb, seg_ra, seg_flat, cpar, flags, g, dt, r_try, B,
-                True, samp_p, samp_d, samp_n, samp_H, samp_z, samp_w, samp_F, samp_dF, energies,
+                False, samp_p, samp_d, samp_n, samp_H, samp_z, samp_w, samp_F, samp_dF, energies,
             )  # fmt: skip
             merit = 0.0
             for i in range(n_free):
@@ -288,9 +356,11 @@ def newton(
             if math.isfinite(merit) and merit <= (1.0 - 1e-4 * lam) * merit0:
                 break
             lam *= 0.5
-        # the last trial's residual and Jacobian are those of the new q: reuse them
+        # the last trial's residual is that of the new q: reuse it (its Jacobian is built at
+        # the top of the next iteration if Newton goes on: not after the converging step)
         r[:] = r_try
         fresh = True
+        need_jac = True
         if mx * lam < 1e-15:
             # stagnation at round-off
             status = 1
