@@ -363,7 +363,8 @@ def contact_geometry(
     F = 0 (z <= 0), k w z^2 / 2 (0 < z <= 1), k w (z - 1/2) (z > 1) (Khatait et al. 2014), which is
     C1, k scaled by ``samp_wt`` (the cable length the sample stands for / the reference length:
     a wall stiffness per unit length). ``samp_n`` = grad d (outward wall normal), ``samp_H`` =
-    Hessian of d.
+    Hessian of d, both computed only for samples in contact (z > 0; zero elsewhere: a sample
+    without force or stiffness needs neither).
     Returns the elastic contact energy.
     """
     work = np.empty(9)
@@ -401,19 +402,6 @@ def contact_geometry(
             w = max_frac * b
         aa = b - w
         samp_w[i] = w
-        # circle: d = |o|, grad = o/|o|, Hessian (I - n n^T - c' c'^T / D) / |o|
-        if dc > 1e-12:
-            for a in range(3):
-                ga[a] = (o0, o1, o2)[a] / dc
-            for a in range(3):
-                for bb in range(3):
-                    dab = 1.0 if a == bb else 0.0
-                    Ha[a, bb] = (dab - ga[a] * ga[bb] - d1[a] * d1[bb] / D) / dc
-        else:
-            for a in range(3):
-                ga[a] = 0.0
-                for bb in range(3):
-                    Ha[a, bb] = 0.0
         blended = False
         if flat < rb and kappa_min_flat >= 0.0:
             # the flat side lies on the outside of the bend (-nor); where the centreline is
@@ -425,6 +413,8 @@ def contact_geometry(
                 fade = 0.0 if fade < 0.0 else fade
                 fade = fade * fade * (3.0 - 2.0 * fade)
                 flat = fade * flat + (1.0 - fade) * (rb + 0.5 * b)
+        dcirc = dc
+        wa = wb = cc = 0.0
         if flat < rb and kappa_min_flat >= 0.0:
             # flat side at distance `flat` along -nor: equivalent centre distance
             # b = -o.nor + r_b - flat, grad -nor, Hessian -(dnor/ds) c'^T / D; the corner
@@ -438,24 +428,46 @@ def contact_geometry(
             wa = 0.5 * (1.0 + Dd / S)
             wb = 0.5 * (1.0 - Dd / S)
             cc = 0.5 * eps * eps / (S * S * S)
-            for a in range(3):
-                gb[a] = -nv[a]
-            for a in range(3):
-                samp_n[i, a] = wa * ga[a] + wb * gb[a]
-                for bb in range(3):
-                    Hb = -dnv[a] * d1[bb] / D
-                    samp_H[i, a, bb] = (
-                        wa * Ha[a, bb] + wb * Hb + cc * (ga[a] - gb[a]) * (ga[bb] - gb[bb])
-                    )
             dc = 0.5 * (dc + dflat + S)
             blended = True
-        if not blended:
-            for a in range(3):
-                samp_n[i, a] = ga[a]
-                for bb in range(3):
-                    samp_H[i, a, bb] = Ha[a, bb]
-        samp_d[i] = dc
         z = (dc - aa) / w
+        if z > 0.0:
+            # in contact: the distance's gradient (outward wall normal) and Hessian; a sample
+            # with z <= 0 carries no force and no stiffness, so nothing reads them
+            # circle: d = |o|, grad = o/|o|, Hessian (I - n n^T - c' c'^T / D) / |o|
+            if dcirc > 1e-12:
+                for a in range(3):
+                    ga[a] = (o0, o1, o2)[a] / dcirc
+                for a in range(3):
+                    for bb in range(3):
+                        dab = 1.0 if a == bb else 0.0
+                        Ha[a, bb] = (dab - ga[a] * ga[bb] - d1[a] * d1[bb] / D) / dcirc
+            else:
+                for a in range(3):
+                    ga[a] = 0.0
+                    for bb in range(3):
+                        Ha[a, bb] = 0.0
+            if blended:
+                for a in range(3):
+                    gb[a] = -nv[a]
+                for a in range(3):
+                    samp_n[i, a] = wa * ga[a] + wb * gb[a]
+                    for bb in range(3):
+                        Hb = -dnv[a] * d1[bb] / D
+                        samp_H[i, a, bb] = (
+                            wa * Ha[a, bb] + wb * Hb + cc * (ga[a] - gb[a]) * (ga[bb] - gb[bb])
+                        )
+            else:
+                for a in range(3):
+                    samp_n[i, a] = ga[a]
+                    for bb in range(3):
+                        samp_H[i, a, bb] = Ha[a, bb]
+        else:
+            for a in range(3):
+                samp_n[i, a] = 0.0
+                for bb in range(3):
+                    samp_H[i, a, bb] = 0.0
+        samp_d[i] = dc
         samp_z[i] = z
         kw = k_wall * samp_wt[i]  # the wall stiffness of the cable length this sample stands for
         if z <= 0.0:
