@@ -438,3 +438,19 @@ def lump_to_nodes(samp_link, samp_alpha, samp_F, out):
         out[samp_link[i]] += (1 - samp_alpha[i]) * samp_F[i]
     for i in range(samp_link.shape[0]):
         out[samp_link[i] + 1] += samp_alpha[i] * samp_F[i]
+
+
+@njit(cache=True)
+def max_penetration(samp_z, samp_w):
+    """``max((z - 1) w, initial=0)`` over the samples (m): the deepest sink into the wall.
+
+    A NaN propagates as in ``np.max``.
+    """
+    m = 0.0
+    for i in range(samp_z.shape[0]):
+        v = (samp_z[i] - 1.0) * samp_w[i]
+        if v > m or v != v:
+            m = v
+            if v != v:
+                break
+    return m

@@ -540,7 +540,7 @@ def run(scene, advances_m: np.ndarray, progress: bool = False) -> SimResult:
                     du = 0.0
                     dt = min(model.time_step, dwell_left)
             else:
-                du = float(np.clip(target - u, -inc, inc))
+                du = min(max(target - u, -inc), inc)  # np.clip without its per-call cost
                 dt = abs(du) / model.speed
             q_prev = q.copy()
             v_prev = v.copy()
@@ -578,7 +578,7 @@ def run(scene, advances_m: np.ndarray, progress: bool = False) -> SimResult:
                     if dynamic:
                         v_try = (q_try - qp) / (dt / sub)
                     model.samp_d_prev[:] = model.samp_d
-                    pen = float(np.max((model.samp_z - 1.0) * model.samp_w, initial=0.0))
+                    pen = SK.max_penetration(model.samp_z, model.samp_w)
                     max_pen = max(max_pen, pen if model.contact is not None else 0.0)
                     fr_step += model.energies[5]
                     damp_step += model.energies[6]
