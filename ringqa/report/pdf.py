@@ -297,6 +297,13 @@ def _positions_page(plt, res):
     return fig
 
 
+def _compared_paths(dwells, ref: str):
+    """(path, its rows) for the simulated and centreline paths other than the reference."""
+    for path in ("simulated", "centreline"):
+        if path != ref:
+            yield path, dwells[dwells["path"] == path]
+
+
 def _deviation_page(plt, res):
     fig, axes = plt.subplots(3, 1, figsize=A4, sharex=True)
     ref = res.reference
@@ -310,10 +317,7 @@ def _deviation_page(plt, res):
     d = res.dwells
     lim_rec, lim_req = res.settings["position_limits_mm"]
     ax = axes[0]
-    for path in ("simulated", "centreline"):
-        if path == ref:
-            continue
-        sub = d[d["path"] == path]
+    for path, sub in _compared_paths(d, ref):
         ax.plot(
             sub["relative_position_mm"],
             sub["dist_to_reference_mm"],
@@ -330,10 +334,7 @@ def _deviation_page(plt, res):
     ax.grid(alpha=0.3)
     ax = axes[1]
     styles = {"along_mm": "-", "radial_mm": "--", "out_of_plane_mm": ":"}
-    for path in ("simulated", "centreline"):
-        if path == ref:
-            continue
-        sub = d[d["path"] == path]
+    for path, sub in _compared_paths(d, ref):
         for comp, ls in styles.items():
             ax.plot(
                 sub["relative_position_mm"],
@@ -353,10 +354,7 @@ def _deviation_page(plt, res):
     ax.legend(fontsize=6.5, ncol=2)
     ax.grid(alpha=0.3)
     ax = axes[2]
-    for path in ("simulated", "centreline"):
-        if path == ref:
-            continue
-        sub = d[d["path"] == path]
+    for path, sub in _compared_paths(d, ref):
         ax.plot(
             sub["relative_position_mm"],
             sub["angle_deg"],
