@@ -438,20 +438,7 @@ def frames_at(knots, coef, s_tab, nor_tab, s_arr):
 @njit(cache=True)
 def _segment(seg_s, s):
     """Index ``k`` with ``seg_s[k] <= s < seg_s[k+1]`` (clamped to the segments)."""
-    nseg = seg_s.shape[0] - 1
-    if s < seg_s[0]:
-        return 0
-    if s >= seg_s[nseg]:
-        return nseg - 1
-    lo = 0
-    hi = nseg
-    while hi - lo > 1:
-        mid = (lo + hi) // 2
-        if seg_s[mid] <= s:
-            lo = mid
-        else:
-            hi = mid
-    return lo
+    return _piece(seg_s, s)
 
 
 @njit(cache=True)
