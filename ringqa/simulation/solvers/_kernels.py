@@ -268,7 +268,7 @@ def newton(
     -------
     status : int
         0 converged, 1 iteration limit, 2 singular Jacobian, 3 non-finite residual, 4 stalled
-        (the line search cut three consecutive steps below 1/32), 5 no progress (the residual has
+        (the line search cut two consecutive steps below 1/32), 5 no progress (the residual has
         not halved in 20 iterations).
     iters : int
         Newton iterations used.
@@ -369,7 +369,7 @@ def newton(
         # give up early so the driver can cut the step or stabilise
         if lam < scale / 32.0:
             n_small += 1
-            if n_small >= 3:
+            if n_small >= 2:
                 status = 4
                 break
         else:
