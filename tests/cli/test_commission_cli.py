@@ -19,6 +19,8 @@ from tests.pipeline.fakes import (
 
 # the module (ringqa.pipeline's attribute 'commission' is the function)
 pc = importlib.import_module("ringqa.pipeline.commission")
+# where the pipeline looks up its default engine and scene factory
+ps = importlib.import_module("ringqa.pipeline.simulate")
 
 FAKES = {
     "fake26": lambda: make_applicator(),
@@ -55,8 +57,8 @@ def fake_world(monkeypatch):
         return app, plan, kind, files
 
     monkeypatch.setattr(pc, "_load_input", loader)
-    monkeypatch.setattr(pc, "_default_simulator", lambda: simulator)
-    monkeypatch.setattr(pc, "_default_scene_factory", fake_scene_factory())
+    monkeypatch.setattr(ps, "_default_simulator", lambda: simulator)
+    monkeypatch.setattr(ps, "_default_scene_factory", fake_scene_factory())
 
 
 def test_single(fake_world, tmp_path, capsys):
@@ -125,7 +127,7 @@ EXAMPLE = "data/examples/oncentra_ring26x60/RP_ring26x60_oncentra43.dcm"
 def engine(monkeypatch):
     """The real engine when it is installed, else the centreline stand-in."""
     if real_engine() is None:
-        monkeypatch.setattr(pc, "_default_simulator", lambda: centreline_simulator())
+        monkeypatch.setattr(ps, "_default_simulator", lambda: centreline_simulator())
     return real_engine()
 
 

@@ -1,0 +1,161 @@
+"""Where the dwells are: the reference dwells, their centreline twins, the tandem's dwells.
+
+The reference is the ring channel's measured source path, or (none shipped) the centreline on the
+circular part of the ring; the centreline dwell of relative position ``p`` sits at arc length
+``s_ref - p``. Also the ring geometry the report's plots draw.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ringqa.errors import RingQAError
+from ringqa.plan import PLAN_STEP_MM, DwellSet, path_directions
+from ringqa.units import m_to_mm, mm_to_m
+
+#: Default number of tandem dwells (5 mm apart) when the tandem has no measured path
+#: (the Oncentra 26/60 standard plan has 7).
+TANDEM_DWELLS = 7
+
+
+def _centreline_dwells(channel, rel_mm: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Centreline positions (mm) and tangents at arc length s_ref - p."""
+    s_m = channel.s_ref_m - mm_to_m(np.asarray(rel_mm, dtype=float))
+    pos = m_to_mm(np.asarray(channel.centreline.position(s_m), dtype=float).reshape(-1, 3))
+    tan = np.asarray(channel.centreline.tangent(s_m), dtype=float).reshape(-1, 3)
+    return pos, tan / np.linalg.norm(tan, axis=1)[:, None]
+
+
+def _ring_arc_mm(app, channel, step_mm: float) -> float:
+    """Largest relative position still on the ring's circle (within 1 mm of it), mm.
+
+    Walks proximally from s_ref in ``step_mm`` steps while the centreline stays within 1 mm of
+    the circle of radius ``ring_radius`` around ``ring_centre`` in the ring plane.
+    """
+    c = m_to_mm(np.asarray(app.ring_centre_m, dtype=float))
+    n = np.asarray(app.ring_normal, dtype=float)
+    r = m_to_mm(float(app.ring_radius_m))
+    s_ref_mm = m_to_mm(channel.s_ref_m)
+    rel = np.arange(0.0, s_ref_mm + 1e-9, step_mm)
+    pos, _ = _centreline_dwells(channel, rel)
+    d = pos - c
+    h = d @ n
+    rho = np.linalg.norm(d - np.outer(h, n), axis=1)
+    on = (np.abs(rho - r) < 1.0) & (np.abs(h) < 1.0)
+    if not on[0]:
+        return 0.0
+    k = int(np.argmin(on)) if not on.all() else on.size
+    return float(rel[k - 1])
+
+
+def _reference(app, channel, step_mm: float | None):
+    """Reference dwells of the ring: (kind, rel_mm, pos_mm, dirs, step_mm)."""
+    path = getattr(channel, "measured_path_m", None)
+    if path is not None and len(path) < 2:
+        raise RingQAError(
+            f"applicator {app.name}, channel {channel.name}: the measured path has "
+            f"{len(path)} position(s); it needs at least 2 (most distal first)"
+        )
+    if path is not None:
+        step = getattr(channel, "measured_step_m", None)
+        if step is None or not step > 0:
+            raise RingQAError(
+                f"applicator {app.name}, channel {channel.name}: the measured path has no step "
+                "(give measured_step_mm in the applicator file)"
+            )
+        pos = m_to_mm(np.asarray(path, dtype=float))
+        step_mm_path = m_to_mm(float(step))
+        rel = np.arange(pos.shape[0]) * step_mm_path
+        return "measured", rel, pos, path_directions(pos), step_mm_path
+    step = PLAN_STEP_MM if step_mm is None else float(step_mm)
+    arc = _ring_arc_mm(app, channel, step)
+    if arc < step:
+        raise RingQAError(
+            f"applicator {app.name}: no measured source path and no circular ring part found "
+            "near s_ref to place reference dwells (add the measured path, e.g. a path CSV in the "
+            "applicator folder)"
+        )
+    rel = np.arange(0.0, arc + 1e-9, step)
+    pos, tan = _centreline_dwells(channel, rel)
+    return "centreline", rel, pos, tan, step
+
+
+def _tandem_dwells(app, n_dwells: int, plan_step_mm: float) -> DwellSet | None:
+    names = [c.name for c in app.channels]
+    if "tandem" not in names or n_dwells <= 0:
+        return None
+    ch = app.channel("tandem")
+    path = getattr(ch, "measured_path_m", None)
+    step = getattr(ch, "measured_step_m", None)
+    if path is not None and len(path) >= 2 and step:
+        pos = m_to_mm(np.asarray(path, dtype=float))
+        rel_path = np.arange(pos.shape[0]) * m_to_mm(float(step))
+        keep = np.isclose(np.mod(rel_path + 1e-6, plan_step_mm), 0.0, atol=1e-5)
+        keep &= np.cumsum(keep) <= n_dwells
+        return DwellSet("tandem", rel_path[keep], pos[keep], path_directions(pos)[keep])
+    rel = np.arange(n_dwells) * plan_step_mm
+    rel = rel[rel <= m_to_mm(ch.s_ref_m)]
+    pos, tan = _centreline_dwells(ch, rel)
+    return DwellSet("tandem", rel, pos, tan)
+
+
+def _plan_subset(app, ring, rel: np.ndarray, ref_step: float, plan_step_mm: float):
+    """Which reference dwells the standard plan uses (every ``plan_step_mm``), checked.
+
+    Returns
+    -------
+    in_plan : ndarray of bool
+    s_ref_mm : float
+        The ring channel's reference arc length, mm.
+
+    Raises
+    ------
+    RingQAError
+        The plan step is not a multiple of the reference step, or reference dwells lie beyond
+        the channel entry.
+    """
+    ratio = plan_step_mm / ref_step
+    if abs(ratio - round(ratio)) > 1e-6 or round(ratio) < 1:
+        raise RingQAError(
+            f"applicator {app.name}: the plan step {plan_step_mm:g} mm is not a multiple of the "
+            f"measured path's step {ref_step:g} mm (choose a plan step that is)"
+        )
+    in_plan = np.zeros(rel.size, dtype=bool)
+    in_plan[:: round(ratio)] = True
+    s_ref_mm = m_to_mm(ring.s_ref_m)
+    if np.any(rel > s_ref_mm + 1e-9):
+        n_out = int(np.sum(rel > s_ref_mm + 1e-9))
+        raise RingQAError(
+            f"applicator {app.name}: {n_out} measured positions lie beyond the channel entry "
+            f"(relative position > s_ref = {s_ref_mm:.1f} mm): check s_ref / the measured path"
+        )
+    return in_plan, s_ref_mm
+
+
+def _reference_note(ref_kind: str, rel: np.ndarray, ref_step: float) -> str:
+    """The report's statement of which reference the comparison uses."""
+    if ref_kind == "centreline":
+        return (
+            "No measured source path ships with this applicator: the reference is the channel "
+            "CENTRELINE, and the comparison is simulated vs centreline (no measurement involved)."
+        )
+    return f"Reference: the measured source path ({rel.size} positions, {ref_step:g} mm apart)."
+
+
+def _geometry(app, s_ref_mm: float) -> dict:
+    """The ring frame and every channel's centreline (mm), for the report's plots."""
+    return {
+        "ring_centre_mm": m_to_mm(np.asarray(app.ring_centre_m, dtype=float)).tolist(),
+        "ring_normal": np.asarray(app.ring_normal, dtype=float).tolist(),
+        "ring_lateral": np.asarray(app.ring_lateral, dtype=float).tolist(),
+        "ring_radius_mm": m_to_mm(float(app.ring_radius_m)),
+        "s_ref_mm": float(s_ref_mm),
+        "centrelines_mm": {c.name: _dense_centreline_mm(c) for c in app.channels},
+        "metadata": dict(getattr(app, "metadata", {}) or {}),
+    }
+
+
+def _dense_centreline_mm(channel, spacing_mm: float = 0.5) -> list:
+    length_mm = m_to_mm(float(channel.centreline.length_m))
+    s = np.linspace(0.0, length_mm, max(2, int(length_mm / spacing_mm) + 1))
+    return m_to_mm(np.asarray(channel.centreline.position(mm_to_m(s)), dtype=float)).tolist()
