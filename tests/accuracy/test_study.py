@@ -259,12 +259,12 @@ def test_reference_refinement_respects_the_time_budget(fake_scene, fake_simulato
 
 def test_cache_is_not_reused_by_a_changed_engine(fake_scene, tmp_path, monkeypatch):
     """Runs cached by one engine build are re-run when the engine's source changes."""
-    import ringqa.accuracy.study as study_mod
+    import ringqa.accuracy.cache as cache_mod  # where the run keys look the fingerprint up
 
     grid = {"solver.increment_mm": [1.0, 0.5]}
     sim1 = FakeSimulator()
     run_study(fake_scene, grid=grid, out_dir=tmp_path, simulator=sim1, repeats=1)
-    monkeypatch.setattr(study_mod, "engine_fingerprint", lambda: "another-engine")
+    monkeypatch.setattr(cache_mod, "engine_fingerprint", lambda: "another-engine")
     sim2 = FakeSimulator()
     run_study(fake_scene, grid=grid, out_dir=tmp_path, simulator=sim2, repeats=1)
     assert sim2.calls == sim1.calls > 0
