@@ -16,6 +16,7 @@ if TYPE_CHECKING:  # pragma: no cover
 
 FRICTION_LAWS = ("none", "coulomb", "stribeck")
 SOLVER_KINDS = ("quasistatic", "dynamic")
+INTEGRATORS = ("backward_euler", "bdf2")
 MOTION_KINDS = ("constant", "stepwise", "retract")
 
 
@@ -202,6 +203,12 @@ class SolverSettings:
     contact_bow_fraction : float
         Extra contact samples per link so that a link's bow between samples across the tightest
         bend is at most this fraction of the clearance.
+    integrator : str
+        Time integrator of the dynamic solver: ``"backward_euler"`` (first order in the time
+        step) or ``"bdf2"`` (second order: the two-step backward differentiation formula, a
+        backward-Euler step for the first step and whenever the time step grows by more than
+        ``BDF2_MAX_RATIO``; see :func:`ringqa.simulation.solvers.driver.bdf2_history`).
+        Quasi-static runs ignore it (their load steps have no time derivative to integrate).
     """
 
     kind: str = "quasistatic"
@@ -215,6 +222,7 @@ class SolverSettings:
     axial_stiffness_n: float = 1.0e6
     approach_m: float = 0.02
     contact_bow_fraction: float = 0.1
+    integrator: str = "backward_euler"
 
 
 @dataclass(frozen=True)

@@ -39,6 +39,7 @@ from ringqa.errors import RingQAError, SceneError
 from ringqa.simulation.instruments import CABLE_PRESETS, CONTACT_PRESETS, cable_preset
 from ringqa.simulation.scene import (
     FRICTION_LAWS,
+    INTEGRATORS,
     MOTION_KINDS,
     SOLVER_KINDS,
     CableSection,
@@ -130,6 +131,7 @@ SCHEMA: dict[str, dict[str, tuple[Any, Any, Any]]] = {
     },
     "solver": {
         "kind": ((str,), "quasistatic", SOLVER_KINDS),
+        "integrator": ((str,), "backward_euler", INTEGRATORS),
         "increment_mm": (_NUM, 1.0, "positive"),
         "time_step_s": (_NUM, 1.0e-3, "positive"),
         "tol": (_NUM, 1.0e-8, "positive"),
@@ -797,6 +799,7 @@ def _solver(ck: _Checker) -> SolverSettings:
     v = {k: ck.value("solver", k, sec=sec) for k in SCHEMA["solver"]}
     settings = SolverSettings(
         kind=v["kind"],
+        integrator=v["integrator"],
         increment_m=mm_to_m(v["increment_mm"]),
         time_step_s=float(v["time_step_s"]),
         tol=float(v["tol"]),
@@ -1028,6 +1031,7 @@ def scene_to_dict(scene: Scene) -> dict:
     s = scene.solver
     out["solver"] = {
         "kind": s.kind,
+        "integrator": s.integrator,
         "increment_mm": m_to_mm(s.increment_m),
         "time_step_s": s.time_step_s,
         "tol": s.tol,

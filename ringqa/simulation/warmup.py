@@ -37,6 +37,7 @@ def tiny_scenes():
         solver=SolverSettings(increment_m=1e-3, time_step_s=0.01, approach_m=0.006),
     )
     adv = np.array([0.0, 0.002])
+    # BDF2 runs the same Newton kernel as backward Euler (its first step is one) plus step_work
     dyn = base.replace(solver=SolverSettings(kind="dynamic", increment_m=1e-3, time_step_s=0.01,
-                                             approach_m=0.006))  # fmt: skip
+                                             approach_m=0.006, integrator="bdf2"))  # fmt: skip
     return [(base, adv), (dyn, adv)]

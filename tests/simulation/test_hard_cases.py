@@ -121,9 +121,14 @@ def test_u_shaped_lumen():
     assert np.nanmax(res.offset_m) < 1.2e-3 - 0.25e-3 + 0.1e-3
 
 
-@pytest.mark.parametrize("kind", ["quasistatic", "dynamic"])
-def test_stepwise_motion_with_pauses(kind):
-    """Stepwise motion (5 mm steps, 0.2 s dwell at each), forward and backward stepping."""
+@pytest.mark.parametrize(
+    "kind,integrator",
+    [("quasistatic", "backward_euler"), ("dynamic", "backward_euler"), ("dynamic", "bdf2")],
+)
+def test_stepwise_motion_with_pauses(kind, integrator):
+    """Stepwise motion (5 mm steps, 0.2 s dwell at each), forward and backward stepping; the
+    dynamic solver with both integrators (BDF2 restarts with backward Euler after the short
+    landing step of each move)."""
     ch = arc_channel(radius_m=0.013, angle_rad=np.deg2rad(264), entry_m=0.03)
     for backward in (False, True):
         sc = scene(
@@ -131,7 +136,7 @@ def test_stepwise_motion_with_pauses(kind):
             flexitron(),
             effects=Effects(friction="stribeck", wall_damping=(kind == "dynamic")),
             motion=Motion(kind="stepwise", dwell_s=0.2, backward=backward, speed_m_s=0.5),
-            solver=SolverSettings(kind=kind, time_step_s=2e-3),
+            solver=SolverSettings(kind=kind, time_step_s=2e-3, integrator=integrator),
         )
         res = simulate(sc, np.arange(40.0, 71.0, 5.0))
         _check(res, 1.075e-3, ch, _flex_ro)

@@ -194,6 +194,7 @@ def _write(tmp_path, text: str) -> Path:
         ("[solver]\nincrement_mm = 'big'\n", r"solver.increment_mm: got 'big' \(must be a number"),
         ("[solver]\nincrement_mm = -1\n", r"solver.increment_mm: got -1 \(must be > 0"),
         ("[solver]\nkind = 'explicit'\n", r"solver.kind: .*choose one of quasistatic, dynamic"),
+        ("[solver]\nintegrator = 'rk4'\n", r"solver.integrator: .*of backward_euler, bdf2"),
         ("[effects]\nfriction = 'viscous'\n", r"effects.friction: .*none, coulomb, stribeck"),
         ("[effects]\ntorsion = 1\n", r"effects.torsion: got 1 \(must be true or false"),
         ("[instrument]\npreset = 'cable9'\n", r"instrument.preset: .*flexitron"),
@@ -268,6 +269,8 @@ def test_every_engine_setting_survives_the_round_trip(part):
             new = "coulomb"
         elif f.name == "kind":
             new = "dynamic" if part == "solver" else "stepwise"
+        elif f.name == "integrator":
+            new = "bdf2"
         elif f.name == "advances_m":
             new = tuple(a - 1e-3 for a in val)
         else:  # None-valued optional settings

@@ -5,9 +5,10 @@
 ``contact.friction_v_reg_m_s`` is set. Quasi-statically the contact velocity is the tangential slip
 over the load step divided by the step's time ``increment / motion.speed`` (an incremental slip
 law: a node that slips less than ~ v_reg dt per step is sticking); dynamically it is the
-backward-Euler velocity. v_reg is floored at ``contact.friction_slip_min_m / dt`` (0.1 um of slip
-per step) so that cutting a step does not sharpen the law without bound (dynamically this is
-inactive at the default 1 ms step: 0.1 um / 1 ms = v_brk / 10).
+integrator's velocity (backward Euler or BDF2). v_reg is floored at
+``contact.friction_slip_min_m / dt`` (0.1 um of slip per step; BDF2 keeps it at the step dt, not
+its kernel step 2 dt / 3) so that cutting a step does not sharpen the law without bound
+(dynamically this is inactive at the default 1 ms step: 0.1 um / 1 ms = v_brk / 10).
 """
 
 from __future__ import annotations

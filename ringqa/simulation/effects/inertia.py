@@ -1,7 +1,9 @@
 """Inertia: lumped node masses (and polar inertia with torsion), backward-Euler time stepping.
 
 ``M (q - q_prev - dt v_prev) / dt^2`` joins the residual; implicit, so neither the wall stiffness
-nor the friction regularisation limits the time step (mechanics.md item 10).
+nor the friction regularisation limits the time step (mechanics.md item 10). The BDF2 integrator
+uses the same term with the history combinations ``q_h``, ``v_h`` and the step ``2 dt / 3``
+(``ringqa.simulation.solvers.driver.bdf2_history``).
 """
 
 from __future__ import annotations

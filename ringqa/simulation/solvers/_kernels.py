@@ -29,6 +29,7 @@ from ringqa.simulation.effects._kernels import (
     apply_normal,
     clamp_normal,
     contact_geometry,
+    friction_phi,
 )
 
 
@@ -454,3 +455,121 @@ def max_penetration(samp_z, samp_w):
             if v != v:
                 break
     return m
+
+
+@njit(cache=True)
+def step_work(
+    q,
+    q_n,
+    q_h,
+    nd,
+    samp_link,
+    samp_alpha,
+    samp_ro,
+    samp_wt,
+    samp_n,
+    samp_F,
+    samp_d,
+    samp_z,
+    samp_w,
+    d_n,
+    d_h,
+    cpar,
+    flags,
+    dt_eff,
+    out,
+):
+    """Friction and wall-damping work (J) of a step solved against a modified history.
+
+    A BDF2 step runs the Newton kernel with ``q_prev = q_h`` (the history combination) and
+    ``dt = dt_eff``: its forces are right, but the work the kernel's ``energies`` report is
+    force times ``q - q_h`` (the velocity times ``dt_eff``), not times the step's displacement.
+    This recomputes the same forces at the converged state (friction velocity
+    ``(p - p_h) / dt_eff``, wall-damping velocity ``(d - d_h) / dt_eff``, the normal force
+    ``samp_F`` the kernel left, after damping and the clamp) and takes their work over the actual
+    displacement ``q - q_n`` (sample points, twist) and distance change ``d - d_n``, as backward
+    Euler does. With ``q_h = q_n``, ``d_h = d_n`` the result equals the kernel's ``energies[5]``
+    and ``energies[6]``.
+
+    Parameters
+    ----------
+    q, q_n, q_h : (n_all,) float
+        Converged state, state at the start of the step, history state (m; twist in rad).
+    samp_* : arrays
+        The contact samples as the Newton kernel left them at ``q`` (normals, forces (N),
+        distances (m), z, widths (m)).
+    d_n, d_h : (P,) float
+        Sample distances at the start of the step and their history combination (m).
+    cpar, flags : arrays
+        The kernel parameters and switches (``cpar[10]`` as used in the solve).
+    dt_eff : float
+        The time step the kernel was called with (s).
+    out : (2,) float
+        Output: friction work, damping work (J).
+    """
+    out[0] = 0.0
+    out[1] = 0.0
+    law = flags[1]
+    torsion = flags[5] != 0
+    if flags[0] == 0:
+        return
+    if flags[2]:
+        c_w = cpar[3]
+        for i in range(samp_d.shape[0]):
+            z = samp_z[i]
+            if z <= 0.0:
+                continue
+            vn = (samp_d[i] - d_h[i]) / dt_eff
+            sh = (3.0 - 2.0 * z) * z * z if z <= 1.0 else 1.0
+            out[1] += c_w * samp_wt[i] * sh * vn * (samp_d[i] - d_n[i])
+    if law == 0:
+        return
+    v_reg = max(cpar[7], cpar[10] / dt_eff)
+    wv = np.empty(3)
+    dp = np.empty(3)
+    tau = np.zeros(3)
+    for i in range(samp_link.shape[0]):
+        F = samp_F[i]
+        if F == 0.0:
+            continue
+        j = samp_link[i]
+        w0 = 1.0 - samp_alpha[i]
+        w1 = samp_alpha[i]
+        n = samp_n[i]
+        wn = 0.0
+        for a in range(3):
+            p = w0 * q[nd * j + a] + w1 * q[nd * (j + 1) + a]
+            wv[a] = p - (w0 * q_h[nd * j + a] + w1 * q_h[nd * (j + 1) + a])
+            dp[a] = p - (w0 * q_n[nd * j + a] + w1 * q_n[nd * (j + 1) + a])
+            wn += wv[a] * n[a]
+        for a in range(3):
+            wv[a] -= wn * n[a]
+        if torsion:
+            ro = samp_ro[i]
+            t0 = q[nd * (j + 1)] - q[nd * j]
+            t1 = q[nd * (j + 1) + 1] - q[nd * j + 1]
+            t2 = q[nd * (j + 1) + 2] - q[nd * j + 2]
+            tl = math.sqrt(t0 * t0 + t1 * t1 + t2 * t2)
+            t0 /= tl
+            t1 /= tl
+            t2 /= tl
+            tau[0] = t1 * n[2] - t2 * n[1]
+            tau[1] = t2 * n[0] - t0 * n[2]
+            tau[2] = t0 * n[1] - t1 * n[0]
+            dphi_h = w0 * (q[nd * j + 3] - q_h[nd * j + 3]) + w1 * (
+                q[nd * (j + 1) + 3] - q_h[nd * (j + 1) + 3]
+            )
+            dphi_n = w0 * (q[nd * j + 3] - q_n[nd * j + 3]) + w1 * (
+                q[nd * (j + 1) + 3] - q_n[nd * (j + 1) + 3]
+            )
+            for a in range(3):
+                wv[a] += ro * dphi_h * tau[a]
+                dp[a] += ro * dphi_n * tau[a]
+        vm = 0.0
+        for a in range(3):
+            vm += (wv[a] / dt_eff) ** 2
+        vm = math.sqrt(vm)
+        phi, _psi = friction_phi(vm, law, cpar[4], cpar[5], cpar[6], v_reg)
+        for a in range(3):
+            # F_t = -F phi v ; its work on the actual displacement, counted positive
+            out[0] += F * phi * (wv[a] / dt_eff) * dp[a]

@@ -1,4 +1,4 @@
-"""The solvers: quasi-static load stepping and implicit (backward-Euler) dynamics.
+"""The solvers: quasi-static load stepping and implicit (backward-Euler or BDF2) dynamics.
 
 Both march the input advance ``u`` (the driven proximal end) along a list of waypoints and solve
 the equilibrium (quasi-static) or the implicit equation of motion (dynamic) with the same Newton
@@ -11,7 +11,13 @@ kernel (:func:`ringqa.simulation.solvers._kernels.newton`). What differs:
   increment doubles after easy steps (up to ``JUMP_FACTOR`` increments): it "jumps" to the
   requested advances;
 - dynamic: time steps of ``solver.time_step_s`` at ``motion.speed``; inertia on; predictor
-  ``q + dt v``; a failed step is sub-stepped.
+  ``q + dt v``; a failed step is sub-stepped. ``solver.integrator = "bdf2"`` takes each step as a
+  backward-Euler step against a modified history (:func:`bdf2_history`): the Newton kernel is
+  unchanged; the first step, and a step more than ``BDF2_MAX_RATIO`` times longer than the
+  previous one, are backward Euler. The friction slip floor (``slip_min / dt``) and the
+  stabilisation tether (``c / dt``) keep their per-step values, and the step's friction and
+  wall-damping work are recomputed over the actual displacement (``_kernels.step_work``), so the
+  work balance reads as with backward Euler.
 
 Jams (push force above ``solver.jam_force_n``, or less than 10 % progress of the tip, which
 carries the source, over
@@ -44,6 +50,7 @@ from ringqa.simulation.effects import (
 )
 from ringqa.simulation.effects.base import CPAR, FLAG, N_CPAR, N_FLAGS, positive
 from ringqa.simulation.result import STATUS_FAILED, STATUS_JAMMED, STATUS_SUCCESS, SimResult
+from ringqa.simulation.scene import INTEGRATORS
 from ringqa.simulation.solvers import _kernels as SK
 from ringqa.units import m_to_mm
 
@@ -56,6 +63,10 @@ FALLBACK_AFTER = 1
 #: fallback stabilisation: a viscous tether to the predictor of stiffness (coefficient / dt)
 #: equal to this fraction of the wall stiffness per node
 FALLBACK_STIFFNESS_FRACTION = 1e-3
+#: BDF2: a step more than this many times longer than the previous one is taken with backward
+#: Euler instead (variable-step BDF2 is zero-stable for step ratios below 1 + sqrt(2); the
+#: ramped input's short landing steps and the sub-steps of a failed step change the ratio)
+BDF2_MAX_RATIO = 2.0
 
 
 class Model:
@@ -77,6 +88,17 @@ class Model:
         if solver.kind not in ("quasistatic", "dynamic"):
             raise SceneError(f"solver.kind: {solver.kind!r} is not 'quasistatic' or 'dynamic'")
         self.dynamic = solver.kind == "dynamic"
+        integrator = getattr(solver, "integrator", "backward_euler")
+        if integrator not in INTEGRATORS:
+            raise SceneError(
+                f"solver.integrator: {integrator!r} is not one of {', '.join(INTEGRATORS)}"
+            )
+        self.bdf2 = self.dynamic and integrator == "bdf2"
+        if integrator == "bdf2" and not self.dynamic:
+            self.warnings.append(
+                "solver.integrator = 'bdf2' applies to the dynamic solver only: ignored by the "
+                "quasi-static load steps"
+            )
         if self.dynamic and not eff.inertia:
             self.warnings.append("solver.kind = 'dynamic' switches inertia on")
         self.inertia_on = self.dynamic
@@ -386,6 +408,37 @@ def initial_equilibrium(model: Model, q: np.ndarray, v: np.ndarray, dt: float) -
     return st, it
 
 
+def bdf2_history(h: float, h_old: float | None) -> tuple[float, float, float] | None:
+    """Variable-step BDF2 as a backward-Euler step against a modified history.
+
+    BDF2 with steps ``h_old`` (t_{n-1} -> t_n) and ``h`` (t_n -> t_{n+1}), ratio ``w = h / h_old``:
+    ``v_{n+1} = (q_{n+1} - q_h) / h_eff`` with ``q_h = a q_n - b q_{n-1}``,
+    ``h_eff = h (1 + w) / (1 + 2 w)``, ``a = (1 + w)^2 / (1 + 2 w)``, ``b = w^2 / (1 + 2 w)``
+    (``a - b = 1``); equal steps (w = 1): ``q_h = (4 q_n - q_{n-1}) / 3``, ``h_eff = 2 h / 3``.
+    The acceleration is the same formula on the velocities (``v_h = a v_n - b v_{n-1}``) and the
+    wall-damping velocity on the contact distances, so the backward-Euler Newton kernel called with
+    ``(q_prev, v_prev, dt, samp_d_prev) = (q_h, v_h, h_eff, d_h)`` takes a BDF2 step.
+
+    Parameters
+    ----------
+    h : float
+        This step (s).
+    h_old : float or None
+        The previous step (s); None when there is none (the first step).
+
+    Returns
+    -------
+    (a, b, h_eff) or None
+        The history weights and the step (s) to hand the kernel; None when the step is to be taken
+        with backward Euler (no previous step, or ``h > BDF2_MAX_RATIO h_old``).
+    """
+    if h_old is None or not h_old > 0.0 or h > BDF2_MAX_RATIO * h_old:
+        return None
+    w = h / h_old
+    den = 1.0 + 2.0 * w
+    return (1.0 + w) ** 2 / den, w * w / den, h * (1.0 + w) / den
+
+
 #: dynamic runs: the input accelerates from rest to motion.speed over this time and decelerates
 #: likewise into every stop (a jump to full speed in one time step is an impulse ~ 1/dt)
 MOTION_RAMP_S = 0.01
@@ -523,6 +576,9 @@ def run(scene, advances_m: np.ndarray, progress: bool = False) -> SimResult:
         message = f"initial state did not converge at advance {u * 1e3:.2f} mm"
     stops = stop_points(scene, path, model.u_start)
     t_move = 0.0  # time since the input last started from rest (dynamic)
+    # BDF2: (q, v, contact distances, step) before the last accepted (sub-)step; None at the start
+    hist = None
+    work2 = np.zeros(2)
     for i_path, (target, idx) in enumerate(path if status == STATUS_SUCCESS else []):
         dwell_left = scene.motion.dwell_s if (dynamic and scene.motion.kind == "stepwise") else 0.0
         u_stop = path[stops[i_path]][0]
@@ -562,6 +618,7 @@ def run(scene, advances_m: np.ndarray, progress: bool = False) -> SimResult:
                 damp_step = 0.0
                 stab_step = 0.0
                 good = True
+                hist_try = hist
                 for k in range(sub):
                     qp = q_try.copy()
                     if dynamic:
@@ -570,18 +627,53 @@ def run(scene, advances_m: np.ndarray, progress: bool = False) -> SimResult:
                         q_try = q_try.copy()
                     model.predict(q_try, du / sub, u + du * (k + 1) / sub, not dynamic)
                     q_ref = q_try.copy()
-                    st, it, res = model.solve(q_try, qp, v_try, dt / sub, q_ref)
+                    coef = None
+                    if model.bdf2:
+                        h = dt / sub
+                        coef = bdf2_history(h, None if hist_try is None else hist_try[3])
+                    if coef is None:
+                        st, it, res = model.solve(q_try, qp, v_try, dt / sub, q_ref)
+                    else:
+                        # BDF2 = backward Euler against the history combination (bdf2_history);
+                        # the friction slip floor and the tether keep their per-step values
+                        a_h, b_h, h_eff = coef
+                        q_h = a_h * qp - b_h * hist_try[0]
+                        v_h = a_h * v_try - b_h * hist_try[1]
+                        d_n = model.samp_d_prev.copy()
+                        model.samp_d_prev[:] = a_h * d_n - b_h * hist_try[2]
+                        d_h = model.samp_d_prev.copy()
+                        cpar_saved = model.cpar.copy()
+                        model.cpar[CPAR["slip_min"]] *= h_eff / h
+                        model.cpar[CPAR["stabilisation"]] *= h_eff / h
+                        st, it, res = model.solve(q_try, q_h, v_h, h_eff, q_ref)
+                        if st == 0:
+                            SK.step_work(
+                                q_try, qp, q_h, model.nd, model.samp_link, model.samp_alpha,
+                                model.samp_ro, model.samp_wt, model.samp_n, model.samp_F,
+                                model.samp_d, model.samp_z, model.samp_w, d_n, d_h, model.cpar,
+                                model.flags, h_eff, work2,
+                            )  # fmt: skip
+                        model.cpar[:] = cpar_saved
+                        model.samp_d_prev[:] = d_n
                     iters_step += it
                     if st != 0:
                         good = False
                         break
-                    if dynamic:
+                    if model.bdf2:
+                        hist_try = (qp, v_try, model.samp_d_prev.copy(), dt / sub)
+                    if coef is not None:
+                        v_try = (q_try - q_h) / h_eff
+                    elif dynamic:
                         v_try = (q_try - qp) / (dt / sub)
                     model.samp_d_prev[:] = model.samp_d
                     pen = SK.max_penetration(model.samp_z, model.samp_w)
                     max_pen = max(max_pen, pen if model.contact is not None else 0.0)
-                    fr_step += model.energies[5]
-                    damp_step += model.energies[6]
+                    if coef is None:
+                        fr_step += model.energies[5]
+                        damp_step += model.energies[6]
+                    else:
+                        fr_step += work2[0]
+                        damp_step += work2[1]
                     if stab > 0 and not dynamic:
                         dq = (q_try - q_ref).reshape(nn, model.nd)[:, :3]
                         stab_step += stab * float(np.sum(dq**2)) / (dt / sub)
@@ -624,6 +716,7 @@ def run(scene, advances_m: np.ndarray, progress: bool = False) -> SimResult:
             q = q_try
             if dynamic:
                 v = v_try
+                hist = hist_try
             u = u + du
             time_s += dt
             if du == 0.0:
