@@ -290,6 +290,23 @@ def _march(m, q, v, dt, n_steps, integrator):
     return np.asarray(out)
 
 
+@pytest.mark.parametrize("h_old", [1e-3, 0.6e-3, 0.25e-3, 2e-3])
+def test_bdf2_history_differentiates_quadratics_exactly(h_old):
+    """Variable-step BDF2 is exact for quadratics: with q(t) = 3 + 2 t + 5 t^2 at t = 0, h_old,
+    h_old + h (h = 1 ms), ``(q(t_2) - q_h) / h_eff`` is q'(t_2) = 2 + 10 t_2. Ratios above
+    BDF2_MAX_RATIO (h_old = 0.25 ms: 4) and no previous step fall back to backward Euler."""
+    h = 1e-3
+    coef = bdf2_history(h, h_old)
+    if h / h_old > 2.0:
+        assert coef is None
+        return
+    a, b, h_eff = coef
+    q = [3 + 2 * t + 5 * t * t for t in (0.0, h_old, h_old + h)]
+    q_h = a * q[1] - b * q[0]
+    assert (q[2] - q_h) / h_eff == pytest.approx(2 + 10 * (h_old + h), rel=1e-9)
+    assert bdf2_history(h, None) is None
+
+
 @pytest.mark.parametrize("integrator", ["backward_euler", "bdf2"])
 def test_dynamic_cantilever_vibrates_at_its_first_natural_frequency(integrator):
     """Inertia effect + the dynamic solver's integrators: a cantilever released from a small static
