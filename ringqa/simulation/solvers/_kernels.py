@@ -458,6 +458,13 @@ def max_penetration(samp_z, samp_w):
 
 
 @njit(cache=True)
+def combine(a, x, b, y, out):
+    """``out = a x - b y`` elementwise (BDF2's history combinations; one call, no temporaries)."""
+    for i in range(x.shape[0]):
+        out[i] = a * x[i] - b * y[i]
+
+
+@njit(cache=True)
 def step_work(
     q,
     q_n,

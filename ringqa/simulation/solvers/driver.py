@@ -579,6 +579,7 @@ def run(scene, advances_m: np.ndarray, progress: bool = False) -> SimResult:
     # BDF2: (q, v, contact distances, step) before the last accepted (sub-)step; None at the start
     hist = None
     work2 = np.zeros(2)
+    i_slip, i_stab = CPAR["slip_min"], CPAR["stabilisation"]
     for i_path, (target, idx) in enumerate(path if status == STATUS_SUCCESS else []):
         dwell_left = scene.motion.dwell_s if (dynamic and scene.motion.kind == "stepwise") else 0.0
         u_stop = path[stops[i_path]][0]
@@ -637,14 +638,16 @@ def run(scene, advances_m: np.ndarray, progress: bool = False) -> SimResult:
                         # BDF2 = backward Euler against the history combination (bdf2_history);
                         # the friction slip floor and the tether keep their per-step values
                         a_h, b_h, h_eff = coef
-                        q_h = a_h * qp - b_h * hist_try[0]
-                        v_h = a_h * v_try - b_h * hist_try[1]
+                        q_h = np.empty_like(qp)
+                        v_h = np.empty_like(qp)
+                        SK.combine(a_h, qp, b_h, hist_try[0], q_h)
+                        SK.combine(a_h, v_try, b_h, hist_try[1], v_h)
                         d_n = model.samp_d_prev.copy()
-                        model.samp_d_prev[:] = a_h * d_n - b_h * hist_try[2]
+                        SK.combine(a_h, d_n, b_h, hist_try[2], model.samp_d_prev)
                         d_h = model.samp_d_prev.copy()
-                        cpar_saved = model.cpar.copy()
-                        model.cpar[CPAR["slip_min"]] *= h_eff / h
-                        model.cpar[CPAR["stabilisation"]] *= h_eff / h
+                        cpar_saved = (model.cpar[i_slip], model.cpar[i_stab])
+                        model.cpar[i_slip] *= h_eff / h
+                        model.cpar[i_stab] *= h_eff / h
                         st, it, res = model.solve(q_try, q_h, v_h, h_eff, q_ref)
                         if st == 0:
                             SK.step_work(
@@ -653,7 +656,7 @@ def run(scene, advances_m: np.ndarray, progress: bool = False) -> SimResult:
                                 model.samp_d, model.samp_z, model.samp_w, d_n, d_h, model.cpar,
                                 model.flags, h_eff, work2,
                             )  # fmt: skip
-                        model.cpar[:] = cpar_saved
+                        model.cpar[i_slip], model.cpar[i_stab] = cpar_saved
                         model.samp_d_prev[:] = d_n
                     iters_step += it
                     if st != 0:
