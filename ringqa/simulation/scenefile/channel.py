@@ -1,0 +1,273 @@
+"""Build a scene's channel (centreline and lumen, in SI) from its ``[channel]`` table.
+
+Analytic centrelines (straight, arc, helix, s-curve), inline centreline points and applicator
+channels, each with a circular, U-shaped or stepped lumen.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ringqa.errors import RingQAError, SceneError
+from ringqa.simulation.scenefile.check import _Checker
+from ringqa.units import deg_to_rad, m_to_mm, mm_to_m
+
+ANALYTIC_TIP_GAP_MM = 5.0  # analytic channels: s_ref = length - 5 mm (as the 1st ring marker)
+_POINT_SPACING_MM = 0.25  # sampling of analytic centrelines handed to Centreline.from_points
+
+
+def _arc(start, tangent, normal, radius, angle, n):
+    """Points of a planar arc from ``start`` with unit ``tangent``, bending towards ``normal``."""
+    phi = np.linspace(0.0, angle, n)
+    centre = start + radius * normal
+    pts = centre - radius * np.outer(np.cos(phi), normal) + radius * np.outer(np.sin(phi), tangent)
+    end_t = np.cos(angle) * tangent + np.sin(angle) * normal
+    end_n = np.cos(angle) * normal - np.sin(angle) * tangent
+    return pts, end_t, end_n
+
+
+def _line(start, tangent, length, n):
+    return start + np.outer(np.linspace(0.0, length, n), tangent)
+
+
+def _count(length_mm: float) -> int:
+    return max(3, math.ceil(length_mm / _POINT_SPACING_MM) + 1)
+
+
+def analytic_centreline_mm(spec: Mapping[str, Any]) -> np.ndarray:
+    """Centreline points (mm), proximal -> distal, for an analytic channel spec.
+
+    Shapes (all start at the origin heading along +x; the bends lie in the x-y plane, the helix
+    axis is +z):
+
+    - ``straight``: ``length_mm``.
+    - ``arc``: ``straight_mm`` approach, then an arc of ``radius_mm`` over ``angle_deg``
+      (default 180), then ``exit_mm`` straight.
+    - ``helix``: ``straight_mm`` approach, then a helix of ``radius_mm`` and ``pitch_mm`` (rise
+      per turn) over ``angle_deg`` (default 360).
+    - ``s-curve``: ``straight_mm``, an arc of ``radius_mm`` over ``angle_deg`` (default 90)
+      bending left, the same arc bending right, then ``exit_mm``.
+    """
+    kind = spec["kind"]
+    x, y = np.array([1.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0])
+    o = np.zeros(3)
+    if kind == "straight":
+        return _line(o, x, spec["length_mm"], _count(spec["length_mm"]))
+    r = spec["radius_mm"]
+    straight = spec.get("straight_mm", 0.0)
+    parts = [_line(o, x, straight, _count(straight))] if straight > 0 else [o[None, :]]
+    start = parts[-1][-1]
+    if kind == "arc":
+        ang = deg_to_rad(spec.get("angle_deg") or 180.0)
+        pts, t, _ = _arc(start, x, y, r, ang, _count(r * ang))
+        parts.append(pts[1:])
+        exit_mm = spec.get("exit_mm", 0.0)
+        if exit_mm > 0:
+            parts.append(_line(pts[-1], t, exit_mm, _count(exit_mm))[1:])
+    elif kind == "s-curve":
+        ang = deg_to_rad(spec.get("angle_deg") or 90.0)
+        pts, t, nrm = _arc(start, x, y, r, ang, _count(r * ang))
+        parts.append(pts[1:])
+        pts2, t2, _ = _arc(pts[-1], t, -nrm, r, ang, _count(r * ang))
+        parts.append(pts2[1:])
+        exit_mm = spec.get("exit_mm", 0.0)
+        if exit_mm > 0:
+            parts.append(_line(pts2[-1], t2, exit_mm, _count(exit_mm))[1:])
+    elif kind == "helix":
+        ang = deg_to_rad(spec.get("angle_deg") or 360.0)
+        pitch = spec.get("pitch_mm", 0.0)
+        c = pitch / (2.0 * math.pi)
+        # helix tangent at phi = 0 is (r, 0, c)/sqrt(r^2+c^2): tilt the approach to match it
+        n = _count(math.hypot(r, c) * ang)
+        phi = np.linspace(0.0, ang, n)
+        helix = np.column_stack([r * np.sin(phi), r * (1.0 - np.cos(phi)), c * phi])
+        t0 = np.array([r, 0.0, c]) / math.hypot(r, c)
+        if straight > 0:
+            approach = _line(o, t0, straight, _count(straight))
+            parts = [approach, approach[-1] + helix[1:]]
+        else:
+            parts = [helix]
+    else:  # pragma: no cover - guarded by the schema
+        raise ValueError(kind)
+    return np.vstack(parts)
+
+
+def _lumen(ck: _Checker, sec: dict, required: bool):
+    try:
+        return _lumen_inner(ck, sec, required)
+    except SceneError:
+        raise
+    except RingQAError as exc:
+        raise ck.fail("channel.lumen", str(exc), "check r_b_mm, r_a_mm, flat_mm") from None
+
+
+def _lumen_inner(ck: _Checker, sec: dict, required: bool):
+    from ringqa.geometry import Lumen
+
+    kind = ck.value("channel", "lumen", sec=sec)
+    if kind is None:
+        if not required and not any(k in sec for k in ("r_b_mm", "r_a_mm", "flat_mm")):
+            return None
+        kind = "circular"
+    r_b = ck.value("channel", "r_b_mm", sec=sec)
+    r_a = ck.value("channel", "r_a_mm", sec=sec)
+    if r_b is None:
+        raise ck.fail("channel.r_b_mm", "missing", "give the lumen radius, e.g. r_b_mm = 1.5")
+    if kind == "stepped":
+        breaks = ck.value("channel", "s_breaks_mm", sec=sec)
+        if breaks is None:
+            raise ck.fail(
+                "channel.s_breaks_mm",
+                "missing for lumen = 'stepped'",
+                "give the arc lengths (mm) where the radius changes",
+            )
+        s_b = ck.numbers("channel.s_breaks_mm", breaks)
+        rb = ck.numbers("channel.r_b_mm", r_b if isinstance(r_b, list) else [r_b], positive=True)
+        ra_in = r_a if r_a is not None else [x - 0.1 for x in np.atleast_1d(rb)]
+        ra = ck.numbers("channel.r_a_mm", ra_in if isinstance(ra_in, list) else [ra_in])
+        if rb.size != s_b.size + 1 or ra.size != rb.size:
+            raise ck.fail(
+                "channel.r_b_mm",
+                f"{rb.size} radii for {s_b.size} breaks",
+                "a stepped lumen needs one more radius (r_b_mm and r_a_mm) than s_breaks_mm",
+            )
+        flat_in = ck.value("channel", "flat_mm", sec=sec)
+        if flat_in is None:
+            return Lumen.stepped(mm_to_m(s_b), mm_to_m(rb), mm_to_m(ra))
+        flat = ck.numbers("channel.flat_mm", flat_in if isinstance(flat_in, list) else [flat_in])
+        if flat.size != rb.size:
+            raise ck.fail("channel.flat_mm", "wrong length", "one value per segment (0 = no flat)")
+        seg_s = np.concatenate([[-np.inf], mm_to_m(s_b), [np.inf]])
+        seg_flat = np.where(flat > 0, mm_to_m(flat), np.inf)
+        return Lumen(seg_s, mm_to_m(rb), mm_to_m(ra), seg_flat)
+    if isinstance(r_b, list) or isinstance(r_a, list):
+        raise ck.fail("channel.r_b_mm", "a list", "lists of radii need lumen = 'stepped'")
+    r_a = r_b - 0.1 if r_a is None else r_a
+    if not 0 < r_a <= r_b:
+        raise ck.fail("channel.r_a_mm", f"got {r_a}", f"must be in (0, r_b_mm = {r_b}]")
+    if kind == "u":
+        flat = ck.value("channel", "flat_mm", sec=sec)
+        if flat is None:
+            raise ck.fail(
+                "channel.flat_mm",
+                "missing for lumen = 'u'",
+                "give the flat side's distance from the centreline (mm), e.g. flat_mm = 1.2",
+            )
+        if isinstance(flat, list) or not flat > 0:
+            raise ck.fail("channel.flat_mm", f"got {flat!r}", "give one positive distance (mm)")
+        start = ck.value("channel", "u_start_mm", sec=sec)
+        end = ck.value("channel", "u_end_mm", sec=sec)
+        return Lumen.u_shaped(
+            mm_to_m(r_b),
+            mm_to_m(r_a),
+            mm_to_m(flat),
+            -np.inf if start is None else mm_to_m(start),
+            np.inf if end is None else mm_to_m(end),
+        )
+    return Lumen.circular(mm_to_m(r_b), mm_to_m(r_a))
+
+
+def build_channel(ck: _Checker):
+    """The :class:`ringqa.geometry.Channel` a scene's ``[channel]`` table describes."""
+    sec = ck.section("channel")
+    if not sec:
+        raise ck.fail(
+            "channel",
+            "missing",
+            "add a [channel] table with applicator = 'ring26x60' or an analytic kind = 'arc'",
+        )
+    for key in sec:
+        ck.value("channel", key, sec=sec)  # type/range check every key given
+    kind = sec.get("kind", "applicator" if "applicator" in sec else None)
+    if kind is None:
+        raise ck.fail(
+            "channel.applicator",
+            "missing",
+            "give applicator = 'ring26x60' (or a file) or an analytic kind = 'arc'",
+        )
+    if kind == "applicator":
+        return _applicator_channel(ck, sec)
+    from ringqa.geometry import Centreline, Channel
+
+    if kind == "points":
+        if "centreline_mm" not in sec:
+            raise ck.fail("channel.centreline_mm", "missing", "give [[x, y, z], ...] in mm")
+        pts_mm = ck.numbers("channel.centreline_mm", sec["centreline_mm"], ndim=2)
+    else:
+        need = {"straight": ("length_mm",), "arc": ("radius_mm",), "s-curve": ("radius_mm",)}
+        need["helix"] = ("radius_mm", "pitch_mm")
+        for key in need[kind]:
+            if key not in sec:
+                raise ck.fail(f"channel.{key}", f"missing for kind = {kind!r}", "give it in mm")
+        pts_mm = analytic_centreline_mm(sec)
+    try:
+        cl = Centreline.from_points(mm_to_m(pts_mm))
+    except RingQAError as exc:
+        raise ck.fail(
+            "channel", f"cannot build the centreline: {exc}", "check its parameters"
+        ) from None
+    lumen = _lumen(ck, sec, required=True)
+    length_mm = m_to_mm(cl.length_m)
+    s_ref_mm = sec.get("s_ref_mm", max(length_mm - ANALYTIC_TIP_GAP_MM, 0.5 * length_mm))
+    if not 0 <= s_ref_mm <= length_mm:
+        raise ck.fail(
+            "channel.s_ref_mm",
+            f"{s_ref_mm} mm is outside the channel (length {length_mm:.2f} mm)",
+            "choose an arc length inside the channel",
+        )
+    measured = None
+    if "measured_path_mm" in sec:
+        measured = mm_to_m(ck.numbers("channel.measured_path_mm", sec["measured_path_mm"], ndim=2))
+        if "measured_step_mm" not in sec:
+            raise ck.fail("channel.measured_step_mm", "missing", "give the measured path's step")
+    return Channel(
+        name=str(sec.get("channel", kind)),
+        centreline=cl,
+        lumen=lumen,
+        s_ref_m=mm_to_m(s_ref_mm),
+        measured_path_m=measured,
+        measured_step_m=None if measured is None else mm_to_m(sec["measured_step_mm"]),
+    )
+
+
+def _applicator_channel(ck: _Checker, sec: dict):
+    from ringqa.io.applicator_file import load_applicator
+
+    name = sec.get("applicator")
+    if name is None:
+        raise ck.fail("channel.applicator", "missing", "give a shipped name such as 'ring26x60'")
+    ref = str(name)
+    if ck.origin and not Path(ref).is_absolute() and ("/" in ref or ref.endswith(".json")):
+        base = Path(ck.origin.rstrip(": ")).parent  # relative paths: relative to the scene file
+        if (base / ref).exists():
+            ref = str(base / ref)
+    try:
+        app = load_applicator(ref)
+    except SceneError:
+        raise
+    except Exception as exc:  # RingQAError from io, or a missing file
+        raise ck.fail(
+            "channel.applicator",
+            f"cannot load {name!r}: {exc}",
+            "use a shipped name (ringqa.io.applicator_file.shipped_applicators()) or a file path",
+        ) from None
+    chan_name = sec.get("channel", "ring")
+    try:
+        channel = app.channel(chan_name)
+    except Exception:
+        names = ", ".join(c.name for c in app.channels)
+        raise ck.fail(
+            "channel.channel", f"{name!r} has no channel {chan_name!r}", f"choose one of {names}"
+        ) from None
+    lumen = _lumen(ck, sec, required=False)
+    if lumen is not None:
+        channel = replace(channel, lumen=lumen)
+    if "s_ref_mm" in sec:
+        channel = replace(channel, s_ref_m=mm_to_m(sec["s_ref_mm"]))
+    return channel
