@@ -14,7 +14,6 @@ import pytest
 from sim_builders import rod, scene
 
 from ringqa.simulation.analytic import arc_channel
-from ringqa.simulation.channel import KAPPA_MIN_FLAT
 from ringqa.simulation.effects._kernels import friction_phi
 from ringqa.simulation.scene import ContactParams, Effects, SolverSettings
 from ringqa.simulation.solvers import _kernels as SK
@@ -31,18 +30,12 @@ def _model(effects, axial=1.0, gravity=None):
 
 
 def _assemble(m, q, qp, dt=2e-3, jac=True):
-    tb = m.table
     r = np.zeros(m.n_all)
     B = np.zeros_like(m.B)
     v_prev = np.linspace(-1e-3, 1e-3, m.n_all)
     SK.assemble(
-        q, qp, v_prev, qp, m.nd, m.n_nodes, m.kl, m.chain.link_len, m.bending.hinge_k, m.twist_k,
-        m.node_mass, m.node_rot, m.samp_link, m.samp_alpha, m.samp_ro, m.samp_wt, m.samp_s,
-        m.samp_d_prev,
-        tb.h, tb.pos, tb.tan, tb.nor, KAPPA_MIN_FLAT, tb.seg_s, tb.seg_rb, tb.seg_ra, tb.seg_flat,
-        m.cpar, m.flags, m.g, dt, r, B, jac, m.samp_p, m.samp_d, m.samp_n, m.samp_H, m.samp_z,
-        m.samp_w, m.samp_F, m.samp_dF, m.energies,
-    )  # fmt: skip
+        q, qp, v_prev, qp, m.links, m.chan, m.samples, m.swork, m.par, dt, r, B, jac, m.energies
+    )
     return r, B
 
 

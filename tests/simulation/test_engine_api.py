@@ -139,6 +139,33 @@ def test_bdf2_integrator_is_recorded_and_closes_the_work_balance(ring):
     assert any("integrator" in w for w in b.warnings)
 
 
+def test_kernel_groups_hold_the_models_live_arrays(ring):
+    """The argument tuples the kernels take (built once in ``Model.__init__``) hold the very
+    arrays of the model's attributes, so an in-place change (the driver's
+    ``samp_s[:] = ...``, ``cpar[...] = ...``) reaches the kernels."""
+    from ringqa.simulation.channel import KAPPA_MIN_FLAT
+    from ringqa.simulation.solvers.driver import Model
+
+    sc = scene(ring, flexitron(), effects=Effects(friction="stribeck", torsion=True))
+    m = Model(sc, np.array([0.08]))
+    tb = m.table
+    expected = {
+        "links": (m.nd, m.n_nodes, m.kl, m.chain.link_len, m.bending.hinge_k, m.twist_k,
+                  m.node_mass, m.node_rot),
+        "chan": (tb.h, tb.pos, tb.tan, tb.nor, KAPPA_MIN_FLAT, tb.seg_s, tb.seg_rb, tb.seg_ra,
+                 tb.seg_flat),
+        "samples": (m.samp_link, m.samp_alpha, m.samp_ro, m.samp_wt, m.samp_s, m.samp_d_prev),
+        "swork": (m.samp_p, m.samp_d, m.samp_n, m.samp_H, m.samp_z, m.samp_w, m.samp_F,
+                  m.samp_dF),
+        "par": (m.cpar, m.flags, m.g),
+    }  # fmt: skip
+    for name, want in expected.items():
+        got = getattr(m, name)
+        assert len(got) == len(want), name
+        for a, b in zip(got, want, strict=True):
+            assert (a is b) if isinstance(b, np.ndarray) else (a == b), name
+
+
 @pytest.mark.parametrize("torsion", [False, True])
 def test_step_work_equals_the_kernels_work_for_a_backward_euler_step(ring, torsion):
     """``step_work`` (BDF2's friction and damping work over the actual displacement) gives the
@@ -164,9 +191,7 @@ def test_step_work_equals_the_kernels_work_for_a_backward_euler_step(ring, torsi
         u += 0.5e-3
         m.predict(q, 0.5e-3, u, False)
         assert m.solve(q, q_n, v, dt, q.copy())[0] == 0
-        SK.step_work(q, q_n, q_n, m.nd, m.samp_link, m.samp_alpha, m.samp_ro, m.samp_wt,
-                     m.samp_n, m.samp_F, m.samp_d, m.samp_z, m.samp_w, d_n, d_n, m.cpar, m.flags,
-                     dt, out)  # fmt: skip
+        SK.step_work(q, q_n, q_n, m.links, m.samples, m.swork, d_n, d_n, m.par, dt, out)
         assert m.energies[5] > 0 and m.energies[6] != 0
         np.testing.assert_allclose(out, m.energies[5:7], rtol=1e-12)
         v = (q - q_n) / dt

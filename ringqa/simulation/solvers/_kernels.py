@@ -1,10 +1,41 @@
 """Numba kernels of the solvers: assemble the switched-on effects, Newton with line search.
 
-``flags`` (int64 array): [contact, friction_law (0 none, 1 coulomb, 2 stribeck), wall_damping,
-inertia, gravity, torsion, stabilisation]. An effect whose flag is 0 is not called at all.
+The kernels take the model's arrays in five groups (plain tuples, built once by
+:class:`ringqa.simulation.solvers.driver.Model` and holding its live arrays: numba passes a tuple
+of arrays as cheaply as the arrays themselves) and unpack each with one line at the top:
+
+``links`` (the discretised chain)
+    ``(nd, n_nodes, kl, link_len, hinge_k, twist_k, node_mass, node_rot)``: DOFs per node (3, or
+    4 with torsion: x, y, z (m), twist (rad)), node count N + 1, half-bandwidth of the banded
+    Jacobian (``3 nd - 1``), link lengths (N,) (m, tip first), hinge stiffnesses at the interior
+    nodes (N-1,) (N m/rad), twist stiffness per link (N,) (N m/rad), lumped node masses (N+1,)
+    (kg) and polar inertias (N+1,) (kg m^2).
+``chan`` (the channel table, :class:`~ringqa.simulation.channel.ChannelTable`)
+    ``(h, pos, tan, nor, kappa_min_flat, seg_s, seg_rb, seg_ra, seg_flat)``: the arc-length
+    spacing (m); centreline positions (m, 3) (m), unit tangents and unit normals (m, 3) at
+    ``s = k h``; the curvature (1/m) below which a flat side fades out
+    (:data:`~ringqa.simulation.channel.KAPPA_MIN_FLAT`); the lumen segments' breaks (k+1,) (m),
+    wall radii r_b (k,) (m), transition radii r_a (k,) (m) and flat-side distances (k,) (m, +inf:
+    circular).
+``samples`` (the contact sample points along the links; P of them)
+    ``(samp_link, samp_alpha, samp_ro, samp_wt, samp_s, samp_d_prev)``: the link of each sample
+    (P,) int64, its fraction along the link (P,) (0 at node ``link``), the outer radius there (P,)
+    (m), its wall-stiffness weight (P,) (1: the scene's k and c_w), its closest centreline arc
+    length (P,) (m; the closest-point hint, updated in place) and its wall distance at the start
+    of the step (P,) (m; wall damping).
+``swork`` (per-sample results of the last assemble, written in place)
+    ``(samp_p, samp_d, samp_n, samp_H, samp_z, samp_w, samp_F, samp_dF)``: sample positions
+    (P, 3) (m), effective centre distances d (P,) (m), wall normals grad d (P, 3) (unit), Hessians
+    of d (P, 3, 3) (1/m), contact depths z = (d - a) / w (P,) (-), transition widths w (P,) (m),
+    normal forces (P,) (N) and their derivatives dF/dd (P,) (N/m).
+``par`` (switches and parameters)
+    ``(cpar, flags, g)``: ``cpar`` (float64 (11,)): [k_wall (N/m), transition (m; <= 0: from
+    the lumen), transition_max_fraction, c_w (N s/m), mu_s, mu_k, v_brk (m/s), v_reg (m/s),
+    stabilisation (N s/m), k_axial (N), slip_min (m)]; ``flags`` (int64 (7,)): [contact,
+    friction_law (0 none, 1 coulomb, 2 stribeck), wall_damping, inertia, gravity, torsion,
+    stabilisation] (an effect whose flag is 0 is not called at all); ``g`` (3,) gravity (m/s^2).
+
 ``q_ref``: the predicted state the stabilisation's viscosity acts against.
-``cpar`` (float64 array): [k_wall, transition (<= 0: from the lumen), transition_max_fraction,
-c_w, mu_s, mu_k, v_brk, v_reg, stabilisation, k_axial, slip_min].
 ``energies`` (float64 (8,)): axial, bending, torsion, contact, gravity potential, friction work of
 the step, damping work of the step, kinetic (not filled here).
 """
@@ -34,52 +65,33 @@ from ringqa.simulation.effects._kernels import (
 
 
 @njit(cache=True)
-def assemble(
-    q,
-    q_prev,
-    v_prev,
-    q_ref,
-    nd,
-    n_nodes,
-    kl,
-    link_len,
-    hinge_k,
-    twist_k,
-    node_mass,
-    node_rot,
-    samp_link,
-    samp_alpha,
-    samp_ro,
-    samp_wt,
-    samp_s,
-    samp_d_prev,
-    h,
-    pos,
-    tan,
-    nor,
-    kappa_min_flat,
-    seg_s,
-    seg_rb,
-    seg_ra,
-    seg_flat,
-    cpar,
-    flags,
-    g,
-    dt,
-    r,
-    B,
-    jac,
-    samp_p,
-    samp_d,
-    samp_n,
-    samp_H,
-    samp_z,
-    samp_w,
-    samp_F,
-    samp_dF,
-    energies,
-):
-    """Residual ``r`` (and banded Jacobian ``B`` when ``jac``) of the switched-on effects."""
+def assemble(q, q_prev, v_prev, q_ref, links, chan, samples, swork, par, dt, r, B, jac, energies):
+    """Residual ``r`` (and banded Jacobian ``B`` when ``jac``) of the switched-on effects.
+
+    Parameters
+    ----------
+    q, q_prev, v_prev, q_ref : (n_all,) float
+        State, state at the start of the step, velocity there (m/s; twist rad/s), stabilisation
+        reference (m; twist in rad).
+    links, chan, samples, swork, par : tuple
+        The model's groups (module docstring); ``samples``' closest-point hints and ``swork`` are
+        updated in place.
+    dt : float
+        Time step (s).
+    r : (n_all,) float
+        Output: residual (N; twist N m).
+    B : (n_all, 3 kl + 1) float
+        Output: banded Jacobian (when ``jac``).
+    jac : bool
+        Build ``B`` too.
+    energies : (8,) float
+        Output: the energies and the step's work (J; module docstring).
+    """
+    nd, n_nodes, kl, link_len, hinge_k, twist_k, node_mass, node_rot = links
+    h, pos, tan, nor, kappa_min_flat, seg_s, seg_rb, seg_ra, seg_flat = chan
+    samp_link, samp_alpha, samp_ro, samp_wt, samp_s, samp_d_prev = samples
+    samp_p, samp_d, samp_n, samp_H, samp_z, samp_w, samp_F, samp_dF = swork
+    cpar, flags, g = par
     r[:] = 0.0
     if jac:
         B[:, :] = 0.0
@@ -116,41 +128,19 @@ def assemble(
 
 
 @njit(cache=True)
-def assemble_jacobian(
-    q,
-    q_prev,
-    v_prev,
-    q_ref,
-    nd,
-    n_nodes,
-    kl,
-    link_len,
-    hinge_k,
-    twist_k,
-    node_mass,
-    node_rot,
-    samp_link,
-    samp_alpha,
-    samp_ro,
-    samp_p,
-    samp_n,
-    samp_H,
-    samp_F,
-    samp_dF,
-    cpar,
-    flags,
-    dt,
-    r_scratch,
-    B,
-):
+def assemble_jacobian(q, q_prev, v_prev, q_ref, links, samples, swork, par, dt, r_scratch, B):
     """The banded Jacobian ``B`` at ``q`` after :func:`assemble` ran there without it.
 
     Uses the contact samples that assemble left (closest points, normals, forces including
     wall damping); adds the same terms in the same order as ``assemble(..., jac=True)``, so
     ``B`` is bit-identical to it. The effects' residual contributions go to ``r_scratch``
     (discarded). Lets the line search evaluate trial points without the Jacobian and build it
-    only where Newton continues.
+    only where Newton continues. Arguments as for :func:`assemble` (no channel needed).
     """
+    nd, n_nodes, kl, link_len, hinge_k, twist_k, node_mass, node_rot = links
+    samp_link, samp_alpha, samp_ro, _samp_wt, _samp_s, _samp_d_prev = samples
+    samp_p, _samp_d, samp_n, samp_H, _samp_z, _samp_w, samp_F, samp_dF = swork
+    cpar, flags, _g = par
     B[:, :] = 0.0
     add_axial(q, nd, n_nodes, link_len, cpar[9], r_scratch, B, kl, True)
     add_bending(q, nd, n_nodes, hinge_k, r_scratch, B, kl, True)
@@ -217,46 +207,17 @@ def newton(
     q_prev,
     v_prev,
     q_ref,
-    nd,
-    n_nodes,
-    kl,
-    link_len,
-    hinge_k,
-    twist_k,
-    node_mass,
-    node_rot,
-    samp_link,
-    samp_alpha,
-    samp_ro,
-    samp_wt,
-    samp_s,
-    samp_d_prev,
-    h,
-    pos,
-    tan,
-    nor,
-    kappa_min_flat,
-    seg_s,
-    seg_rb,
-    seg_ra,
-    seg_flat,
-    cpar,
-    flags,
-    g,
+    links,
+    chan,
+    samples,
+    swork,
+    par,
     dt,
     tol_abs,
     max_iter,
     max_step,
     r,
     B,
-    samp_p,
-    samp_d,
-    samp_n,
-    samp_H,
-    samp_z,
-    samp_w,
-    samp_F,
-    samp_dF,
     energies,
 ):
     """Solve ``r(q) = 0`` for the first ``n_free`` entries of ``q`` (the rest are prescribed).
@@ -264,6 +225,24 @@ def newton(
     Newton with the exact banded Jacobian, every step limited to ``max_step`` (m) per coordinate
     (a trust region that stops a step from crossing the lumen) and a backtracking line search on
     ``|r|^2`` (Armijo, halving up to 8 times). Converged when ``max |r_free| <= tol_abs``.
+
+    Parameters
+    ----------
+    q : (n_all,) float
+        Start state, solved in place (m; twist in rad).
+    n_free : int
+        Number of unknowns (``nd`` x the free nodes; the driven nodes come last).
+    q_prev, v_prev, q_ref, dt : see :func:`assemble`.
+    links, chan, samples, swork, par : tuple
+        The model's groups (module docstring).
+    tol_abs : float
+        Convergence threshold on ``max |r_free|`` (N).
+    max_iter : int
+        Iteration limit.
+    max_step : float
+        Largest change of a coordinate per Newton step (m).
+    r, B, energies : arrays
+        Work and output arrays as for :func:`assemble`.
 
     Returns
     -------
@@ -276,8 +255,9 @@ def newton(
     res : float
         Final ``max |r_free|`` (N).
 
-    On return ``r`` and the sample arrays hold the values at the returned ``q``.
+    On return ``r``, ``energies`` and ``swork`` hold the values at the returned ``q``.
     """
+    nd, n_nodes, kl, _link_len, _hinge_k, _twist_k, _node_mass, _node_rot = links
     n_all = q.shape[0]
     rhs = np.zeros(n_all)
     q0 = np.empty(n_all)
@@ -293,12 +273,8 @@ def newton(
     for it in range(max_iter + 1):
         if not fresh:
             assemble(
-                q, q_prev, v_prev, q_ref, nd, n_nodes, kl, link_len, hinge_k, twist_k,
-                node_mass, node_rot, samp_link, samp_alpha, samp_ro, samp_wt, samp_s,
-                samp_d_prev, h, pos, tan, nor, kappa_min_flat, seg_s, seg_rb, seg_ra, seg_flat,
-                cpar, flags, g, dt, r, B, True, samp_p, samp_d, samp_n, samp_H, samp_z, samp_w,
-                samp_F, samp_dF, energies,
-            )  # fmt: skip
+                q, q_prev, v_prev, q_ref, links, chan, samples, swork, par, dt, r, B, True, energies
+            )
         fresh = False
         res = 0.0
         merit0 = 0.0
@@ -321,10 +297,8 @@ def newton(
             break
         if need_jac:
             assemble_jacobian(
-                q, q_prev, v_prev, q_ref, nd, n_nodes, kl, link_len, hinge_k, twist_k,
-                node_mass, node_rot, samp_link, samp_alpha, samp_ro, samp_p, samp_n, samp_H,
-                samp_F, samp_dF, cpar, flags, dt, r_scratch, B,
-            )  # fmt: skip
+                q, q_prev, v_prev, q_ref, links, samples, swork, par, dt, r_scratch, B
+            )
             need_jac = False
         for i in range(n_free):
             rhs[i] = -r[i]
@@ -345,12 +319,21 @@ def newton(
         for _ls in range(9):
             update_chain(q0, rhs, lam, nd, n_nodes, n_free, q)
             assemble(
-                q, q_prev, v_prev, q_ref, nd, n_nodes, kl, link_len, hinge_k, twist_k, node_mass,
-                node_rot, samp_link, samp_alpha, samp_ro, samp_wt, samp_s, samp_d_prev, h, pos,
-                tan, nor,
-                kappa_min_flat, seg_s, seg_rb, seg_ra, seg_flat, cpar, flags, g, dt, r_try, B,
-                False, samp_p, samp_d, samp_n, samp_H, samp_z, samp_w, samp_F, samp_dF, energies,
-            )  # fmt: skip
+                q,
+                q_prev,
+                v_prev,
+                q_ref,
+                links,
+                chan,
+                samples,
+                swork,
+                par,
+                dt,
+                r_try,
+                B,
+                False,
+                energies,
+            )
             merit = 0.0
             for i in range(n_free):
                 merit += r_try[i] * r_try[i]
@@ -375,13 +358,7 @@ def newton(
                 break
         else:
             n_small = 0
-    assemble(
-        q, q_prev, v_prev, q_ref, nd, n_nodes, kl, link_len, hinge_k, twist_k, node_mass, node_rot,
-        samp_link, samp_alpha, samp_ro, samp_wt, samp_s, samp_d_prev, h, pos, tan, nor,
-        kappa_min_flat,
-        seg_s, seg_rb, seg_ra, seg_flat, cpar, flags, g, dt, r, B, False,
-        samp_p, samp_d, samp_n, samp_H, samp_z, samp_w, samp_F, samp_dF, energies,
-    )  # fmt: skip
+    assemble(q, q_prev, v_prev, q_ref, links, chan, samples, swork, par, dt, r, B, False, energies)
     res = 0.0
     for i in range(n_free):
         if abs(r[i]) > res:
@@ -390,7 +367,7 @@ def newton(
 
 
 @njit(cache=True)
-def predict(q, slide, du, u_new, nd, n_nodes, link_len, cum, cft, node_sample, samp_s, h, pos, tan):
+def predict(q, slide, du, u_new, links, chan, samples, cum, cft, node_sample):
     """Load-step predictor in place on ``q`` (one call instead of four from Python).
 
     With ``slide`` every free node is slid ``du`` along the channel keeping its offset
@@ -398,7 +375,27 @@ def predict(q, slide, du, u_new, nd, n_nodes, link_len, cum, cft, node_sample, s
     then the two driven proximal nodes are put on the approach axis for input advance ``u_new``
     (twist 0) and the free nodes' link lengths are restored. The same arithmetic as the driver's
     ``Model.slide``, ``Model.prescribe`` and ``Model.restore_lengths``.
+
+    Parameters
+    ----------
+    q : (n_all,) float
+        State, changed in place (m; twist in rad).
+    slide : bool
+        Slide the free nodes along the channel first.
+    du, u_new : float
+        Advance of this step and the input advance at its end (m).
+    links, chan, samples : tuple
+        The model's groups (module docstring); ``samp_s`` is advanced by ``du`` in place.
+    cum : (N+1,) float
+        Arc length of each node from the tip along the undeformed cable (m).
+    cft : float
+        Source centre's distance behind the tip (m).
+    node_sample : (N,) int64
+        The sample that sits on each node 0..N-1 (alpha = 0).
     """
+    nd, n_nodes, _kl, link_len, _hinge_k, _twist_k, _node_mass, _node_rot = links
+    h, pos, tan, _nor, _kappa_min_flat, _seg_s, _seg_rb, _seg_ra, _seg_flat = chan
+    _samp_link, _samp_alpha, _samp_ro, _samp_wt, samp_s, _samp_d_prev = samples
     if slide:
         x = np.empty((n_nodes, 3))
         for k in range(n_nodes):
@@ -465,27 +462,7 @@ def combine(a, x, b, y, out):
 
 
 @njit(cache=True)
-def step_work(
-    q,
-    q_n,
-    q_h,
-    nd,
-    samp_link,
-    samp_alpha,
-    samp_ro,
-    samp_wt,
-    samp_n,
-    samp_F,
-    samp_d,
-    samp_z,
-    samp_w,
-    d_n,
-    d_h,
-    cpar,
-    flags,
-    dt_eff,
-    out,
-):
+def step_work(q, q_n, q_h, links, samples, swork, d_n, d_h, par, dt_eff, out):
     """Friction and wall-damping work (J) of a step solved against a modified history.
 
     A BDF2 step runs the Newton kernel with ``q_prev = q_h`` (the history combination) and
@@ -502,18 +479,24 @@ def step_work(
     ----------
     q, q_n, q_h : (n_all,) float
         Converged state, state at the start of the step, history state (m; twist in rad).
-    samp_* : arrays
-        The contact samples as the Newton kernel left them at ``q`` (normals, forces (N),
+    links, samples : tuple
+        The model's groups (module docstring).
+    swork : tuple
+        The sample results as the Newton kernel left them at ``q`` (normals, forces (N),
         distances (m), z, widths (m)).
     d_n, d_h : (P,) float
         Sample distances at the start of the step and their history combination (m).
-    cpar, flags : arrays
-        The kernel parameters and switches (``cpar[10]`` as used in the solve).
+    par : tuple
+        ``(cpar, flags, g)`` (``cpar[10]`` as used in the solve).
     dt_eff : float
         The time step the kernel was called with (s).
     out : (2,) float
         Output: friction work, damping work (J).
     """
+    nd = links[0]
+    samp_link, samp_alpha, samp_ro, samp_wt, _samp_s, _samp_d_prev = samples
+    _samp_p, samp_d, samp_n, _samp_H, samp_z, _samp_w, samp_F, _samp_dF = swork
+    cpar, flags, _g = par
     out[0] = 0.0
     out[1] = 0.0
     law = flags[1]

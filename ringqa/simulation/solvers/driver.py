@@ -77,6 +77,18 @@ class Model:
     scene : ringqa.simulation.scene.Scene
     advances_m : (n,) float
         Requested advances (m).
+
+    Attributes
+    ----------
+    links, chan, samples, swork, par : tuple
+        The kernels' argument groups (their contents, units and shapes: the
+        :mod:`ringqa.simulation.solvers._kernels` module docstring): ``links`` = (nd, n_nodes,
+        kl, link_len, hinge_k, twist_k, node_mass, node_rot), ``chan`` = the channel table
+        (h, pos, tan, nor, KAPPA_MIN_FLAT, seg_s, seg_rb, seg_ra, seg_flat), ``samples`` =
+        (samp_link, samp_alpha, samp_ro, samp_wt, samp_s, samp_d_prev), ``swork`` = (samp_p,
+        samp_d, samp_n, samp_H, samp_z, samp_w, samp_F, samp_dF), ``par`` = (cpar, flags, g).
+        Built once here; they hold the same arrays as the attributes of those names, so the
+        arrays are changed in place only (``model.samp_s[:] = ...``), never rebound.
     """
 
     def __init__(self, scene, advances_m: np.ndarray) -> None:
@@ -240,6 +252,25 @@ class Model:
         self.node_mass = np.ascontiguousarray(chain.node_mass)
         self.node_rot = np.ascontiguousarray(chain.node_rot)
         self.twist_k = np.ascontiguousarray(chain.twist_k)
+        # the kernels' argument groups (solvers/_kernels module docstring): built once, they hold
+        # the live arrays above, so those are only ever changed in place, never rebound
+        self.links = (
+            nd, nn, self.kl, chain.link_len, self.bending.hinge_k, self.twist_k, self.node_mass,
+            self.node_rot,
+        )  # fmt: skip
+        self.chan = (
+            tb.h, tb.pos, tb.tan, tb.nor, KAPPA_MIN_FLAT, tb.seg_s, tb.seg_rb, tb.seg_ra,
+            tb.seg_flat,
+        )  # fmt: skip
+        self.samples = (
+            self.samp_link, self.samp_alpha, self.samp_ro, self.samp_wt, self.samp_s,
+            self.samp_d_prev,
+        )  # fmt: skip
+        self.swork = (
+            self.samp_p, self.samp_d, self.samp_n, self.samp_H, self.samp_z, self.samp_w,
+            self.samp_F, self.samp_dF,
+        )  # fmt: skip
+        self.par = (self.cpar, self.flags, self.g)
         f_ref = float(np.max(self.bending.hinge_k / chain.link_len[1:]))
         self.tol_abs = self.tol * max(f_ref, 1e-2)
         self.max_step = 0.5 * self.clearance
@@ -296,10 +327,9 @@ class Model:
     def predict(self, q: np.ndarray, du: float, u_new: float, slide: bool) -> None:
         """In place: ``slide`` (if True), ``prescribe(q, u_new)``, ``restore_lengths`` in one
         kernel call (the same arithmetic; saves the Python overhead of a load step)."""
-        tb = self.table
         SK.predict(
-            q, slide, du, u_new, self.nd, self.n_nodes, self.chain.link_len, self._cum,
-            self.cft, self._node_sample, self.samp_s, tb.h, tb.pos, tb.tan,
+            q, slide, du, u_new, self.links, self.chan, self.samples, self._cum, self.cft,
+            self._node_sample,
         )  # fmt: skip
 
     def restore_lengths(self, q: np.ndarray) -> None:
@@ -313,17 +343,10 @@ class Model:
 
     def solve(self, q, q_prev, v_prev, dt, q_ref=None):
         """Run the Newton kernel in place on ``q``; returns (status, iterations, residual)."""
-        tb = self.table
         return SK.newton(
-            q, self.n_free, q_prev, v_prev, q_prev if q_ref is None else q_ref, self.nd,
-            self.n_nodes, self.kl,
-            self.chain.link_len, self.bending.hinge_k, self.twist_k, self.node_mass,
-            self.node_rot, self.samp_link, self.samp_alpha, self.samp_ro, self.samp_wt,
-            self.samp_s,
-            self.samp_d_prev, tb.h, tb.pos, tb.tan, tb.nor, KAPPA_MIN_FLAT, tb.seg_s, tb.seg_rb,
-            tb.seg_ra, tb.seg_flat, self.cpar, self.flags, self.g, dt, self.tol_abs,
-            self.max_iter, self.max_step, self.r, self.B, self.samp_p, self.samp_d, self.samp_n,
-            self.samp_H, self.samp_z, self.samp_w, self.samp_F, self.samp_dF, self.energies,
+            q, self.n_free, q_prev, v_prev, q_prev if q_ref is None else q_ref, self.links,
+            self.chan, self.samples, self.swork, self.par, dt, self.tol_abs, self.max_iter,
+            self.max_step, self.r, self.B, self.energies,
         )  # fmt: skip
 
     def set_stabilisation(self, coef: float) -> None:
@@ -651,10 +674,8 @@ def run(scene, advances_m: np.ndarray, progress: bool = False) -> SimResult:
                         st, it, res = model.solve(q_try, q_h, v_h, h_eff, q_ref)
                         if st == 0:
                             SK.step_work(
-                                q_try, qp, q_h, model.nd, model.samp_link, model.samp_alpha,
-                                model.samp_ro, model.samp_wt, model.samp_n, model.samp_F,
-                                model.samp_d, model.samp_z, model.samp_w, d_n, d_h, model.cpar,
-                                model.flags, h_eff, work2,
+                                q_try, qp, q_h, model.links, model.samples, model.swork, d_n,
+                                d_h, model.par, h_eff, work2,
                             )  # fmt: skip
                         model.cpar[i_slip], model.cpar[i_stab] = cpar_saved
                         model.samp_d_prev[:] = d_n
