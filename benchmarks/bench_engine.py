@@ -155,6 +155,7 @@ def main() -> int:
         "friction coulomb": {"effects.friction": "coulomb"},
         "friction stribeck (default)": {},
         "torsion on": {"effects.torsion": True},
+        "wall damping on": {"effects.wall_damping": True},
         "gravity on": {"effects.gravity": True},
         "contact off (free rod, no wall)": {"effects.contact": False},
         "stabilisation 1e-3": {"solver.stabilisation": 1e-3},
