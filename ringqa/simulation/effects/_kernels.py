@@ -579,6 +579,26 @@ def friction_phi(v, law, mu_s, mu_k, v_brk, v_reg):
     return phi, psi
 
 
+@njit(cache=True, inline="always")
+def twist_slip_direction(q, nd, j, n, tau):
+    """``tau = t x n`` (in place): the direction in which a twist of link ``j`` slides its surface.
+
+    ``t`` is the unit axis of link ``j`` (node ``j`` to ``j + 1``, positions in ``q`` with ``nd``
+    coordinates per node), ``n`` (3,) the wall normal at the contact sample. A twist ``dphi`` moves
+    the cable surface at radius r_o by ``r_o dphi tau``; the friction moment is ``r_o tau . F_t``.
+    """
+    t0 = q[nd * (j + 1)] - q[nd * j]
+    t1 = q[nd * (j + 1) + 1] - q[nd * j + 1]
+    t2 = q[nd * (j + 1) + 2] - q[nd * j + 2]
+    tl = math.sqrt(t0 * t0 + t1 * t1 + t2 * t2)
+    t0 /= tl
+    t1 /= tl
+    t2 /= tl
+    tau[0] = t1 * n[2] - t2 * n[1]
+    tau[1] = t2 * n[0] - t0 * n[2]
+    tau[2] = t0 * n[1] - t1 * n[0]
+
+
 @njit(cache=True)
 def add_friction(
     q,
@@ -639,17 +659,7 @@ def add_friction(
             wv[a] -= wn * n[a]
         ro = samp_ro[i]
         if torsion:
-            tl = 0.0
-            t0 = q[nd * (j + 1)] - q[nd * j]
-            t1 = q[nd * (j + 1) + 1] - q[nd * j + 1]
-            t2 = q[nd * (j + 1) + 2] - q[nd * j + 2]
-            tl = math.sqrt(t0 * t0 + t1 * t1 + t2 * t2)
-            t0 /= tl
-            t1 /= tl
-            t2 /= tl
-            tau[0] = t1 * n[2] - t2 * n[1]
-            tau[1] = t2 * n[0] - t0 * n[2]
-            tau[2] = t0 * n[1] - t1 * n[0]
+            twist_slip_direction(q, nd, j, n, tau)
             dphi = w0 * (q[nd * j + 3] - q_prev[nd * j + 3]) + w1 * (
                 q[nd * (j + 1) + 3] - q_prev[nd * (j + 1) + 3]
             )

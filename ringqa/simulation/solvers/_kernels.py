@@ -61,6 +61,7 @@ from ringqa.simulation.effects._kernels import (
     clamp_normal,
     contact_geometry,
     friction_phi,
+    twist_slip_direction,
 )
 
 
@@ -536,16 +537,7 @@ def step_work(q, q_n, q_h, links, samples, swork, d_n, d_h, par, dt_eff, out):
             wv[a] -= wn * n[a]
         if torsion:
             ro = samp_ro[i]
-            t0 = q[nd * (j + 1)] - q[nd * j]
-            t1 = q[nd * (j + 1) + 1] - q[nd * j + 1]
-            t2 = q[nd * (j + 1) + 2] - q[nd * j + 2]
-            tl = math.sqrt(t0 * t0 + t1 * t1 + t2 * t2)
-            t0 /= tl
-            t1 /= tl
-            t2 /= tl
-            tau[0] = t1 * n[2] - t2 * n[1]
-            tau[1] = t2 * n[0] - t0 * n[2]
-            tau[2] = t0 * n[1] - t1 * n[0]
+            twist_slip_direction(q, nd, j, n, tau)
             dphi_h = w0 * (q[nd * j + 3] - q_h[nd * j + 3]) + w1 * (
                 q[nd * (j + 1) + 3] - q_h[nd * (j + 1) + 3]
             )
