@@ -28,6 +28,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from ringqa.accuracy import scaled_overrides  # noqa: E402
 from ringqa.simulation import simulate  # noqa: E402
 from ringqa.simulation.scenefile import load_scene  # noqa: E402
 
@@ -53,18 +54,9 @@ def err_mm(a, b) -> float:
     return float(np.max(np.linalg.norm((a.source_pos_m - b.source_pos_m) * 1e3, axis=1)))
 
 
-def refined(scene, f: float, step_key: str):
-    thin = scene.instrument.sections[1].element_length_m * 1e3
-    thick = scene.instrument.sections[2].element_length_m * 1e3
-    step = (
-        scene.solver.time_step_s
-        if step_key == "solver.time_step_s"
-        else (scene.solver.increment_m * 1e3)
-    )
-    return scene.with_overrides(
-        {"discretisation.element_length_mm": {"thin": thin * f, "thick": thick * f},
-         step_key: step * f}
-    )  # fmt: skip
+def refined(scene, f: float):
+    """``scene`` with every element length and the increment (or time step) times ``f``."""
+    return scene.with_overrides(scaled_overrides(scene, f, f))
 
 
 def row(name, res, t, err=None) -> dict:
@@ -100,7 +92,7 @@ def main() -> int:
     inc = base.solver.increment_m * 1e3
     print(f"\n1. quasi-static as shipped (links {thin:g}/{thick:g} mm, increment {inc:g} mm)")
     res, t = timed(base, reps)
-    ref, t_ref = timed(refined(base, 0.25, "solver.increment_mm"), 1)
+    ref, t_ref = timed(refined(base, 0.25), 1)
     err = err_mm(res, ref)
     out["quasistatic"] = [
         row(f"shipped ({thin:g}/{thick:g} mm, inc {inc:g} mm)", res, t, err),
@@ -116,7 +108,7 @@ def main() -> int:
     )
     out["target"] = {"time_s": t, "max_err_mm": err, "median_err_mm": med,
                      "time_met": ok_t, "error_met": ok_e}  # fmt: skip
-    r8, t8 = timed(refined(base, 0.125, "solver.increment_mm"), 1)
+    r8, t8 = timed(refined(base, 0.125), 1)
     ref_spread = err_mm(ref, r8)
     print(f"   the reference itself: 4x vs 8x refined {ref_spread:.4f} mm ({t8:.2f} s)")
     out["target"]["ref_4x_vs_8x_mm"] = ref_spread
@@ -128,7 +120,7 @@ def main() -> int:
     for name, ov in others.items():
         other = base.with_overrides(ov)
         ro, to = timed(other, reps)
-        ror, tor = timed(refined(other, 0.25, "solver.increment_mm"), 1)
+        ror, tor = timed(refined(other, 0.25), 1)
         out["quasistatic"] += [
             row(f"{name} (inc {inc:g} mm)", ro, to, err_mm(ro, ror)),
             row("  its 4x refined", ror, tor),
@@ -175,7 +167,7 @@ def main() -> int:
     )  # fmt: skip
     simulate(dyn)
     rd, td = timed(dyn, reps)
-    rdr, tdr = timed(refined(dyn, 0.25, "solver.time_step_s"), 1)
+    rdr, tdr = timed(refined(dyn, 0.25), 1)
     out["dynamic"] = [row(f"dynamic dt 1 ms ({thin:g}/{thick:g} mm)", rd, td, err_mm(rd, rdr)),
                       row("dynamic 4x refined (dt 0.25 ms)", rdr, tdr),
                       {"dynamic_vs_quasistatic_mm": err_mm(rd, res)}]  # fmt: skip

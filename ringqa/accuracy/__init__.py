@@ -3,8 +3,10 @@
 Public API::
 
     from ringqa.accuracy import run_study, AccuracyStudy, default_grid, pareto_mask, recommend
+    from ringqa.accuracy import scaled_overrides  # element lengths and step x factors
 """
 
+from ringqa.accuracy.grid import scaled_overrides
 from ringqa.accuracy.study import (
     AccuracyError,
     AccuracyStudy,
@@ -25,4 +27,5 @@ __all__ = [
     "pareto_mask",
     "recommend",
     "run_study",
+    "scaled_overrides",
 ]

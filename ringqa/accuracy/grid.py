@@ -46,8 +46,27 @@ def _step_key(scene) -> str:
     return "solver.time_step_s" if scene.solver.kind == "dynamic" else "solver.increment_mm"
 
 
-def _scaled(scene, factor_el: float, factor_step: float, tol: float | None = None) -> dict:
-    """Overrides scaling every flexible section's element length and the step by factors."""
+def scaled_overrides(
+    scene, factor_el: float, factor_step: float, tol: float | None = None
+) -> dict[str, Any]:
+    """Overrides scaling every flexible section's element length and the step by factors.
+
+    Parameters
+    ----------
+    scene : ringqa.simulation.scene.Scene
+        The scene whose settings are scaled.
+    factor_el, factor_step : float
+        Factors on every flexible section's element length and on the load increment (quasi-
+        static) or time step (dynamic); 0.25 and 0.25 is "4x refined".
+    tol : float or None
+        Newton tolerance to set as well (None: unchanged).
+
+    Returns
+    -------
+    dict
+        Dotted overrides in user units (mm, s), values rounded to 6 significant digits, for
+        ``scene.with_overrides``.
+    """
     out: dict[str, Any] = {}
     for name in flexible_sections(scene):
         out[f"discretisation.element_length_mm.{name}"] = _r(
@@ -82,10 +101,10 @@ def default_grid(scene, factors: tuple[float, ...] = DEFAULT_FACTORS) -> list[di
     grid: list[dict[str, Any]] = []
     for fe in factors:
         for fs in factors:
-            grid.append(_scaled(scene, fe, fs))
+            grid.append(scaled_overrides(scene, fe, fs))
     for tol in (1e-4, 1e-6):
         if tol != scene.solver.tol:
-            grid.append({**_scaled(scene, 1.0, 1.0), "solver.tol": tol})
+            grid.append({**scaled_overrides(scene, 1.0, 1.0), "solver.tol": tol})
     if scene.solver.kind == "quasistatic":
         for stab in (1e-4, 1e-3):
             if stab != scene.solver.stabilisation:

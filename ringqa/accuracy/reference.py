@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ringqa.accuracy.cache import RunRecord, _key_of
-from ringqa.accuracy.grid import AccuracyError, _finest_factors, _scaled
+from ringqa.accuracy.grid import AccuracyError, _finest_factors, scaled_overrides
 from ringqa.accuracy.metrics import position_errors_mm
 
 REFERENCE_TOL = 1.0e-10
@@ -115,7 +115,9 @@ def _refinement_levels(
     converged = False
     for k in range(1, max_levels + 1):
         f = 0.5**k
-        ov = _scaled(scene, finest_el * f, finest_step * f, min(scene.solver.tol, REFERENCE_TOL))
+        ov = scaled_overrides(
+            scene, finest_el * f, finest_step * f, min(scene.solver.tol, REFERENCE_TOL)
+        )
         if level_recs and len(level_recs) >= 2 and cache.get(_key_of(scene, ov)) is None:
             # each level doubles elements and steps: ~4x the time of the previous one
             predicted = 4.0 * level_recs[-1].time_s

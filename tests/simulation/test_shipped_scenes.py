@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from ringqa.accuracy import scaled_overrides
 from ringqa.simulation import simulate
 from ringqa.simulation.output import dwell_table
 from ringqa.simulation.scenefile import load_scene
@@ -52,12 +53,8 @@ def test_ring26_with_a_circular_lumen_runs():
 
 
 def _refined(scene, f: float):
-    """``scene`` with both sections' element lengths and the increment times ``f``."""
-    thin, thick = (sec.element_length_m * 1e3 for sec in scene.instrument.sections[1:3])
-    return scene.with_overrides(
-        {"discretisation.element_length_mm": {"thin": thin * f, "thick": thick * f},
-         "solver.increment_mm": scene.solver.increment_m * 1e3 * f}
-    )  # fmt: skip
+    """``scene`` with every element length and the increment times ``f``."""
+    return scene.with_overrides(scaled_overrides(scene, f, f))
 
 
 def _max_median_mm(a, b) -> tuple[float, float]:
