@@ -100,7 +100,7 @@ class Model:
         if solver.kind not in ("quasistatic", "dynamic"):
             raise SceneError(f"solver.kind: {solver.kind!r} is not 'quasistatic' or 'dynamic'")
         self.dynamic = solver.kind == "dynamic"
-        integrator = getattr(solver, "integrator", "backward_euler")
+        integrator = solver.integrator
         if integrator not in INTEGRATORS:
             raise SceneError(
                 f"solver.integrator: {integrator!r} is not one of {', '.join(INTEGRATORS)}"
@@ -348,6 +348,56 @@ class Model:
             self.chan, self.samples, self.swork, self.par, dt, self.tol_abs, self.max_iter,
             self.max_step, self.r, self.B, self.energies,
         )  # fmt: skip
+
+    def solve_bdf2(self, q, q_n, v_n, hist, coef, h, q_ref, work):
+        """One BDF2 step: the Newton kernel against the history combination (``bdf2_history``).
+
+        Parameters
+        ----------
+        q : (n_all,) float
+            Predicted state, solved in place (m; twist rad).
+        q_n, v_n : (n_all,) float
+            State and velocity at the start of the step (m, m/s).
+        hist : tuple
+            ``(q, v, contact distances, step)`` before the previous step.
+        coef : tuple
+            ``(a, b, h_eff)`` from :func:`bdf2_history`.
+        h : float
+            This step (s).
+        q_ref : (n_all,) float
+            The predictor (the stabilisation tether's anchor).
+        work : (2,) float
+            Output when converged: the step's friction and wall-damping work over the actual
+            displacement (J; ``_kernels.step_work``).
+
+        Returns
+        -------
+        status, iterations, residual, q_h
+            The kernel's three results and the history state the velocity is taken against
+            (``v = (q - q_h) / h_eff``). The friction slip floor and the tether keep their
+            per-step values (scaled for ``h_eff`` during the solve and put back);
+            ``samp_d_prev`` is left at the start-of-step distances.
+        """
+        a_h, b_h, h_eff = coef
+        q_h = np.empty_like(q_n)
+        v_h = np.empty_like(q_n)
+        SK.combine(a_h, q_n, b_h, hist[0], q_h)
+        SK.combine(a_h, v_n, b_h, hist[1], v_h)
+        d_n = self.samp_d_prev.copy()
+        SK.combine(a_h, d_n, b_h, hist[2], self.samp_d_prev)
+        d_h = self.samp_d_prev.copy()
+        i_slip, i_stab = CPAR["slip_min"], CPAR["stabilisation"]
+        saved = (self.cpar[i_slip], self.cpar[i_stab])
+        self.cpar[i_slip] *= h_eff / h
+        self.cpar[i_stab] *= h_eff / h
+        st, it, res = self.solve(q, q_h, v_h, h_eff, q_ref)
+        if st == 0:
+            SK.step_work(
+                q, q_n, q_h, self.links, self.samples, self.swork, d_n, d_h, self.par, h_eff, work
+            )
+        self.cpar[i_slip], self.cpar[i_stab] = saved
+        self.samp_d_prev[:] = d_n
+        return st, it, res, q_h
 
     def set_stabilisation(self, coef: float) -> None:
         """Switch the stabilisation (viscosity ``coef`` N s/m per node) on (> 0) or off."""
@@ -602,7 +652,6 @@ def run(scene, advances_m: np.ndarray, progress: bool = False) -> SimResult:
     # BDF2: (q, v, contact distances, step) before the last accepted (sub-)step; None at the start
     hist = None
     work2 = np.zeros(2)
-    i_slip, i_stab = CPAR["slip_min"], CPAR["stabilisation"]
     for i_path, (target, idx) in enumerate(path if status == STATUS_SUCCESS else []):
         dwell_left = scene.motion.dwell_s if (dynamic and scene.motion.kind == "stepwise") else 0.0
         u_stop = path[stops[i_path]][0]
@@ -658,27 +707,10 @@ def run(scene, advances_m: np.ndarray, progress: bool = False) -> SimResult:
                     if coef is None:
                         st, it, res = model.solve(q_try, qp, v_try, dt / sub, q_ref)
                     else:
-                        # BDF2 = backward Euler against the history combination (bdf2_history);
-                        # the friction slip floor and the tether keep their per-step values
-                        a_h, b_h, h_eff = coef
-                        q_h = np.empty_like(qp)
-                        v_h = np.empty_like(qp)
-                        SK.combine(a_h, qp, b_h, hist_try[0], q_h)
-                        SK.combine(a_h, v_try, b_h, hist_try[1], v_h)
-                        d_n = model.samp_d_prev.copy()
-                        SK.combine(a_h, d_n, b_h, hist_try[2], model.samp_d_prev)
-                        d_h = model.samp_d_prev.copy()
-                        cpar_saved = (model.cpar[i_slip], model.cpar[i_stab])
-                        model.cpar[i_slip] *= h_eff / h
-                        model.cpar[i_stab] *= h_eff / h
-                        st, it, res = model.solve(q_try, q_h, v_h, h_eff, q_ref)
-                        if st == 0:
-                            SK.step_work(
-                                q_try, qp, q_h, model.links, model.samples, model.swork, d_n,
-                                d_h, model.par, h_eff, work2,
-                            )  # fmt: skip
-                        model.cpar[i_slip], model.cpar[i_stab] = cpar_saved
-                        model.samp_d_prev[:] = d_n
+                        st, it, res, q_h = model.solve_bdf2(
+                            q_try, qp, v_try, hist_try, coef, h, q_ref, work2
+                        )
+                        h_eff = coef[2]
                     iters_step += it
                     if st != 0:
                         good = False
