@@ -12,6 +12,8 @@ quasi-static) pushed 100 mm into a ring of centreline radius 13 mm. Reports:
    exponent (1 = linear);
 3. the cost of each effect: time with it on vs off on the same scene;
 4. the same for the dynamic solver (0.5 m/s, inertia, wall damping; dt and elements / 4 refined).
+Times are also printed as multiples (xN) of the shipped scene's time (of the un-refined run for a
+4x-refined one).
 """
 
 from __future__ import annotations
@@ -59,7 +61,8 @@ def refined(scene, f: float):
     return scene.with_overrides(scaled_overrides(scene, f, f))
 
 
-def row(name, res, t, err=None) -> dict:
+def row(name, res, t, err=None, t_base=None) -> dict:
+    """Print and return one case; ``t_base`` (s): also the time as a multiple of it."""
     r = {
         "case": name,
         "status": int(res.status),
@@ -69,9 +72,13 @@ def row(name, res, t, err=None) -> dict:
     }
     if err is not None:
         r["max_err_vs_4x_mm"] = round(err, 5)
+    if t_base:
+        r["time_ratio"] = round(t / t_base, 3)
     print(
-        f"{name:48s} status {r['status']:2d}  {t * 1e3:9.2f} ms  {r['n_elements']:5d} el  "
-        f"{r['newton_iters']:6d} it" + (f"  err {err:.4f} mm" if err is not None else "")
+        f"{name:48s} status {r['status']:2d}  {t * 1e3:9.2f} ms"
+        + (f" (x{r['time_ratio']:.2f})" if t_base else "")
+        + f"  {r['n_elements']:5d} el  {r['newton_iters']:6d} it"
+        + (f"  err {err:.4f} mm" if err is not None else "")
     )
     return r
 
@@ -96,7 +103,9 @@ def main() -> int:
     err = err_mm(res, ref)
     out["quasistatic"] = [
         row(f"shipped ({thin:g}/{thick:g} mm, inc {inc:g} mm)", res, t, err),
-        row(f"4x refined ({thin / 4:g}/{thick / 4:g} mm, inc {inc / 4:g} mm)", ref, t_ref),
+        row(
+            f"4x refined ({thin / 4:g}/{thick / 4:g} mm, inc {inc / 4:g} mm)", ref, t_ref, t_base=t
+        ),
     ]
     med = float(np.median(np.linalg.norm((res.source_pos_m - ref.source_pos_m) * 1e3, axis=1)))
     ok_t, ok_e = t <= TARGET_S, err <= TARGET_MM
@@ -122,8 +131,8 @@ def main() -> int:
         ro, to = timed(other, reps)
         ror, tor = timed(refined(other, 0.25), 1)
         out["quasistatic"] += [
-            row(f"{name} (inc {inc:g} mm)", ro, to, err_mm(ro, ror)),
-            row("  its 4x refined", ror, tor),
+            row(f"{name} (inc {inc:g} mm)", ro, to, err_mm(ro, ror), t),
+            row("  its 4x refined", ror, tor, t_base=to),
         ]
 
     print("\n2. scaling with element count (increment fixed)")
@@ -134,7 +143,7 @@ def main() -> int:
         )
         r, tt = timed(s, reps)
         pts.append((r.n_elements, tt, r.status))
-        row(f"elements x{1 / f:g}", r, tt)
+        row(f"elements x{1 / f:g}", r, tt, t_base=t)
     good = [(n, tt) for n, tt, st in pts if st == 0 and tt > 0]
     if len(good) >= 2:
         k = np.polyfit(np.log([n for n, _ in good]), np.log([tt for _, tt in good]), 1)[0]
@@ -158,7 +167,7 @@ def main() -> int:
     for name, ov in cases.items():
         s = base.with_overrides(ov) if ov else base
         r, tt = timed(s, reps)
-        out["effects"].append(row(name, r, tt, err_mm(r, res)))
+        out["effects"].append(row(name, r, tt, err_mm(r, res), t))
 
     print("\n4. dynamic solver (0.5 m/s, inertia, wall damping) vs 4x refined (dt, elements)")
     dyn = base.with_overrides(
@@ -168,8 +177,8 @@ def main() -> int:
     simulate(dyn)
     rd, td = timed(dyn, reps)
     rdr, tdr = timed(refined(dyn, 0.25), 1)
-    out["dynamic"] = [row(f"dynamic dt 1 ms ({thin:g}/{thick:g} mm)", rd, td, err_mm(rd, rdr)),
-                      row("dynamic 4x refined (dt 0.25 ms)", rdr, tdr),
+    out["dynamic"] = [row(f"dynamic dt 1 ms ({thin:g}/{thick:g} mm)", rd, td, err_mm(rd, rdr), t),
+                      row("dynamic 4x refined (dt 0.25 ms)", rdr, tdr, t_base=td),
                       {"dynamic_vs_quasistatic_mm": err_mm(rd, res)}]  # fmt: skip
     print(f"   dynamic vs quasi-static dwell difference: {err_mm(rd, res):.4f} mm")
     if args.json:
