@@ -119,7 +119,9 @@ def main() -> int:
         others = max(
             float(np.nanmax(np.abs(got[k] - ref[k]), initial=0.0)) for k in KEYS if k in ref
         )
-        nan_same = bool(np.array_equal(np.isnan(got["source_pos_m"]), np.isnan(ref["source_pos_m"])))
+        nan_same = bool(
+            np.array_equal(np.isnan(got["source_pos_m"]), np.isnan(ref["source_pos_m"]))
+        )
         dwork = float(np.max(np.abs(got["work"] - ref["work"]), initial=0.0))
         warn_same = list(got["warnings"]) == list(ref["warnings"])
         status_same = int(res.status) == int(ref["status"])
@@ -133,7 +135,8 @@ def main() -> int:
             f"{res.solve_time_s * 1e3:6.1f} ms"
         )
         if not warn_same:
-            print(f"    warnings now: {list(got['warnings'])}\n    before:       {list(ref['warnings'])}")
+            print(f"    warnings now: {list(got['warnings'])}")
+            print(f"    before:       {list(ref['warnings'])}")
     if mode == "compare":
         ok = not bad
         print(

@@ -1,11 +1,11 @@
 """Keep numba's on-disk cache of the engine's kernels consistent across the kernel files.
 
-Numba keys a cached function on its own file's time stamp only. The solver kernels
-(``solvers/_kernels.py``) compile the effect kernels (``effects/_kernels.py``) and the channel
-kernels (``_kernels.py``) into themselves, so after a change to those files alone (an edit, a
-``git rebase``) the cached solver would keep running the old code. Before the first kernel call
-:func:`ensure_fresh_kernel_cache` hashes the three files and, when the hash differs from the one
-stamped at the last compile, removes their cached ``*.nbi``/``*.nbc`` files so numba recompiles.
+Numba keys a cached function on its own file's time stamp only. The solver kernels (Newton,
+the assembler) compile the effects' kernels, the band helpers and the channel kernels into
+themselves, so after a change to those files alone (an edit, a ``git rebase``) the cached solver
+would keep running the old code. Before the first kernel call :func:`ensure_fresh_kernel_cache`
+hashes every module of the engine and, when the hash differs from the one stamped at the last
+compile, removes the engine's cached ``*.nbi``/``*.nbc`` files so numba recompiles.
 """
 
 from __future__ import annotations
@@ -14,8 +14,12 @@ import hashlib
 from pathlib import Path
 
 _ROOT = Path(__file__).resolve().parent
-_FILES = ("_kernels.py", "effects/_kernels.py", "solvers/_kernels.py")
 _checked = False
+
+
+def _engine_files() -> list[Path]:
+    """Every module of the engine (sorted: the hash must not depend on the listing order)."""
+    return sorted(_ROOT.rglob("*.py"))
 
 
 def ensure_fresh_kernel_cache() -> None:
@@ -26,15 +30,15 @@ def ensure_fresh_kernel_cache() -> None:
     _checked = True
     try:
         h = hashlib.sha256()
-        for f in _FILES:
-            h.update((_ROOT / f).read_bytes())
+        for f in _engine_files():
+            h.update(str(f.relative_to(_ROOT)).encode())
+            h.update(f.read_bytes())
         digest = h.hexdigest()
         stamp = _ROOT / "solvers" / "__pycache__" / "ringqa_kernels.sha256"
         if stamp.is_file() and stamp.read_text().strip() == digest:
             return
-        for f in _FILES:
-            cache = (_ROOT / f).parent / "__pycache__"
-            for p in cache.glob("_kernels.*.nb[ic]"):
+        for cache in _ROOT.rglob("__pycache__"):
+            for p in cache.glob("*.nb[ic]"):
                 p.unlink(missing_ok=True)
         stamp.parent.mkdir(parents=True, exist_ok=True)
         stamp.write_text(digest)

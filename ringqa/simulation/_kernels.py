@@ -1,13 +1,10 @@
-"""Numba kernels of the engine's infrastructure: channel evaluation, closest point, banded LU.
+"""Numba kernels of the channel: evaluation, closest point, sliding points along it.
 
 Everything here sees arrays and scalars only (SI units). The channel is a uniform arc-length
 table (spacing ``h``) of centreline positions ``pos (m,3)``, unit tangents ``tan (m,3)`` and
 normals ``nor (m,3)``, interpolated by cubic Hermite pieces (C1, exact to ~h^4 kappa^3 / 384,
 i.e. < 1 nm for h = 0.25 mm and a 5 mm bend), extended by straight lines before s = 0 (the
 approach: the transfer tube in front of the applicator) and beyond the last sample.
-
-Band storage (row-wise): ``B[i, kl + j - i]`` holds A[i, j] for ``-kl <= j - i <= 2 kl``; the
-assemblers write only ``|j - i| <= kl``, the extra ``kl`` columns take the fill-in of pivoting.
 """
 
 from __future__ import annotations
@@ -248,82 +245,3 @@ def restore_lengths(q, nd, n_nodes, link_len):
         f = link_len[j] / np.sqrt(ll)
         for c in range(3):
             q[a + c] = q[b + c] + (q[a + c] - q[b + c]) * f
-
-
-# ------------------------------------------------------------------------------------------
-# banded linear algebra
-
-
-@njit(cache=True)
-def band_solve(B, kl, rhs, n):
-    """Solve ``A x = rhs`` for the leading ``n x n`` block of a banded matrix (in place).
-
-    Gaussian elimination with partial pivoting (as LAPACK gbsv) on the row-wise band storage
-    described in the module docstring; O(n kl^2). ``B`` and ``rhs`` are overwritten, the
-    solution is returned in ``rhs[:n]``.
-
-    Each row's last possibly non-zero column is tracked (``last``: from the assembled entries,
-    carried along by row swaps and eliminations), and the row operations stop there: the
-    skipped terms are exact zeros (``x - f * 0 = x``), so the result is the same, bit for bit,
-    as running every row out to the full fill-in width ``2 kl``; without row swaps a row's fill
-    stays within ``kl`` and the work halves.
-
-    Returns
-    -------
-    ok : bool
-        False when a pivot is exactly zero (singular matrix).
-    """
-    ku = 2 * kl
-    W = B.shape[1]
-    Bf = B.reshape(-1)  # flat view: row operations index it with unsigned offsets (no wraparound)
-    last = np.empty(n, dtype=np.int64)
-    for i in range(n):
-        jl = min(n - 1, i + kl)
-        while jl > i and B[i, kl + jl - i] == 0.0:
-            jl -= 1
-        last[i] = jl
-    for k in range(n):
-        # pivot search in column k, rows k .. k + kl
-        imax = min(n - 1, k + kl)
-        p = k
-        vmax = abs(B[k, kl])
-        for i in range(k + 1, imax + 1):
-            v = abs(B[i, kl + k - i])
-            if v > vmax:
-                vmax = v
-                p = i
-        if vmax == 0.0:
-            return False
-        if p != k:
-            jmax = max(last[k], last[p])
-            for j in range(k, jmax + 1):
-                a = B[k, kl + j - k]
-                B[k, kl + j - k] = B[p, kl + j - p]
-                B[p, kl + j - p] = a
-            a = rhs[k]
-            rhs[k] = rhs[p]
-            rhs[p] = a
-            jl = last[k]
-            last[k] = last[p]
-            last[p] = jl
-        piv = B[k, kl]
-        jmax = min(n - 1, k + ku, last[k])
-        bk = np.uint64(k * W + kl - k)  # B[k, kl + j - k] == Bf[bk + j]
-        for i in range(k + 1, imax + 1):
-            f = B[i, kl + k - i] / piv
-            if f != 0.0:
-                B[i, kl + k - i] = 0.0
-                bi = np.uint64(i * W + kl - i)
-                for j in range(np.uint64(k + 1), np.uint64(jmax + 1)):
-                    Bf[bi + j] -= f * Bf[bk + j]
-                rhs[i] -= f * rhs[k]
-                if jmax > last[i]:
-                    last[i] = jmax
-    for k in range(n - 1, -1, -1):
-        acc = rhs[k]
-        jmax = min(n - 1, k + ku, last[k])
-        bk = np.uint64(k * W + kl - k)
-        for j in range(np.uint64(k + 1), np.uint64(jmax + 1)):
-            acc -= Bf[bk + j] * rhs[j]
-        rhs[k] = acc / B[k, kl]
-    return True

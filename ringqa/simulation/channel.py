@@ -10,6 +10,7 @@ before the entry (s < 0: the approach, the transfer tube) and beyond the tip.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -25,6 +26,34 @@ TABLE_SPACING_M = 0.25e-3
 #: Oncentra 26/60 library channel that made every load step past the inflection fail: 76
 #: stabilised steps and 0.8 s; with the fade 12 and 0.24 s)
 KAPPA_MIN_FLAT = 25.0
+
+
+class ChannelArgs(NamedTuple):
+    """The channel as the kernels take it (SI; the fields of :class:`ChannelTable`).
+
+    Attributes
+    ----------
+    h : float
+        Arc-length spacing of the table (m).
+    pos, tan, nor : (m, 3) float64
+        Centreline positions (m), unit tangents and unit normals at ``s = k h``.
+    kappa_min_flat : float
+        Curvature (1/m) below which a flat side fades out (:data:`KAPPA_MIN_FLAT`).
+    seg_s : (k+1,) float64
+        Lumen segment breaks (m).
+    seg_rb, seg_ra, seg_flat : (k,) float64
+        Wall radius r_b, transition radius r_a and flat-side distance (+inf: circular) (m).
+    """
+
+    h: float
+    pos: np.ndarray
+    tan: np.ndarray
+    nor: np.ndarray
+    kappa_min_flat: float
+    seg_s: np.ndarray
+    seg_rb: np.ndarray
+    seg_ra: np.ndarray
+    seg_flat: np.ndarray
 
 
 @dataclass(frozen=True)
@@ -83,6 +112,13 @@ class ChannelTable:
         if np.any(seg_rb <= 0) or np.any(seg_ra > seg_rb):
             raise SimulationError("scene.channel.lumen: need 0 < r_a <= r_b in every segment")
         return cls(h, pos, tan, nor, kappa, length, seg_s, seg_rb, seg_ra, seg_flat)
+
+    def args(self) -> ChannelArgs:
+        """The table as the kernels take it."""
+        return ChannelArgs(
+            self.h, self.pos, self.tan, self.nor, KAPPA_MIN_FLAT, self.seg_s, self.seg_rb,
+            self.seg_ra, self.seg_flat,
+        )  # fmt: skip
 
     # -- Python conveniences (tests, outputs) --------------------------------------------
     def point(self, s_m: float) -> np.ndarray:

@@ -12,9 +12,11 @@ _WARM = False
 
 
 def warm_up() -> None:
-    """Compile (or load from the numba cache) every kernel once, on a tiny problem.
+    """Compile (or load from the numba cache) the kernels of every effect combination on tiny
+    problems (quasi-static and dynamic, every effect on).
 
-    :func:`simulate` calls it before starting its clock, so ``solve_time_s`` excludes JIT.
+    :func:`simulate` does not need it: each run compiles (or loads) exactly the kernels its
+    scene uses before starting its clock, so ``solve_time_s`` excludes JIT.
     """
     global _WARM
     if _WARM:
@@ -66,7 +68,6 @@ def simulate(scene, advances_mm=None, progress: bool = False) -> SimResult:
         )
     if not np.all(np.isfinite(adv)):
         raise SimulationError("advances_mm: all advances must be finite numbers (mm)")
-    warm_up()
     from ringqa.simulation.solvers.driver import run
 
     return run(scene, adv, progress=progress)

@@ -30,6 +30,43 @@ STATUS_FAILED = -1
 
 
 @dataclass(frozen=True)
+class SolverStats:
+    """What a run's solver did (after scipy's ``OdeResult`` counters ``nfev``, ``njev``, ``nlu``).
+
+    Attributes
+    ----------
+    n_steps : int
+        Accepted load or time steps.
+    n_newton_iters : int
+        Newton iterations, failed attempts included.
+    n_residuals : int
+        Residual assemblies (line-search trials included).
+    n_jacobians : int
+        Jacobian assemblies.
+    n_solves : int
+        Banded linear solves.
+    n_halvings : int
+        Line-search halvings.
+    n_failed_attempts : int
+        Attempts at a step that did not converge (then cut or stabilised).
+    n_cut_steps : int
+        Accepted steps that needed sub-steps.
+    n_stabilised_steps : int
+        Accepted steps that needed the fallback stabilisation.
+    """
+
+    n_steps: int = 0
+    n_newton_iters: int = 0
+    n_residuals: int = 0
+    n_jacobians: int = 0
+    n_solves: int = 0
+    n_halvings: int = 0
+    n_failed_attempts: int = 0
+    n_cut_steps: int = 0
+    n_stabilised_steps: int = 0
+
+
+@dataclass(frozen=True)
 class SimResult:
     """The outcome of :func:`ringqa.simulation.simulate`, one row per requested advance.
 
@@ -78,6 +115,8 @@ class SimResult:
     max_penetration_m : float
         Largest penetration of the instrument's surface beyond the lumen wall r_b over the whole
         run (m; 0 if it never reached the wall), over all contact sample points.
+    stats : SolverStats
+        The solver's counters.
     """
 
     status: int
@@ -100,6 +139,7 @@ class SimResult:
     trajectory: dict[str, np.ndarray] | None = None
     provenance: Any = None
     max_penetration_m: float = 0.0
+    stats: SolverStats = field(default_factory=SolverStats)
 
     @property
     def success(self) -> bool:

@@ -8,10 +8,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from sim_builders import flexitron, ring_channel, scene
 
 from ringqa.simulation import simulate
 from ringqa.simulation.scene import Effects, SolverSettings
+from tests.simulation.builders import flexitron, ring_channel, scene
 
 ADV = np.arange(60.0, 101.0, 5.0)
 
@@ -75,10 +75,9 @@ def test_wall_stiffness_per_length_converges_under_refinement():
     pushed round a 13 mm arc (nodes 90-200 degrees) then converges: 0.75 vs 0.375 mm links agree
     to 1e-3 mm (measured 1e-5), whereas with the paper's per-node stiffness it keeps drifting
     (0.1714 -> 0.1681 mm) because every added node adds stiffness."""
-    from sim_builders import rod
-
     from ringqa.simulation.analytic import arc_channel
     from ringqa.simulation.scene import ContactParams
+    from tests.simulation.builders import rod
 
     ch = arc_channel(radius_m=0.013, angle_rad=1.9 * np.pi, entry_m=0.04, r_b_m=0.5e-3,
                      r_a_m=0.45e-3)  # fmt: skip

@@ -6,12 +6,12 @@ import dataclasses
 
 import numpy as np
 import pytest
-from sim_builders import flexitron, ring_channel, scene
 
 from ringqa.errors import SimulationError
 from ringqa.simulation import SimResult, simulate
 from ringqa.simulation.result import DWELL_COLUMNS
 from ringqa.simulation.scene import ContactParams, Effects, Motion, Outputs, SolverSettings
+from tests.simulation.builders import flexitron, model, ring_channel, scene
 
 ADV = np.array([70.0, 60.0, 80.0])
 
@@ -139,63 +139,90 @@ def test_bdf2_integrator_is_recorded_and_closes_the_work_balance(ring):
     assert any("integrator" in w for w in b.warnings)
 
 
-def test_kernel_groups_hold_the_models_live_arrays(ring):
-    """The argument tuples the kernels take (built once in ``Model.__init__``) hold the very
-    arrays of the model's attributes, so an in-place change (the driver's
-    ``samp_s[:] = ...``, ``cpar[...] = ...``) reaches the kernels."""
-    from ringqa.simulation.channel import KAPPA_MIN_FLAT
-    from ringqa.simulation.solvers.driver import Model
-
-    sc = scene(ring, flexitron(), effects=Effects(friction="stribeck", torsion=True))
-    m = Model(sc, np.array([0.08]))
-    tb = m.table
-    expected = {
-        "links": (m.nd, m.n_nodes, m.kl, m.chain.link_len, m.bending.hinge_k, m.twist_k,
-                  m.node_mass, m.node_rot),
-        "chan": (tb.h, tb.pos, tb.tan, tb.nor, KAPPA_MIN_FLAT, tb.seg_s, tb.seg_rb, tb.seg_ra,
-                 tb.seg_flat),
-        "samples": (m.samp_link, m.samp_alpha, m.samp_ro, m.samp_wt, m.samp_s, m.samp_d_prev),
-        "swork": (m.samp_p, m.samp_d, m.samp_n, m.samp_H, m.samp_z, m.samp_w, m.samp_F,
-                  m.samp_dF),
-        "par": (m.cpar, m.flags, m.g),
-    }  # fmt: skip
-    for name, want in expected.items():
-        got = getattr(m, name)
-        assert len(got) == len(want), name
-        for a, b in zip(got, want, strict=True):
-            assert (a is b) if isinstance(b, np.ndarray) else (a == b), name
+def test_a_model_assembles_only_the_effects_its_scene_calls_for(ring):
+    """ "Simulate only the effects a scene calls for": the assembled tuple holds exactly the
+    switched-on effects, in assembly order (plus the solver's tether), and nothing else is
+    called or compiled for it."""
+    base = ["inextensibility", "bending"]
+    cases = [
+        (Effects(friction="none", contact=False), SolverSettings(), [*base, "tether"]),
+        (Effects(friction="stribeck"), SolverSettings(), [*base, "contact", "friction", "tether"]),
+        (
+            Effects(friction="coulomb", torsion=True, wall_damping=True,
+                    gravity_m_s2=(0.0, -9.81, 0.0)),
+            SolverSettings(kind="dynamic"),
+            [*base, "torsion", "contact", "wall_damping", "friction", "gravity", "inertia",
+             "tether"],
+        ),
+    ]  # fmt: skip
+    for eff, solver, want in cases:
+        m = model(scene(ring, flexitron(), effects=eff, solver=solver), 0.08)
+        assert list(m.names) == want
+        assert [type(a).__name__ for a in m.effects] == [type(u.args()).__name__ for u in m.units]
 
 
 @pytest.mark.parametrize("torsion", [False, True])
-def test_step_work_equals_the_kernels_work_for_a_backward_euler_step(ring, torsion):
-    """``step_work`` (BDF2's friction and damping work over the actual displacement) gives the
-    Newton kernel's own ``energies[5]``, ``energies[6]`` when the history is the previous state
-    (a backward-Euler step): same forces, same displacement."""
-    from ringqa.simulation.solvers import _kernels as SK
-    from ringqa.simulation.solvers.driver import Model, initial_equilibrium
+def test_step_work_is_taken_over_the_actual_displacement(ring, torsion):
+    """A BDF2 step solves against a modified history: friction's velocity comes from
+    ``q - q_hist``, but its work must be taken over the step's actual slip ``q - q_start``
+    (and wall damping's over the actual change of distance). Checked against the friction law
+    evaluated here from the samples the kernel left: W = sum_i F_i phi(|v_i|) v_i . w_i, v the
+    tangential slip from the history over dt, w the tangential slip from the start; and
+    W_damp = sum_i c_w sh(z_i) v_n,i (d_i - d_start,i)."""
+    from ringqa.simulation.effects.friction import friction_phi
+    from ringqa.simulation.solvers.driver import initial_equilibrium
 
     eff = Effects(friction="stribeck", inertia=True, wall_damping=True, torsion=torsion)
     sc = scene(ring, flexitron(), effects=eff, solver=SolverSettings(kind="dynamic"),
                motion=Motion(speed_m_s=0.5, start_m=0.07))  # fmt: skip
-    m = Model(sc, np.array([0.08]))
+    m = model(sc, 0.08)
     u, dt = m.u_start, 1e-3
     q = m.initial_state(u)
     m.prescribe(q, u)
     v = np.zeros(m.n_all)
     assert initial_equilibrium(m, q, v, dt)[0] == 0
-    m.samp_d_prev[:] = m.samp_d
-    out = np.zeros(2)
-    for _ in range(3):
-        q_n, d_n = q.copy(), m.samp_d_prev.copy()
-        q = q + dt * v
-        u += 0.5e-3
-        m.predict(q, 0.5e-3, u, False)
-        assert m.solve(q, q_n, v, dt, q.copy())[0] == 0
-        SK.step_work(q, q_n, q_n, m.links, m.samples, m.swork, d_n, d_n, m.par, dt, out)
-        assert m.energies[5] > 0 and m.energies[6] != 0
-        np.testing.assert_allclose(out, m.energies[5:7], rtol=1e-12)
-        v = (q - q_n) / dt
-        m.samp_d_prev[:] = m.samp_d
+    m.d_prev[:] = m.samples.d
+    q_n = q.copy()
+    q_hist = q_n - 0.3e-3 * (np.arange(m.n_all) % m.nd == 0)  # a history 0.3 mm behind along x
+    d_hist = m.d_prev - 1e-6
+    q = q + 0.5e-3 * (np.arange(m.n_all) % m.nd == 0)
+    m.predict(q, 0.5e-3, u + 0.5e-3, False)
+    st = m.step(q_hist, v, dt, q_ref=q.copy(), q_start=q_n, d_hist=d_hist)
+    assert m.solve(m.effects, q, st)[0] == 0
+    sw = m.samples
+    fr = m.unit("friction")
+    nd = m.nd
+    w_fr = 0.0
+    for i in np.flatnonzero(sw.F > 0):
+        j, al = sw.link[i], sw.alpha[i]
+        n = sw.n[i]
+
+        def tangential(qq, j=j, al=al, n=n, i=i):
+            w = sw.p[i] - (
+                (1 - al) * qq[nd * j : nd * j + 3] + al * qq[nd * j + nd : nd * j + nd + 3]
+            )
+            w = w - (w @ n) * n
+            if torsion:
+                t = q[nd * j + nd : nd * j + nd + 3] - q[nd * j : nd * j + 3]
+                tau = np.cross(t / np.linalg.norm(t), n)
+                dphi = (1 - al) * (q[nd * j + 3] - qq[nd * j + 3]) + al * (
+                    q[nd * j + nd + 3] - qq[nd * j + nd + 3]
+                )
+                w = w + sw.ro[i] * dphi * tau
+            return w
+
+        vel = tangential(q_hist) / dt
+        phi, _ = friction_phi(np.linalg.norm(vel), fr.law, fr.mu_s, fr.mu_k, fr.v_brk,
+                              max(fr.v_reg, fr.slip_min / dt))  # fmt: skip
+        w_fr += sw.F[i] * phi * vel @ tangential(q_n)
+    assert w_fr != 0
+    assert m.work_of("friction") == pytest.approx(w_fr, rel=1e-9)
+    c_w = m.unit("wall_damping").c_w
+    z = sw.z
+    sh = np.where(z <= 1.0, (3 - 2 * z) * z * z, 1.0)
+    w_d = np.sum(np.where(z > 0, c_w * sw.wt * sh * (sw.d - d_hist) / dt * (sw.d - m.d_prev), 0.0))
+    assert w_d != 0
+    assert m.work_of("wall_damping") == pytest.approx(w_d, rel=1e-9)
 
 
 def test_dynamic_start_is_ramped_not_an_impulse(ring):

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from sim_builders import flexitron, rod, scene
 
 from ringqa.simulation import simulate
 from ringqa.simulation.analytic import (
@@ -21,6 +20,7 @@ from ringqa.simulation.analytic import (
 )
 from ringqa.simulation.channel import ChannelTable
 from ringqa.simulation.scene import ContactParams, Effects, Motion, SolverSettings
+from tests.simulation.builders import flexitron, rod, scene
 
 
 def _dense_penetration(res, channel, r_o_of_link):

@@ -10,27 +10,43 @@ import math
 
 import numpy as np
 import pytest
-from sim_builders import rod, scene
 
 from ringqa.simulation import simulate
 from ringqa.simulation.analytic import arc_channel
+from ringqa.simulation.effects.gravity import GravityArgs
 from ringqa.simulation.scene import ContactParams, Effects, Motion, SolverSettings
-from ringqa.simulation.solvers.driver import Model, bdf2_history
+from ringqa.simulation.solvers.integrators import INTEGRATORS, bdf2_history
+from tests.simulation.builders import assemble_at, dense, model, rod, scene
 
 EI = 5e-4
 
 
-def _cantilever(n_links, effects=None, length=0.1):
-    """A clamped rod of free length ``length`` along +x in a huge straight lumen (no contact)."""
+def _cantilever(n_links, effects=None, length=0.1, dynamic=False):
+    """A clamped rod of free length ``length`` along +x in a huge straight lumen (no contact);
+    with ``dynamic`` the model carries inertia (the dynamic solver's)."""
     ch = arc_channel(radius_m=1.0, angle_rad=0.01, entry_m=0.5, r_b_m=0.2, r_a_m=0.19)
     inst = rod(ei=EI, element=length / n_links, length=1.0, r_o=1e-3)
     eff = effects or Effects(friction="none", contact=False, gravity_m_s2=(0.0, -1.0, 0.0))
-    sc = scene(ch, inst, effects=eff, solver=SolverSettings(approach_m=1e-3, axial_stiffness_n=1e8))
+    solver = SolverSettings(approach_m=1e-3, axial_stiffness_n=1e8,
+                            kind="dynamic" if dynamic else "quasistatic")  # fmt: skip
     u = length - 1e-3
-    m = Model(sc, np.array([u]))
+    m = model(scene(ch, inst, effects=eff, solver=solver), u)
     q = m.initial_state(u)
     m.prescribe(q, u)
     return m, q
+
+
+def _static(m, q, effects=None):
+    """Solve the static equilibrium in place (history effects suspended); Newton's status."""
+    eff = m.static_effects if effects is None else effects
+    return m.solve(eff, q, m.step(q.copy(), q * 0, 1.0))[0]
+
+
+def _tip_load(m, force, base=None):
+    """The effects with gravity replaced by a point force (N, (3,)) on the tip node."""
+    mass = np.zeros(m.n_nodes)
+    mass[0] = 1.0
+    return m.effects_with(base, gravity=GravityArgs(mass, np.asarray(force, dtype=float)))
 
 
 # (P L^2 / EI, tip angle deg, deflection / L, shortening / L): mechanics.md item 6
@@ -54,11 +70,8 @@ def test_cantilever_elastica(load, angle, defl, short):
     m, q = _cantilever(50)
     L = m.chain.cum[-2]
     P = load * EI / L**2
-    m.node_mass[:] = 0.0
     for f in np.linspace(0.1, 1.0, 10):  # load stepping
-        m.node_mass[0] = P * f
-        status, _, _ = m.solve(q, q.copy(), q * 0, 1.0)
-        assert status == 0
+        assert _static(m, q, _tip_load(m, (0.0, -P * f, 0.0))) == 0
     x = m.nodes(q)
     axis = (x[-2] - x[-1]) / np.linalg.norm(x[-2] - x[-1])
     d = x[0] - x[-2]
@@ -78,22 +91,11 @@ def test_euler_buckling_load():
     expected = math.pi**2 * EI / (4 * L**2)
 
     def min_eig(P):
-        m.node_mass[:] = 0.0
-        m.node_mass[0] = P
+        effects = _tip_load(m, (-P, 0.0, 0.0))
         qq = q.copy()
-        status, _, _ = m.solve(qq, qq.copy(), qq * 0, 1.0)
-        assert status == 0
-        n = m.n_free
-        from ringqa.simulation.solvers import _kernels as SK  # noqa: F401
-
-        # dense Jacobian from the band (the last assemble was without Jacobian: redo it)
-        m.max_iter, saved = 0, m.max_iter
-        m.solve(qq, qq.copy(), qq * 0, 1.0)
-        m.max_iter = saved
-        J = np.zeros((n, n))
-        for i in range(n):
-            for j in range(max(0, i - m.kl), min(n, i + m.kl + 1)):
-                J[i, j] = m.B[i, m.kl + j - i]
+        assert _static(m, qq, effects) == 0
+        _, B = assemble_at(m, effects, qq, m.step(qq.copy(), qq * 0, 1.0))
+        J = dense(m, B, m.n_free)
         return np.linalg.eigvalsh(0.5 * (J + J.T))[0]
 
     lo, hi = 0.5 * expected, 1.5 * expected
@@ -216,30 +218,27 @@ def test_pulled_rod_lies_on_inner_wall():
     )
     u = 0.11
     pushed = simulate(sc, [u * 1e3])  # start from the pushed rod (on the outer wall)
-    m = Model(sc, np.array([u]))
+    m = model(sc, u)
     q = np.zeros(m.n_all)
     q.reshape(-1, 3)[:] = pushed.nodes_m[0]
     m.set_hints(q)
     tip_s = u  # the rod's tip sits near the arc point at s = u (centre_from_tip = 0)
     phi = (tip_s - 0.04) / 0.013
     forward = np.array([np.cos(phi), np.sin(phi), 0.0])  # away from the held end: tension
-    m.node_mass[:] = 0.0
-    m.node_mass[0] = 1.0
     m.max_iter = 300
     for f in np.linspace(0.0, 5.0, 51):
-        m.g[:] = f * forward
+        effects = _tip_load(m, f * forward, base=m.static_effects)
         q0 = q.copy()
-        status, _, _ = m.solve(q, q0, q * 0, 1.0)
+        status = _static(m, q, effects)
         if status != 0:
             # the rod snaps across the lumen: pseudo-time steps with the engine's viscous
             # stabilisation (tether to the last state) carry it over, then a plain solve
             q[:] = q0
-            m.set_stabilisation(1.0)
+            tethered = m.with_tether(1.0, base=effects)
             for _ in range(300):
-                m.solve(q, q.copy(), q * 0, 1e-3, q.copy())
+                m.solve(tethered, q, m.step(q.copy(), q * 0, 1e-3, q_ref=q.copy()))
                 assert np.all(np.isfinite(q))
-            m.set_stabilisation(0.0)
-            status, _, _ = m.solve(q, q.copy(), q * 0, 1.0)
+            status = _static(m, q, effects)
         assert status == 0, f
     x = m.nodes(q)
     centre = np.array([0.04, 0.013, 0.0])
@@ -260,32 +259,26 @@ def test_cantilever_under_its_own_weight():
     ~1e-4 relative). 50 links with lumped masses; within 1 %."""
     m, q = _cantilever(50, Effects(friction="none", contact=False, gravity_m_s2=(0.0, -1.25, 0.0)))
     L = m.chain.cum[-2]
-    status, _, _ = m.solve(q, q.copy(), q * 0, 1.0)
-    assert status == 0
+    assert _static(m, q) == 0
     x = m.nodes(q)
     w = 0.04 * 1.25
     assert -(x[0, 1] - x[-2, 1]) == pytest.approx(w * L**4 / (8 * EI), rel=0.01)
 
 
-def _march(m, q, v, dt, n_steps, integrator):
-    """``n_steps`` time steps of ``dt`` on the model ``m`` (inertia on), as the dynamic driver
-    takes them: backward Euler, or BDF2 as backward Euler against the history combination of
-    :func:`bdf2_history` (its first step backward Euler). Returns the states (n_steps, n_all)."""
+def _march(m, effects, q, v, dt, n_steps, integrator):
+    """``n_steps`` time steps of ``dt`` on the dynamic model ``m`` with the engine's integrator
+    (``"backward_euler"`` or ``"bdf2"``: backward Euler against the history combination of
+    :func:`bdf2_history`, its first step backward Euler), as the dynamic driver takes them (the
+    clamp nodes stay put). Returns the states (n_steps, n_all)."""
+    integ = INTEGRATORS[integrator](m)
     hist = None
     out = []
     for _ in range(n_steps):
-        coef = None if integrator == "backward_euler" else bdf2_history(dt, hist and hist[2])
-        q_n, v_n = q.copy(), v.copy()
-        q = q + dt * v
-        if coef is None:
-            q_h, v_h, h = q_n, v_n, dt
-        else:
-            a, b, h = coef
-            q_h, v_h = a * q_n - b * hist[0], a * v_n - b * hist[1]
-        status, _, _ = m.solve(q, q_h, v_h, h)
-        assert status == 0
-        v = (q - q_h) / h
-        hist = (q_n, v_n, dt)
+        q_n = q.copy()
+        q = integ.predictor(q_n, v, dt)
+        step = integ.solve(effects, q, q_n, v, dt, q.copy(), hist)
+        assert step.status == 0
+        v, hist = step.v, step.hist
         out.append(q.copy())
     return np.asarray(out)
 
@@ -316,19 +309,14 @@ def test_dynamic_cantilever_vibrates_at_its_first_natural_frequency(integrator):
     period by ~(omega dt)^2 / 3 = 1e-4). Period from the tip's zero crossings over two cycles,
     within 2 %. Backward Euler damps the amplitude by exp(-omega^2 dt t / 2) (0.78 after two
     cycles: > 50 % asserted); BDF2's damping is O((omega dt)^4) per step: > 95 % asserted."""
-    m, q = _cantilever(40, Effects(friction="none", contact=False, gravity_m_s2=(0.0, -1.0, 0.0)))
+    m, q = _cantilever(40, Effects(friction="none", contact=False, gravity_m_s2=(0.0, -1.0, 0.0)),
+                       dynamic=True)  # fmt: skip
     L = m.chain.cum[-2]
-    # static tip load first (inertia off), then release with inertia on
-    tip_mass = m.node_mass.copy()
-    m.node_mass[:] = 0.0
-    m.node_mass[0] = 0.01 * EI / L**2
-    status, _, _ = m.solve(q, q.copy(), q * 0, 1.0)
-    assert status == 0
-    m.node_mass[:] = tip_mass
-    m.g[:] = 0.0
-    m.flags[3] = 1  # inertia on (as the dynamic solver does); the clamp nodes stay put
+    # static tip load first (inertia suspended), then release with inertia on and no load
+    assert _static(m, q, _tip_load(m, (0.0, -0.01 * EI / L**2, 0.0), base=m.static_effects)) == 0
+    released = _tip_load(m, (0.0, 0.0, 0.0))
     dt = 5e-4
-    ys = _march(m, q, np.zeros_like(q), dt, 1000, integrator)[:, 1]
+    ys = _march(m, released, q, np.zeros_like(q), dt, 1000, integrator)[:, 1]
     ts = dt * np.arange(1, ys.size + 1)
     up = np.where((ys[:-1] < 0) & (ys[1:] >= 0))[0]
     assert up.size >= 3
@@ -357,15 +345,11 @@ def test_time_integrators_converge_at_first_and_second_order():
     per step; the largest error is at the zero crossing t = T: (2 pi / 3) z^2 -> 0.0129, 0.0032,
     0.0008 (its backward-Euler first step adds O(z^3)). Observed orders ~1 and ~2 asserted, and
     the errors within 25 % of these estimates."""
-    m, q = _cantilever(20, Effects(friction="none", contact=False))
+    m, q = _cantilever(20, Effects(friction="none", contact=False), dynamic=True)
     n = m.n_free
-    m.max_iter, saved = 0, m.max_iter  # only assemble: the Jacobian at the straight state
-    m.solve(q, q.copy(), q * 0, 1.0)
-    m.max_iter = saved
-    K = np.zeros((n, n))
-    for i in range(n):
-        for j in range(max(0, i - m.kl), min(n, i + m.kl + 1)):
-            K[i, j] = m.B[i, m.kl + j - i]
+    # the tangent stiffness at the straight state (inertia suspended)
+    _, B = assemble_at(m, m.static_effects, q, m.step(q.copy(), q * 0, 1.0))
+    K = dense(m, B, n)
     mass = np.repeat(m.node_mass[: m.n_nodes - 2], m.nd)
     s = 1.0 / np.sqrt(mass)
     w2, V = np.linalg.eigh(s[:, None] * (0.5 * (K + K.T)) * s[None, :])
@@ -376,7 +360,6 @@ def test_time_integrators_converge_at_first_and_second_order():
     amp = 1e-5
     v0 = np.zeros_like(q)
     v0[:n] = amp * omega * phi
-    m.flags[3] = 1  # inertia on
     T = 2 * np.pi / omega
     steps = np.array([80, 160, 320])
     z = omega * T / steps
@@ -384,7 +367,7 @@ def test_time_integrators_converge_at_first_and_second_order():
     for integrator, order in (("backward_euler", 1.0), ("bdf2", 2.0)):
         err = []
         for N in steps:
-            Q = _march(m, q, v0, T / N, int(N), integrator)
+            Q = _march(m, m.effects, q, v0, T / N, int(N), integrator)
             a = ((Q[:, :n] - q[:n]) * mass) @ phi / float(phi * mass @ phi)
             t = T / N * np.arange(1, N + 1)
             err.append(np.max(np.abs(a - amp * np.sin(omega * t))) / amp)

@@ -7,22 +7,82 @@ The links of the paper's rigid-link model are inextensible; a penalty with EA = 
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
-from ringqa.simulation.effects.base import CPAR, positive
+import numpy as np
+from numba import njit
+
+from ringqa.simulation.band import add_block
+from ringqa.simulation.effects.base import BuildContext, Effect, positive, register_kernels
+
+
+class AxialArgs(NamedTuple):
+    """Kernel parameters: link lengths (N,) (m) and the penalty's EA (N)."""
+
+    link_len: np.ndarray
+    ea_n: float
+
+
+@njit(cache=True)
+def add_axial(p, q, st, sw, r, B, jac):
+    """Axial penalty ``k_j / 2 (|e_j| - l_j)^2`` per link (``k_j = EA / l_j``); returns the
+    energy (J)."""
+    nd = st.nd
+    kl = st.kl
+    link_len = p.link_len
+    energy = 0.0
+    K = np.empty((3, 3))
+    e = np.empty(3)
+    for j in range(st.n_nodes - 1):
+        i0 = nd * j
+        i1 = nd * (j + 1)
+        L = 0.0
+        for a in range(3):
+            e[a] = q[i1 + a] - q[i0 + a]
+            L += e[a] * e[a]
+        L = math.sqrt(L)
+        k = p.ea_n / link_len[j]
+        dl = L - link_len[j]
+        energy += 0.5 * k * dl * dl
+        f = k * dl / L
+        for a in range(3):
+            g = f * e[a]
+            r[i0 + a] -= g
+            r[i1 + a] += g
+        if jac:
+            c2 = k * dl / L
+            for a in range(3):
+                for b in range(3):
+                    ea = e[a] / L
+                    eb = e[b] / L
+                    K[a, b] = k * ea * eb + c2 * ((1.0 if a == b else 0.0) - ea * eb)
+            add_block(B, kl, nd, j, j, 1.0, K)
+            add_block(B, kl, nd, j + 1, j + 1, 1.0, K)
+            add_block(B, kl, nd, j, j + 1, -1.0, K)
+            add_block(B, kl, nd, j + 1, j, -1.0, K)
+    return energy
+
+
+register_kernels(AxialArgs, add=add_axial)
 
 
 @dataclass(frozen=True)
-class Inextensibility:
-    """Axial penalty stiffness EA (N) (kernel: ``effects._kernels.add_axial``)."""
+class Inextensibility(Effect):
+    """Axial penalty stiffness EA (N) on links of the given lengths (m)."""
 
+    name = "inextensibility"
+    energy = "stored"
+
+    link_len: np.ndarray
     ea_n: float
 
     @classmethod
-    def from_scene(cls, scene) -> Inextensibility:
-        """Read ``solver.axial_stiffness_n``."""
-        return cls(positive("solver.axial_stiffness_n", scene.solver.axial_stiffness_n))
+    def build(cls, ctx: BuildContext) -> Inextensibility:
+        """Always on; reads ``solver.axial_stiffness_n``."""
+        ea = positive("solver.axial_stiffness_n", ctx.scene.solver.axial_stiffness_n)
+        return cls(np.ascontiguousarray(ctx.chain.link_len, dtype=np.float64), ea)
 
-    def pack(self, flags, cpar) -> None:
-        """Write the parameters into the kernel arrays."""
-        cpar[CPAR["k_axial"]] = self.ea_n
+    def args(self) -> AxialArgs:
+        return AxialArgs(self.link_len, self.ea_n)

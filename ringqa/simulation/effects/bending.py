@@ -1,26 +1,171 @@
-"""Bending: hinge springs ``EI / l`` between the links (always on; mechanics.md item 9)."""
+"""Bending: hinge springs ``k theta^2 / 2`` between the links (always on; mechanics.md item 9).
+
+``theta_i`` is the angle between consecutive links; ``k = 1 / (l1 / (2 EI1) + l2 / (2 EI2))`` (the
+moment is continuous across a section joint: ``EI / l`` for equal links), and at the clamp (the
+driven last link) ``2 EI / l``. Gradient and Hessian are exact (f = theta / sin theta,
+h = (sin - theta cos) / sin^3, series near 0), checked by finite differences in
+tests/simulation/effects/test_jacobians.py.
+"""
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
+from numba import njit
 
 from ringqa.errors import SimulationError
+from ringqa.simulation.band import add_block_flat
+from ringqa.simulation.effects.base import BuildContext, Effect, register_kernels
+
+
+class BendingArgs(NamedTuple):
+    """Kernel parameters: hinge stiffness at the interior nodes 1..N-1 (N-1,) (N m/rad)."""
+
+    hinge_k: np.ndarray
+
+
+@njit(cache=True)
+def _theta_funcs(th):
+    """f = theta / sin(theta) and h = (sin - theta cos) / sin^3 (smooth at theta = 0)."""
+    if th < 1e-4:
+        t2 = th * th
+        return 1.0 + t2 / 6.0, 1.0 / 3.0 + 2.0 * t2 / 15.0
+    s = math.sin(th)
+    c = math.cos(th)
+    return th / s, (s - th * c) / (s * s * s)
+
+
+@njit(cache=True)
+def add_bending(p, q, st, sw, r, B, jac):
+    """Hinge bending energy ``k_i theta_i^2 / 2`` at every interior node; returns the energy.
+
+    ``theta_i`` is the angle between links ``a = x_i - x_{i-1}`` and ``b = x_{i+1} - x_i``.
+    """
+    nd = st.nd
+    kl = st.kl
+    hinge_k = p.hinge_k
+    energy = 0.0
+    W = B.shape[1]
+    Bf = B.reshape(-1)
+    a = np.empty(3)
+    b = np.empty(3)
+    ah = np.empty(3)
+    bh = np.empty(3)
+    u = np.empty(3)
+    v = np.empty(3)
+    Haa = np.empty((3, 3))
+    Hab = np.empty((3, 3))
+    Hbb = np.empty((3, 3))
+    Hba = np.empty((3, 3))
+    for i in range(1, st.n_nodes - 1):
+        k = hinge_k[i - 1]
+        if k == 0.0:
+            continue
+        i0 = nd * (i - 1)
+        i1 = nd * i
+        i2 = nd * (i + 1)
+        la = 0.0
+        lb = 0.0
+        for d in range(3):
+            a[d] = q[i1 + d] - q[i0 + d]
+            b[d] = q[i2 + d] - q[i1 + d]
+            la += a[d] * a[d]
+            lb += b[d] * b[d]
+        la = math.sqrt(la)
+        lb = math.sqrt(lb)
+        c = 0.0
+        for d in range(3):
+            ah[d] = a[d] / la
+            bh[d] = b[d] / lb
+            c += ah[d] * bh[d]
+        cx0 = ah[1] * bh[2] - ah[2] * bh[1]
+        cx1 = ah[2] * bh[0] - ah[0] * bh[2]
+        cx2 = ah[0] * bh[1] - ah[1] * bh[0]
+        sn = math.sqrt(cx0 * cx0 + cx1 * cx1 + cx2 * cx2)
+        th = math.atan2(sn, c)
+        energy += 0.5 * k * th * th
+        f, hh = _theta_funcs(th)
+        for d in range(3):
+            u[d] = bh[d] - c * ah[d]
+            v[d] = ah[d] - c * bh[d]
+        # gradients wrt a and b of theta^2 / 2
+        for d in range(3):
+            ga = -k * f * u[d] / la
+            gb = -k * f * v[d] / lb
+            r[i0 + d] -= ga
+            r[i1 + d] += ga - gb
+            r[i2 + d] += gb
+        if not jac:
+            continue
+        for pp in range(3):
+            for m in range(3):
+                dpm = 1.0 if pp == m else 0.0
+                Haa[pp, m] = (
+                    k
+                    * (
+                        hh * u[pp] * u[m]
+                        + f * (u[pp] * ah[m] + ah[pp] * u[m])
+                        + f * c * (dpm - ah[pp] * ah[m])
+                    )
+                    / (la * la)
+                )
+                Hbb[pp, m] = (
+                    k
+                    * (
+                        hh * v[pp] * v[m]
+                        + f * (v[pp] * bh[m] + bh[pp] * v[m])
+                        + f * c * (dpm - bh[pp] * bh[m])
+                    )
+                    / (lb * lb)
+                )
+                Hab[pp, m] = (
+                    k * (hh * u[pp] * v[m] - f * (dpm - bh[pp] * bh[m] - ah[pp] * v[m])) / (la * lb)
+                )
+        for pp in range(3):
+            for m in range(3):
+                Hba[pp, m] = Hab[m, pp]
+        # nodes: x_{i-1} = -a, x_i = +a - b, x_{i+1} = +b
+        n0 = i - 1
+        n1 = i
+        n2 = i + 1
+        add_block_flat(Bf, W, kl, nd, n0, n0, 1.0, Haa)
+        add_block_flat(Bf, W, kl, nd, n0, n1, -1.0, Haa)
+        add_block_flat(Bf, W, kl, nd, n0, n1, 1.0, Hab)
+        add_block_flat(Bf, W, kl, nd, n0, n2, -1.0, Hab)
+        add_block_flat(Bf, W, kl, nd, n1, n0, -1.0, Haa)
+        add_block_flat(Bf, W, kl, nd, n1, n0, 1.0, Hba)
+        add_block_flat(Bf, W, kl, nd, n1, n1, 1.0, Haa)
+        add_block_flat(Bf, W, kl, nd, n1, n1, -1.0, Hab)
+        add_block_flat(Bf, W, kl, nd, n1, n1, -1.0, Hba)
+        add_block_flat(Bf, W, kl, nd, n1, n1, 1.0, Hbb)
+        add_block_flat(Bf, W, kl, nd, n1, n2, 1.0, Hab)
+        add_block_flat(Bf, W, kl, nd, n1, n2, -1.0, Hbb)
+        add_block_flat(Bf, W, kl, nd, n2, n0, -1.0, Hba)
+        add_block_flat(Bf, W, kl, nd, n2, n1, 1.0, Hba)
+        add_block_flat(Bf, W, kl, nd, n2, n1, -1.0, Hbb)
+        add_block_flat(Bf, W, kl, nd, n2, n2, 1.0, Hbb)
+    return energy
+
+
+register_kernels(BendingArgs, add=add_bending)
 
 
 @dataclass(frozen=True)
-class Bending:
-    """Hinge bending energy ``k_i theta_i^2 / 2`` (kernel: ``effects._kernels.add_bending``).
+class Bending(Effect):
+    """Hinge stiffnesses at the interior nodes (N-1,) (N m / rad), the clamp's included."""
 
-    Attributes
-    ----------
-    hinge_k : (N-1,) float64
-        Hinge stiffness at the interior nodes (N m / rad), from
-        :func:`~ringqa.simulation.chain.build_chain`.
-    """
+    name = "bending"
+    energy = "stored"
 
     hinge_k: np.ndarray
+
+    @classmethod
+    def build(cls, ctx: BuildContext) -> Bending:
+        """Always on: the chain's hinge stiffnesses with the clamped end's ``2 EI / l``."""
+        return cls.from_chain(ctx.chain)
 
     @classmethod
     def from_chain(cls, chain, clamped_end: bool = True) -> Bending:
@@ -38,3 +183,6 @@ class Bending:
                 "instrument: hinge stiffness must be finite and >= 0 (check ei_nm2)"
             )
         return cls(k)
+
+    def args(self) -> BendingArgs:
+        return BendingArgs(self.hinge_k)

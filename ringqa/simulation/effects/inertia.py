@@ -1,27 +1,81 @@
-"""Inertia: lumped node masses (and polar inertia with torsion), backward-Euler time stepping.
+"""Inertia: lumped node masses (and polar inertia with torsion), implicit time stepping.
 
-``M (q - q_prev - dt v_prev) / dt^2`` joins the residual; implicit, so neither the wall stiffness
-nor the friction regularisation limits the time step (mechanics.md item 10). The BDF2 integrator
-uses the same term with the history combinations ``q_h``, ``v_h`` and the step ``2 dt / 3``
-(``ringqa.simulation.solvers.driver.bdf2_history``).
+``M (q - q_hist - dt v_hist) / dt^2`` joins the residual; implicit, so neither the wall stiffness
+nor the friction regularisation limits the time step (mechanics.md item 10). Backward Euler takes
+``q_hist, v_hist`` at the start of the step; BDF2 the history combinations ``q_h``, ``v_h`` and the
+step ``2 dt / 3`` (:mod:`ringqa.simulation.solvers.integrators`). On with the dynamic solver only.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
+from numba import njit
 
 from ringqa.errors import SimulationError
-from ringqa.simulation.effects.base import FLAG
+from ringqa.simulation.band import badd
+from ringqa.simulation.effects.base import BuildContext, Effect, register_kernels
 
 
-@dataclass(frozen=True)
-class Inertia:
-    """Lumped masses (kg) and polar inertias (kg m^2) per node."""
+class InertiaArgs(NamedTuple):
+    """Kernel parameters: lumped masses (N+1,) (kg), polar inertias (N+1,) (kg m^2); ``active``
+    False suspends it (the initial static equilibrium)."""
 
     node_mass: np.ndarray
     node_rot: np.ndarray
+    active: bool
+
+
+@njit(cache=True)
+def add_inertia(p, q, st, sw, r, B, jac):
+    """Implicit inertia ``M (q - q_hist - dt v_hist) / dt^2`` (lumped masses); returns 0."""
+    if not p.active:
+        return 0.0
+    nd = st.nd
+    kl = st.kl
+    dt = st.dt
+    q_prev = st.q_hist
+    v_prev = st.v_hist
+    inv = 1.0 / (dt * dt)
+    for i in range(st.n_nodes):
+        for a in range(nd):
+            m = p.node_mass[i] if a < 3 else p.node_rot[i]
+            idx = nd * i + a
+            r[idx] += m * (q[idx] - q_prev[idx] - dt * v_prev[idx]) * inv
+            if jac:
+                badd(B, kl, idx, idx, m * inv)
+    return 0.0
+
+
+register_kernels(InertiaArgs, add=add_inertia)
+
+
+@dataclass(frozen=True)
+class Inertia(Effect):
+    """Lumped masses (kg) and polar inertias (kg m^2) per node."""
+
+    name = "inertia"
+    history = True
+
+    node_mass: np.ndarray
+    node_rot: np.ndarray
+
+    @classmethod
+    def build(cls, ctx: BuildContext) -> Inertia | None:
+        """On with the dynamic solver (which switches it on, with a warning if the scene did
+        not); ignored, with a warning, by the quasi-static solver."""
+        eff = ctx.scene.effects
+        if ctx.dynamic and not eff.inertia:
+            ctx.warnings.append("solver.kind = 'dynamic' switches inertia on")
+        if eff.inertia and not ctx.dynamic:
+            ctx.warnings.append(
+                "effects.inertia is on but solver.kind = 'quasistatic': inertia ignored"
+            )
+        if not ctx.dynamic:
+            return None
+        return cls.from_chain(ctx.chain)
 
     @classmethod
     def from_chain(cls, chain) -> Inertia:
@@ -33,6 +87,8 @@ class Inertia:
             )
         return cls(m, np.ascontiguousarray(chain.node_rot))
 
-    def pack(self, flags, cpar) -> None:
-        """Switch the effect on in the kernel arrays."""
-        flags[FLAG["inertia"]] = 1
+    def args(self) -> InertiaArgs:
+        return InertiaArgs(self.node_mass, self.node_rot, True)
+
+    def suspended_args(self) -> InertiaArgs:
+        return InertiaArgs(self.node_mass, self.node_rot, False)

@@ -1,5 +1,5 @@
-"""Builders for the engine tests: exact analytic channels and simple instruments (imported by the
-test modules of this folder; pytest puts the folder on sys.path)."""
+"""Builders for the engine tests: exact analytic channels and simple instruments (import them as
+``from tests.simulation.builders import rod, scene``)."""
 
 from __future__ import annotations
 
@@ -52,3 +52,34 @@ def scene(channel, instrument, effects=None, contact=None, solver=None, **kw) ->
         solver=solver or SolverSettings(),
         **kw,
     )
+
+
+def model(sc, advance_m: float):
+    """The engine's assembled problem for scene ``sc`` reaching ``advance_m`` (m)."""
+    from ringqa.simulation.model import Model
+
+    return Model(sc, np.array([advance_m]))
+
+
+def assemble_at(m, effects, q, st, jac=True, fresh=True):
+    """Residual (n_all,) and banded Jacobian of ``effects`` at ``q`` (fresh work arrays; the
+    model's samples and energies are updated as the engine would)."""
+    from ringqa.simulation.effects.base import is_cacheable
+    from ringqa.simulation.solvers.assemble import assemble
+    from ringqa.simulation.solvers.newton import assemble_uncached
+
+    r = np.zeros(m.n_all)
+    B = np.zeros_like(m.B)
+    energies = m.energies if len(effects) == len(m.energies) else np.zeros(len(effects))
+    fn = assemble if is_cacheable(effects) else assemble_uncached
+    fn(effects, q, st, m.samples, r, B, jac, fresh, energies)
+    return r, B
+
+
+def dense(m, B, n):
+    """The leading n x n block of a banded Jacobian as a dense matrix."""
+    J = np.zeros((n, n))
+    for i in range(n):
+        for j in range(max(0, i - m.kl), min(n, i + m.kl + 1)):
+            J[i, j] = B[i, m.kl + j - i]
+    return J

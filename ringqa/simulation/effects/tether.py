@@ -1,0 +1,71 @@
+"""The stabilisation tether: an artificial viscosity towards the step's predictor (numerical).
+
+``coef (x - x_ref) / dt`` on every node's position, ``x_ref`` the load step's predictor (the
+previous chain slid along the channel), so steady sliding costs nothing and only departures from
+it (snap-through, buckling) are damped. It is no physics: the quasi-static solver switches it on
+for a step that does not converge without it (the fallback stabilisation,
+:mod:`ringqa.simulation.solvers.stepper`) and on every step with ``solver.stabilisation > 0``;
+every model uses it as a pseudo-time tether when the initial equilibrium needs a walk. Its work
+is accounted for by the solver (``work['stabilisation']``). Dynamic steps run with it off.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import NamedTuple
+
+from numba import njit
+
+from ringqa.simulation.band import badd
+from ringqa.simulation.effects.base import BuildContext, Effect, positive, register_kernels
+
+
+class TetherArgs(NamedTuple):
+    """Kernel parameter: viscosity coefficient (N s/m per node); 0 switches it off."""
+
+    coef: float
+
+
+@njit(cache=True)
+def add_tether(p, q, st, sw, r, B, jac):
+    """``coef (x - x_ref) / dt`` on every node (scaled by ``st.floor_scale``); returns 0."""
+    if p.coef == 0.0:
+        return 0.0
+    nd = st.nd
+    kl = st.kl
+    dt = st.dt
+    coef = p.coef * st.floor_scale
+    q_ref = st.q_ref
+    for i in range(st.n_nodes):
+        for a in range(3):
+            idx = nd * i + a
+            r[idx] += coef * (q[idx] - q_ref[idx]) / dt
+            if jac:
+                badd(B, kl, idx, idx, coef / dt)
+    return 0.0
+
+
+register_kernels(TetherArgs, add=add_tether)
+
+
+@dataclass(frozen=True)
+class Tether(Effect):
+    """The always-on viscosity ``solver.stabilisation`` (N s/m; 0: only as the fallback)."""
+
+    name = "tether"
+
+    coef: float
+
+    @classmethod
+    def build(cls, ctx: BuildContext) -> Tether:
+        """Carried by every model (the initial equilibrium may need it, the quasi-static fallback
+        may switch it on); ``solver.stabilisation`` applies to quasi-static runs only."""
+        stab = positive("solver.stabilisation", ctx.scene.solver.stabilisation, allow_zero=True)
+        return cls(0.0 if ctx.dynamic else stab)
+
+    def args(self) -> TetherArgs:
+        return TetherArgs(self.coef)
+
+    def with_coef(self, coef: float) -> TetherArgs:
+        """Args with another coefficient (the fallback, the initial equilibrium's tether)."""
+        return TetherArgs(float(coef))

@@ -1,0 +1,331 @@
+"""The assembled problem one run solves: channel table, chain, contact samples, effects, arrays.
+
+:class:`Model` turns a :class:`~ringqa.simulation.scene.Scene` into what the kernels take: the
+discretised cable (:mod:`.chain`), the channel table (:mod:`.channel`), the contact sample points,
+the effect units the scene calls for (:data:`ringqa.simulation.effects.EFFECTS`, in assembly
+order) and their kernel args, and the work arrays. It also answers the questions the solvers and
+the recorder ask about a state (source position, push force, stored energy, ...). It holds no
+solver logic.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ringqa.errors import SceneError, SimulationError
+from ringqa.simulation import _kernels as K
+from ringqa.simulation._cache import ensure_fresh_kernel_cache
+from ringqa.simulation.chain import build_chain, contact_samples
+from ringqa.simulation.channel import ChannelTable
+from ringqa.simulation.effects import EFFECTS, Bending, Contact, Tether
+from ringqa.simulation.effects.base import BuildContext, Samples, Step, is_cacheable, positive
+from ringqa.simulation.scene import INTEGRATORS
+from ringqa.simulation.solvers.newton import newton, newton_uncached
+from ringqa.simulation.solvers.predictor import predict
+
+#: counters of :func:`ringqa.simulation.solvers.newton.newton`
+N_COUNTERS = 4
+
+
+class Model:
+    """The assembled problem (see module docstring).
+
+    Parameters
+    ----------
+    scene : ringqa.simulation.scene.Scene
+    advances_m : (n,) float
+        Requested advances (m): the model is long enough for the deepest.
+
+    Attributes
+    ----------
+    units : tuple of Effect
+        The effect units assembled, in assembly order.
+    effects : tuple
+        Their kernel args (what :func:`~ringqa.simulation.solvers.newton.newton` takes).
+    static_effects : tuple
+        The same with the history effects (friction, wall damping, inertia) suspended and the
+        tether off: the initial static equilibrium.
+    samples : Samples
+        The contact sample points and their last results.
+    d_prev : (P,) float64
+        The samples' wall distances at the start of the current step (m).
+    nd, n_nodes, n_all, n_free, kl : int
+        Coordinates per node, nodes, state size, unknowns, Jacobian half-bandwidth.
+    """
+
+    def __init__(self, scene, advances_m: np.ndarray) -> None:
+        ensure_fresh_kernel_cache()
+        self.scene = scene
+        self.warnings: list[str] = []
+        solver = scene.solver
+        if solver.kind not in ("quasistatic", "dynamic"):
+            raise SceneError(f"solver.kind: {solver.kind!r} is not 'quasistatic' or 'dynamic'")
+        self.dynamic = solver.kind == "dynamic"
+        if solver.integrator not in INTEGRATORS:
+            raise SceneError(
+                f"solver.integrator: {solver.integrator!r} is not one of {', '.join(INTEGRATORS)}"
+            )
+        if solver.integrator == "bdf2" and not self.dynamic:
+            self.warnings.append(
+                "solver.integrator = 'bdf2' applies to the dynamic solver only: ignored by the "
+                "quasi-static load steps"
+            )
+        self.table = ChannelTable.from_channel(scene.channel)
+        inst = scene.instrument
+        self.cft = positive("instrument.centre_from_tip_m", inst.centre_from_tip_m, True)
+        self.speed = positive("motion.speed_m_s", scene.motion.speed_m_s)
+        self.increment = positive("solver.increment_m", solver.increment_m)
+        self.time_step = positive("solver.time_step_s", solver.time_step_s)
+        self.tol = positive("solver.tol", solver.tol)
+        self.max_iter = int(positive("solver.max_iter", solver.max_iter))
+        self.stab = positive("solver.stabilisation", solver.stabilisation, allow_zero=True)
+        approach = positive("solver.approach_m", solver.approach_m)
+        m = scene.motion
+        self.u_start = (-self.cft) if m.start_m is None else float(m.start_m)
+        u_deep = max(float(np.max(advances_m)), self.u_start)
+        self.chain = chain = self._chain(inst, u_deep, approach)
+        self.nd = nd = 4 if scene.effects.torsion else 3
+        self.clearance = self._clearance(chain)
+        self._check_bends(chain, u_deep)
+        link, alpha, ro, wt = contact_samples(
+            chain, self.table.min_radius_m(), self.clearance, float(solver.contact_bow_fraction)
+        )
+        if not scene.contact.stiffness_per_length:
+            wt[:] = 1.0  # the paper's law: k and c_w at every contact point
+        self.samples = Samples.empty(link, alpha, ro, wt)
+        P = link.size
+        self.d_prev = np.zeros(P)
+        self._node_sample = np.ascontiguousarray(
+            np.searchsorted(link, np.arange(chain.n_nodes - 1)), dtype=np.int64
+        )
+        self._cum = np.ascontiguousarray(chain.cum, dtype=np.float64)
+        # the link that carries the source centre (the capsule)
+        self._src_link = int(
+            np.clip(np.searchsorted(chain.cum, self.cft, side="right") - 1, 0, chain.n_nodes - 2)
+        )
+        # the effects the scene calls for, in assembly order
+        ctx = BuildContext(scene, chain, self.table, self.dynamic, nd, self.clearance)
+        units = []
+        for cls in EFFECTS:
+            unit = cls.build(ctx)
+            if unit is not None:
+                units.append(unit)
+        self.warnings.extend(ctx.warnings)
+        self.units = tuple(units)
+        self.effects = tuple(u.args() for u in units)
+        #: Newton for these effects (disk-cached unless an effect comes from outside ringqa)
+        self.newton = newton if is_cacheable(self.effects) else newton_uncached
+        self.static_effects = tuple(
+            u.with_coef(0.0) if isinstance(u, Tether) else u.suspended_args() for u in units
+        )
+        self._tether = next(i for i, u in enumerate(units) if isinstance(u, Tether))
+        self.contact_on = any(isinstance(u, Contact) for u in units)
+        self.names = tuple(u.name for u in units)
+        self._stored = [i for i, u in enumerate(units) if u.energy == "stored"]
+        self._work = {u.name: i for i, u in enumerate(units) if u.energy == "dissipated"}
+        # arrays
+        nn = chain.n_nodes
+        self.n_nodes = nn
+        self.n_all = nd * nn
+        self.n_free = nd * (nn - 2)
+        self.kl = 3 * nd - 1
+        self.r = np.zeros(self.n_all)
+        self.B = np.zeros((self.n_all, 3 * self.kl + 1))
+        self.energies = np.zeros(len(units))
+        self.counters = np.zeros(N_COUNTERS, dtype=np.int64)
+        self.node_mass = np.ascontiguousarray(chain.node_mass)
+        self.node_rot = np.ascontiguousarray(chain.node_rot)
+        self._chan = self.table.args()
+        bending = next(u for u in units if isinstance(u, Bending))
+        f_ref = float(np.max(bending.hinge_k / chain.link_len[1:]))
+        self.tol_abs = self.tol * max(f_ref, 1e-2)
+        self.max_step = 0.5 * self.clearance
+
+    # -- construction helpers ------------------------------------------------------------
+    def _chain(self, inst, u_deep: float, approach: float):
+        """The chain: the deepest tip position + the approach, extended so that the two driven
+        proximal nodes always stay on the straight extension before the entry (s <= 0)."""
+        need = u_deep + self.cft + approach
+        chain = build_chain(inst, min(need, inst.length_m))
+        if chain.cum[-2] < u_deep + self.cft:
+            chain = build_chain(inst, min(need + chain.link_len[-1], inst.length_m))
+        if chain.cum[-2] < u_deep + self.cft - 1e-9:
+            raise SimulationError(
+                f"instrument {inst.name!r}: too short to reach advance {u_deep * 1e3:.1f} mm"
+            )
+        return chain
+
+    def _clearance(self, chain) -> float:
+        """Smallest clearance r_b - r_o (m); refuses an instrument that does not fit."""
+        tb = self.table
+        rb_min = float(np.min(tb.seg_rb))
+        ro_max = float(np.max(chain.link_ro))
+        if ro_max >= rb_min:
+            raise SimulationError(
+                f"instrument radius {ro_max * 1e3:.3f} mm does not fit the lumen "
+                f"(r_b = {rb_min * 1e3:.3f} mm): check the lumen or the instrument"
+            )
+        flat_min = float(np.min(tb.seg_flat))
+        if flat_min <= ro_max:
+            raise SimulationError(
+                f"instrument radius {ro_max * 1e3:.3f} mm does not fit the U-shaped lumen "
+                f"(flat side {flat_min * 1e3:.3f} mm from the centreline): check the lumen"
+            )
+        return rb_min - ro_max
+
+    def _check_bends(self, chain, u_deep: float) -> None:
+        """Warn where a straight link cannot fit a bend at all: its bow ``l^2 / (8 R)`` exceeds
+        the lumen's width 2c (each section against the tightest bend it can reach)."""
+        rb_min = float(np.min(self.table.seg_rb))
+        for k, name in enumerate(chain.section_names):
+            sel = chain.link_section == k
+            if not np.any(sel) or not np.all(np.isfinite(chain.link_ei[sel])):
+                continue
+            l_max = float(np.max(chain.link_len[sel]))
+            front = u_deep + self.cft - float(chain.cum[np.argmax(sel)])
+            s_tab = np.arange(self.table.pos.shape[0]) * self.table.h
+            kap = self.table.kappa[s_tab <= front + 1e-9]
+            if kap.size == 0 or np.max(kap) <= 0:
+                continue
+            c_sec = rb_min - float(np.max(chain.link_ro[sel]))
+            bow = l_max**2 * float(np.max(kap)) / 8.0
+            if bow > 2.0 * c_sec:
+                self.warnings.append(
+                    f"section {name!r}: {l_max * 1e3:.1f} mm links bow {bow * 1e3:.2f} mm across "
+                    f"the tightest bend they reach, more than the lumen's free width "
+                    f"{2 * c_sec * 1e3:.2f} mm: they cannot fit; use links <= "
+                    f"{np.sqrt(16 * c_sec / np.max(kap)) * 1e3:.1f} mm "
+                    "(discretisation.element_length_mm)"
+                )
+
+    # -- effects -------------------------------------------------------------------------
+    def effects_with(self, base: tuple | None = None, **args) -> tuple:
+        """The effects' args (``base``, default :attr:`effects`) with some units' args replaced,
+        by unit name: ``model.effects_with(gravity=GravityArgs(mass, g))``."""
+        out = list(self.effects if base is None else base)
+        for name, a in args.items():
+            if name not in self.names:
+                raise KeyError(f"effect {name!r} is not assembled in this model ({self.names})")
+            out[self.names.index(name)] = a
+        return tuple(out)
+
+    def with_tether(self, coef: float, base: tuple | None = None) -> tuple:
+        """The effects' args with the stabilisation tether's coefficient set to ``coef``."""
+        return self.effects_with(base, tether=self.units[self._tether].with_coef(coef))
+
+    def unit(self, name: str):
+        """The assembled effect unit called ``name``."""
+        return self.units[self.names.index(name)]
+
+    def work_of(self, name: str) -> float:
+        """The last assembly's step work (J) of a dissipative effect (0 if not assembled)."""
+        i = self._work.get(name)
+        return 0.0 if i is None else float(self.energies[i])
+
+    # -- the Newton solve ----------------------------------------------------------------
+    def step(
+        self, q_hist, v_hist, dt, q_ref=None, q_start=None, d_hist=None, floor_scale=1.0
+    ) -> Step:
+        """The :class:`Step` for a solve: history ``q_hist``, ``v_hist`` (and ``d_hist``, default
+        the start-of-step distances ``d_prev``), kernel step ``dt`` (s), tether anchor ``q_ref``
+        (default ``q_hist``), start of the step ``q_start`` (default ``q_hist``)."""
+        return Step(
+            self.nd,
+            self.n_nodes,
+            self.kl,
+            q_hist,
+            v_hist,
+            q_hist if q_start is None else q_start,
+            q_hist if q_ref is None else q_ref,
+            self.d_prev if d_hist is None else d_hist,
+            self.d_prev,
+            float(dt),
+            float(floor_scale),
+        )
+
+    def solve(self, effects, q: np.ndarray, st: Step) -> tuple[int, int, float]:
+        """Newton in place on ``q``; returns (status, iterations, residual (N))."""
+        return self.newton(
+            effects, q, st, self.samples, self.n_free, self.tol_abs, self.max_iter,
+            self.max_step, self.r, self.B, self.energies, self.counters,
+        )  # fmt: skip
+
+    # -- states --------------------------------------------------------------------------
+    def initial_state(self, u: float) -> np.ndarray:
+        """Chain laid along the (extended) centreline with the source centre at advance ``u``."""
+        q = np.zeros(self.n_all)
+        for k in range(self.n_nodes):
+            q[self.nd * k : self.nd * k + 3] = self.table.point(u + self.cft - self.chain.cum[k])
+        self.set_hints(q)
+        return q
+
+    def set_hints(self, q: np.ndarray) -> None:
+        """Closest-point hints of every contact sample for state ``q`` (a global search)."""
+        work = np.empty(9)
+        nd = self.nd
+        sw = self.samples
+        for i in range(sw.link.size):
+            j = sw.link[i]
+            a = sw.alpha[i]
+            p = (1 - a) * q[nd * j : nd * j + 3] + a * q[nd * (j + 1) : nd * (j + 1) + 3]
+            sw.s[i] = K.closest_point(
+                self.table.h, self.table.pos, self.table.tan, np.ascontiguousarray(p), 0.0, -1.0,
+                work,
+            )  # fmt: skip
+
+    def prescribe(self, q: np.ndarray, u: float) -> None:
+        """Put the two driven proximal nodes on the approach axis for input advance ``u``."""
+        for k in (self.n_nodes - 2, self.n_nodes - 1):
+            q[self.nd * k : self.nd * k + 3] = self.table.point(u + self.cft - self.chain.cum[k])
+            if self.nd == 4:
+                q[self.nd * k + 3] = 0.0
+
+    def predict(self, q: np.ndarray, du: float, u_new: float, slide: bool) -> None:
+        """In place: slide the free nodes ``du`` along the channel (if ``slide``), put the driven
+        nodes at input advance ``u_new``, restore the link lengths (one kernel call)."""
+        predict(
+            q, slide, du, u_new, self.nd, self.n_nodes, self.chain.link_len, self._chan,
+            self.samples.s, self._cum, self.cft, self._node_sample,
+        )  # fmt: skip
+
+    def nodes(self, q: np.ndarray) -> np.ndarray:
+        """Node positions (n_nodes, 3)."""
+        return q.reshape(self.n_nodes, self.nd)[:, :3].copy()
+
+    def push_force(self) -> float:
+        """Axial force the driver applies (N, > 0 pushing), from the residual at driven nodes."""
+        t0 = self.table.tan[0]
+        nd = self.nd
+        f = 0.0
+        for k in (self.n_nodes - 2, self.n_nodes - 1):
+            f += float(np.dot(self.r[nd * k : nd * k + 3], t0))
+        return f
+
+    def source(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Source centre (3,), unit direction to the tip (3,), tip (3,)."""
+        x = self.nodes(q)
+        cum = self.chain.cum
+        j = self._src_link
+        e = x[j] - x[j + 1]
+        le = np.linalg.norm(e)
+        d = e / le
+        src = x[j] - (self.cft - cum[j]) * d
+        return src, d, x[0].copy()
+
+    def stored_energy(self) -> float:
+        """Elastic + contact + gravity potential energy of the last assembled state (J)."""
+        return float(sum(self.energies[i] for i in self._stored))
+
+    def kinetic(self, v: np.ndarray) -> float:
+        """Kinetic energy (J) for node velocities ``v`` (flat like q)."""
+        vv = v.reshape(self.n_nodes, self.nd)
+        ke = 0.5 * float(np.sum(self.node_mass[:, None] * vv[:, :3] ** 2))
+        if self.nd == 4:
+            ke += 0.5 * float(np.sum(self.node_rot * vv[:, 3] ** 2))
+        return ke
+
+    @property
+    def wall_stiffness_n_m(self) -> float:
+        """The contact's wall stiffness k (N/m; 1e5 when contact is off)."""
+        contact = next((u for u in self.units if isinstance(u, Contact)), None)
+        return contact.stiffness_n_m if contact is not None else 1e5

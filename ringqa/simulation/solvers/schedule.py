@@ -1,0 +1,173 @@
+"""The input's schedule: where the driven end goes and in what steps.
+
+The requested advances become waypoints in travel order (:func:`waypoints`); the input stops at
+every waypoint of stepwise motion and where it reverses (:func:`stop_points`). Quasi-statically
+the steps are ``solver.increment_m`` long (a frictionless, undamped scene has no history, so the
+increment doubles after easy steps up to ``JUMP_FACTOR`` increments: it "jumps" to the requested
+advances); dynamically they are time steps of ``solver.time_step_s`` on a trapezoidal velocity
+profile (:func:`ramped_step`) with the pauses of stepwise motion simulated.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ringqa.errors import SceneError
+
+#: a frictionless, undamped run may grow its load step up to this many increments ("jump")
+JUMP_FACTOR = 8
+#: dynamic runs: the input accelerates from rest to motion.speed over this time and decelerates
+#: likewise into every stop (a jump to full speed in one time step is an impulse ~ 1/dt)
+MOTION_RAMP_S = 0.01
+
+
+@dataclass(frozen=True)
+class Leg:
+    """One waypoint of the input path.
+
+    Attributes
+    ----------
+    index : int
+        Position in the path.
+    target_m : float
+        The advance to reach (m).
+    requested : list of int
+        Indices of the requested advances recorded there.
+    stop_m : float
+        Where the input next comes to rest (m).
+    dwell_s : float
+        Pause to simulate there (s; dynamic stepwise motion only).
+    """
+
+    index: int
+    target_m: float
+    requested: list
+    stop_m: float
+    dwell_s: float
+
+
+class Schedule:
+    """Step sizes for a model's run (see module docstring).
+
+    Parameters
+    ----------
+    model : ringqa.simulation.model.Model
+    advances_m : (n,) float
+        Requested advances (m).
+    history_free : bool
+        The scene has no friction, damping or tether, and is quasi-static: steps may grow.
+    """
+
+    def __init__(self, model, advances_m: np.ndarray, history_free: bool) -> None:
+        self.model = model
+        self.scene = model.scene
+        self.dynamic = model.dynamic
+        self.path = waypoints(self.scene, advances_m, model.u_start)
+        self.stops = stop_points(self.scene, self.path, model.u_start)
+        self.history_free = history_free
+        self.inc = model.increment
+        self.t_move = 0.0  # time since the input last started from rest (dynamic)
+
+    def legs(self):
+        """The waypoints in travel order as :class:`Leg` s."""
+        stepwise_pause = self.dynamic and self.scene.motion.kind == "stepwise"
+        for i, (target, idx) in enumerate(self.path):
+            yield Leg(
+                i, target, idx, self.path[self.stops[i]][0],
+                self.scene.motion.dwell_s if stepwise_pause else 0.0,
+            )  # fmt: skip
+
+    def next_step(self, u: float, leg: Leg, dwell_left: float) -> tuple[float, float]:
+        """(du (m), dt (s)) of the next step from input advance ``u`` on ``leg``."""
+        target = leg.target_m
+        if self.dynamic:
+            remaining = target - u
+            if abs(remaining) > 1e-12:
+                du, dt = ramped_step(
+                    abs(remaining), abs(leg.stop_m - u), self.t_move, self.model.speed,
+                    self.model.time_step,
+                )  # fmt: skip
+                du = float(np.sign(remaining)) * du
+                self.t_move += dt
+            else:
+                du = 0.0
+                dt = min(self.model.time_step, dwell_left)
+            return du, dt
+        inc = self.inc
+        du = min(max(target - u, -inc), inc)  # np.clip without its per-call cost
+        return du, abs(du) / self.model.speed
+
+    def adapt(self, sub: int, last_iters: int) -> None:
+        """After an accepted step: grow a history-free run's increment after an easy step,
+        shrink it after a cut one."""
+        base = self.model.increment
+        if self.history_free and sub == 1 and last_iters <= 6:
+            self.inc = min(2 * self.inc, JUMP_FACTOR * base)
+        elif not self.history_free:
+            self.inc = base
+        elif sub > 1:
+            self.inc = max(base, self.inc / sub)
+
+    def arrived(self, leg: Leg) -> None:
+        """At the end of a leg: a stop resets the ramp (the next move starts from rest)."""
+        if self.stops[leg.index] == leg.index:
+            self.t_move = 0.0
+
+
+def ramped_step(rem_target, rem_stop, t_move, speed, dt):
+    """(|du|, dt) of the next dynamic step on a trapezoidal input-velocity profile.
+
+    Accelerates at ``speed / MOTION_RAMP_S`` from rest, cruises at ``speed`` and decelerates at
+    the same rate so as to reach the next stop at rest; a step that would pass the target
+    waypoint is shortened to land on it.
+    """
+    acc = speed / MOTION_RAMP_S
+    v = min(speed, acc * (t_move + dt), np.sqrt(2.0 * acc * rem_stop))
+    v = max(v, acc * dt)  # never crawl: at least one step's worth of acceleration
+    if rem_target <= v * dt:
+        return rem_target, (dt if rem_target >= rem_stop - 1e-15 else rem_target / v)
+    return v * dt, dt
+
+
+def waypoints(scene, advances_m: np.ndarray, u_start: float) -> list[tuple[float, list[int]]]:
+    """The input path: (advance, indices of requested advances recorded there) in travel order."""
+    kind = scene.motion.kind
+    order = np.argsort(advances_m, kind="stable")
+    uniq: dict[float, list[int]] = {}
+    for i in order:
+        uniq.setdefault(float(advances_m[i]), []).append(int(i))
+    asc = sorted(uniq)
+    if kind not in ("constant", "stepwise", "retract"):
+        raise SceneError(f"motion.kind: {kind!r} is not constant, stepwise or retract")
+    backward = kind == "retract" or (kind == "stepwise" and scene.motion.backward)
+    if not backward:
+        return [(u, uniq[u]) for u in asc]
+    desc = asc[::-1]
+    return [(u, uniq[u]) for u in desc]
+
+
+def stop_points(scene, path, u_start: float) -> list[int]:
+    """For each waypoint index, the index of the waypoint where the input next comes to rest.
+
+    Stepwise motion stops at every waypoint; otherwise the input stops where it reverses and at
+    the last waypoint.
+    """
+    n = len(path)
+    stop = [False] * n
+    stop[-1] = True if n else False
+    prev = u_start
+    for i in range(n - 1):
+        d_now = path[i][0] - prev
+        d_next = path[i + 1][0] - path[i][0]
+        if scene.motion.kind == "stepwise" or d_now * d_next < 0:
+            stop[i] = True
+        prev = path[i][0]
+    out = [0] * n
+    nxt = n - 1
+    for i in range(n - 1, -1, -1):
+        if stop[i]:
+            nxt = i
+        out[i] = nxt
+    return out

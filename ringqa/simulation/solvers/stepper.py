@@ -1,0 +1,150 @@
+"""Take one load or time step: sub-stepping and the fallback stabilisation.
+
+A step that Newton does not solve is retried, first (quasi-statically) in one piece with the
+fallback stabilisation (a viscous tether to the predictor of stiffness
+``FALLBACK_STIFFNESS_FRACTION x k_wall`` per node, which carries the solver through snap-through:
+the cable buckling and snapping in the straight part, the paper's source stalling), then cut in
+halves down to ``MIN_CUT`` of the step. Each stabilised step is counted; the tether's work is
+accounted for.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+#: smallest step as a fraction of the requested increment before the run is declared failed
+MIN_CUT = 1.0 / 256.0
+#: sub-steps tried without stabilisation before the fallback stabilisation is switched on
+FALLBACK_AFTER = 1
+#: fallback stabilisation: a viscous tether to the predictor of stiffness (coefficient / dt)
+#: equal to this fraction of the wall stiffness per node
+FALLBACK_STIFFNESS_FRACTION = 1e-3
+
+
+@dataclass(frozen=True)
+class StepOutcome:
+    """What one step (all its attempts) came to.
+
+    Attributes
+    ----------
+    ok : bool
+        The step was solved (possibly cut or stabilised).
+    q, v : (n_all,) ndarray
+        State and velocity at its end (the start's when not ok).
+    hist : object
+        The integrator's history after it.
+    iters : int
+        Newton iterations over all attempts.
+    last_iters : int
+        Newton iterations of the last sub-step solved or tried.
+    sub : int
+        Sub-steps of the last attempt.
+    stabilised : bool
+        The fallback stabilisation was needed.
+    attempts : int
+        Attempts made (1: solved at once).
+    friction_j, damping_j, stabilisation_j : float
+        The step's friction, wall-damping and tether work (J).
+    status, res : int, float
+        Newton's status and residual (N) of the last sub-step tried.
+    """
+
+    ok: bool
+    q: np.ndarray
+    v: np.ndarray
+    hist: Any
+    iters: int
+    last_iters: int
+    sub: int
+    stabilised: bool
+    attempts: int
+    friction_j: float
+    damping_j: float
+    stabilisation_j: float
+    status: int
+    res: float
+
+
+class Stepper:
+    """Solves steps for a model with an integrator (see module docstring).
+
+    Parameters
+    ----------
+    model : ringqa.simulation.model.Model
+    integrator : ringqa.simulation.solvers.integrators.Integrator
+    monitor : ringqa.simulation.solvers.monitor.Monitor
+        Told the penetration after every solved sub-step.
+    """
+
+    def __init__(self, model, integrator, monitor) -> None:
+        self.model = model
+        self.integrator = integrator
+        self.monitor = monitor
+
+    def take(self, u: float, du: float, dt: float, q, v, hist) -> StepOutcome:
+        """Advance the input by ``du`` (m) over ``dt`` (s) from state ``q``, velocity ``v``."""
+        model = self.model
+        integ = self.integrator
+        sw = model.samples
+        q_prev = q.copy()
+        v_prev = v.copy()
+        s_saved = sw.s.copy()
+        dprev_saved = model.d_prev.copy()
+        sub = 1
+        stab = model.stab
+        fallback = False
+        iters_total = 0
+        attempts = 0
+        while True:
+            # try the step in `sub` equal sub-steps (with the stabilisation `stab`)
+            attempts += 1
+            q_try = q_prev.copy()
+            v_try = v_prev.copy()
+            sw.s[:] = s_saved
+            model.d_prev[:] = dprev_saved
+            effects = model.effects if stab == model.stab else model.with_tether(stab)
+            iters_step = 0
+            fr_step = damp_step = stab_step = 0.0
+            good = True
+            hist_try = hist
+            h = dt / sub
+            for k in range(sub):
+                qp = q_try.copy()
+                q_try = integ.predictor(q_try, v_try, h)
+                model.predict(q_try, du / sub, u + du * (k + 1) / sub, integ.slides)
+                q_ref = q_try.copy()
+                out = integ.solve(effects, q_try, qp, v_try, h, q_ref, hist_try)
+                iters_step += out.iters
+                if out.status != 0:
+                    good = False
+                    break
+                hist_try = out.hist
+                v_try = out.v
+                model.d_prev[:] = sw.d
+                self.monitor.penetration(sw.z, sw.w)
+                fr_step += out.friction_j
+                damp_step += out.damping_j
+                if stab > 0 and not integ.dynamic:
+                    dq = (q_try - q_ref).reshape(model.n_nodes, model.nd)[:, :3]
+                    stab_step += stab * float(np.sum(dq**2)) / h
+            iters_total += iters_step
+            if good:
+                return StepOutcome(
+                    True, q_try, v_try, hist_try, iters_total, out.iters, sub, fallback, attempts,
+                    fr_step, damp_step, stab_step, 0, out.res,
+                )  # fmt: skip
+            if not fallback and not integ.dynamic and stab == 0.0 and sub >= FALLBACK_AFTER:
+                # snap-through / stall: retry the step with the fallback stabilisation
+                fallback = True
+                stab = FALLBACK_STIFFNESS_FRACTION * model.wall_stiffness_n_m * dt
+                sub = 1
+                continue
+            if sub >= int(1 / MIN_CUT):
+                return StepOutcome(
+                    False, q_prev, v_prev, hist, iters_total, out.iters, sub, fallback, attempts,
+                    0.0, 0.0, 0.0, out.status, out.res,
+                )  # fmt: skip
+            sub *= 2
