@@ -25,17 +25,20 @@ class AxialArgs(NamedTuple):
     ea_n: float
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def add_axial(p, q, st, sw, r, B, jac):
+    """The effect's uniform signature: unpack and call :func:`axial_kernel`."""
+    return axial_kernel(q, st.nd, st.n_nodes, st.kl, p.link_len, p.ea_n, r, B, jac)
+
+
+@njit(cache=True)
+def axial_kernel(q, nd, n_nodes, kl, link_len, ea_n, r, B, jac):
     """Axial penalty ``k_j / 2 (|e_j| - l_j)^2`` per link (``k_j = EA / l_j``); returns the
     energy (J)."""
-    nd = st.nd
-    kl = st.kl
-    link_len = p.link_len
     energy = 0.0
     K = np.empty((3, 3))
     e = np.empty(3)
-    for j in range(st.n_nodes - 1):
+    for j in range(n_nodes - 1):
         i0 = nd * j
         i1 = nd * (j + 1)
         L = 0.0
@@ -43,7 +46,7 @@ def add_axial(p, q, st, sw, r, B, jac):
             e[a] = q[i1 + a] - q[i0 + a]
             L += e[a] * e[a]
         L = math.sqrt(L)
-        k = p.ea_n / link_len[j]
+        k = ea_n / link_len[j]
         dl = L - link_len[j]
         energy += 0.5 * k * dl * dl
         f = k * dl / L

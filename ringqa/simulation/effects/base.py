@@ -259,7 +259,7 @@ def effect_add(p, q, st, sw, r, B, jac):  # pragma: no cover - replaced by numba
     raise NotImplementedError("effect_add is called from numba kernels only")
 
 
-@overload(effect_prepare)
+@overload(effect_prepare, inline="always")
 def _ol_effect_prepare(p, q, st, sw):
     cls = getattr(p, "instance_class", None)
     if cls not in _ADD:
@@ -278,7 +278,7 @@ def _ol_effect_prepare(p, q, st, sw):
     return call_prepare
 
 
-@overload(effect_add)
+@overload(effect_add, inline="always")
 def _ol_effect_add(p, q, st, sw, r, B, jac):
     cls = getattr(p, "instance_class", None)
     fn = _ADD.get(cls)

@@ -38,15 +38,18 @@ def _theta_funcs(th):
     return th / s, (s - th * c) / (s * s * s)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def add_bending(p, q, st, sw, r, B, jac):
+    """The effect's uniform signature: unpack and call :func:`bending_kernel`."""
+    return bending_kernel(q, st.nd, st.n_nodes, st.kl, p.hinge_k, r, B, jac)
+
+
+@njit(cache=True)
+def bending_kernel(q, nd, n_nodes, kl, hinge_k, r, B, jac):
     """Hinge bending energy ``k_i theta_i^2 / 2`` at every interior node; returns the energy.
 
     ``theta_i`` is the angle between links ``a = x_i - x_{i-1}`` and ``b = x_{i+1} - x_i``.
     """
-    nd = st.nd
-    kl = st.kl
-    hinge_k = p.hinge_k
     energy = 0.0
     W = B.shape[1]
     Bf = B.reshape(-1)
@@ -60,7 +63,7 @@ def add_bending(p, q, st, sw, r, B, jac):
     Hab = np.empty((3, 3))
     Hbb = np.empty((3, 3))
     Hba = np.empty((3, 3))
-    for i in range(1, st.n_nodes - 1):
+    for i in range(1, n_nodes - 1):
         k = hinge_k[i - 1]
         if k == 0.0:
             continue

@@ -84,8 +84,23 @@ def _lumen_at(seg_s, seg_rb, seg_ra, seg_flat, g, s, ro):
     return (1 - t) * r0 + t * r1, (1 - t) * a0 + t * a1, (1 - t) * f0 + t * f1
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def prepare_contact(p, q, st, sw):
+    """The effect's uniform signature: call :func:`contact_geometry` on the samples."""
+    ch = p.chan
+    return contact_geometry(
+        q, st.nd, sw.link, sw.alpha, sw.ro, sw.wt, ch.h, ch.pos, ch.tan, ch.nor,
+        ch.kappa_min_flat, ch.seg_s, ch.seg_rb, ch.seg_ra, ch.seg_flat, p.transition, p.max_frac,
+        p.k_wall, sw.s, sw.p, sw.d, sw.n, sw.H, sw.z, sw.w, sw.F, sw.dF,
+    )  # fmt: skip
+
+
+@njit(cache=True)
+def contact_geometry(
+    q, nd, samp_link, samp_alpha, samp_ro, samp_wt, h, pos, tan, nor, kappa_min_flat, seg_s,
+    seg_rb, seg_ra, seg_flat, transition, max_frac, k_wall, samp_s, samp_p, samp_d, samp_n,
+    samp_H, samp_z, samp_w, samp_F, samp_dF,
+):  # fmt: skip
     """Distance to the wall and elastic normal force at every contact sample point.
 
     For sample i on link j at fraction alpha: p = (1 - alpha) x_j + alpha x_{j+1}; the closest
@@ -101,14 +116,6 @@ def prepare_contact(p, q, st, sw):
     without force or stiffness needs neither).
     Returns the elastic contact energy.
     """
-    nd = st.nd
-    ch = p.chan
-    h, pos, tan, nor, kappa_min_flat = ch.h, ch.pos, ch.tan, ch.nor, ch.kappa_min_flat
-    seg_s, seg_rb, seg_ra, seg_flat = ch.seg_s, ch.seg_rb, ch.seg_ra, ch.seg_flat
-    transition, max_frac, k_wall = p.transition, p.max_frac, p.k_wall
-    samp_link, samp_alpha, samp_ro, samp_wt, samp_s = sw.link, sw.alpha, sw.ro, sw.wt, sw.s
-    samp_p, samp_d, samp_n, samp_H = sw.p, sw.d, sw.n, sw.H
-    samp_z, samp_w, samp_F, samp_dF = sw.z, sw.w, sw.F, sw.dF
     work = np.empty(9)
     nv = np.empty(3)
     dnv = np.empty(3)
@@ -226,23 +233,18 @@ def prepare_contact(p, q, st, sw):
     return energy
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def add_contact(p, q, st, sw, r, B, jac):
-    """Add the normal forces (residual ``F grad d``) and their stiffness to the nodes.
+    """The effect's uniform signature: call :func:`apply_normal` (returns 0: the elastic energy
+    comes from :func:`prepare_contact`)."""
+    apply_normal(st.nd, st.kl, sw.link, sw.alpha, sw.n, sw.H, sw.F, sw.dF, r, B, jac)
+    return 0.0
 
-    The forces are those :func:`prepare_contact` left, after wall damping and its clamp.
-    Returns 0 (the elastic energy comes from :func:`prepare_contact`).
-    """
-    nd = st.nd
-    kl = st.kl
-    samp_link, samp_alpha, samp_n, samp_H, samp_F, samp_dF = (
-        sw.link,
-        sw.alpha,
-        sw.n,
-        sw.H,
-        sw.F,
-        sw.dF,
-    )
+
+@njit(cache=True)
+def apply_normal(nd, kl, samp_link, samp_alpha, samp_n, samp_H, samp_F, samp_dF, r, B, jac):
+    """Add the normal forces (residual ``F grad d``) and their stiffness to the nodes (the forces
+    :func:`contact_geometry` left, after wall damping and its clamp)."""
     K = np.empty((3, 3))
     for i in range(samp_link.shape[0]):
         F = samp_F[i]
@@ -265,7 +267,6 @@ def add_contact(p, q, st, sw, r, B, jac):
             add_block(B, kl, nd, j, j + 1, w0 * w1, K)
             add_block(B, kl, nd, j + 1, j, w0 * w1, K)
             add_block(B, kl, nd, j + 1, j + 1, w1 * w1, K)
-    return 0.0
 
 
 register_kernels(ContactArgs, add=add_contact, prepare=prepare_contact)

@@ -108,31 +108,35 @@ def twist_slip_direction(q, nd, j, n, tau):
     tau[2] = t0 * n[1] - t1 * n[0]
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def add_friction(p, q, st, sw, r, B, jac):
-    """Regularised friction at each contact sample: F_t = -F_n mu(|v|) v / |v|.
-
-    The contact velocity is the tangential slip over the step divided by dt (the quasi-static
-    incremental law; dt = increment / input speed), plus ``r_o dphi/dt (t x n)`` with torsion;
-    the friction moment about the link axis ``r_o (n x F_t) . t`` loads the twist DOFs.
-    Jacobian exact except for the rotation of n and t within the step. Returns the dissipated
-    work over the step (J, >= 0), taken over the step's actual slip (from ``st.q_start``; with
-    backward Euler that is the slip the velocity comes from).
-
-    The regularisation velocity is ``max(v_reg, slip_min / h)``, h the actual step
-    (``st.dt / st.floor_scale``), so cutting a step never sharpens the law below ``slip_min``.
-    """
+    """The effect's uniform signature: call :func:`friction_kernel` (if active) with the
+    regularisation velocity ``max(v_reg, slip_min / h)``, h the actual step
+    (``st.dt / st.floor_scale``), so cutting a step never sharpens the law below ``slip_min``."""
     if not p.active:
         return 0.0
-    nd = st.nd
-    kl = st.kl
     dt = st.dt
-    q_prev = st.q_hist
-    q_start = st.q_start
-    law, mu_s, mu_k, v_brk, torsion = p.law, p.mu_s, p.mu_k, p.v_brk, p.torsion
     v_reg = max(p.v_reg, p.slip_min * st.floor_scale / dt)
-    samp_link, samp_alpha, samp_ro, samp_p = sw.link, sw.alpha, sw.ro, sw.p
-    samp_n, samp_H, samp_F, samp_dF = sw.n, sw.H, sw.F, sw.dF
+    return friction_kernel(
+        q, st.q_hist, st.q_start, st.nd, st.kl, sw.link, sw.alpha, sw.ro, sw.p, sw.n, sw.H,
+        sw.F, sw.dF, p.law, p.mu_s, p.mu_k, p.v_brk, v_reg, dt, p.torsion, r, B, jac,
+    )  # fmt: skip
+
+
+@njit(cache=True)
+def friction_kernel(
+    q, q_prev, q_start, nd, kl, samp_link, samp_alpha, samp_ro, samp_p, samp_n, samp_H, samp_F,
+    samp_dF, law, mu_s, mu_k, v_brk, v_reg, dt, torsion, r, B, jac,
+):  # fmt: skip
+    """Regularised friction at each contact sample: F_t = -F_n mu(|v|) v / |v|.
+
+    The contact velocity is the tangential slip from the history ``q_prev`` divided by dt (the
+    quasi-static incremental law; dt = increment / input speed), plus ``r_o dphi/dt (t x n)``
+    with torsion; the friction moment about the link axis ``r_o (n x F_t) . t`` loads the twist
+    DOFs. Jacobian exact except for the rotation of n and t within the step. Returns the
+    dissipated work over the step (J, >= 0), taken over the step's actual slip (from
+    ``q_start``; with backward Euler that is the slip the velocity comes from).
+    """
     work = 0.0
     A = np.empty((3, 3))
     K = np.empty((3, 3))

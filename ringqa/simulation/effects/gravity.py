@@ -19,14 +19,17 @@ class GravityArgs(NamedTuple):
     g: np.ndarray
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def add_gravity(p, q, st, sw, r, B, jac):
+    """The effect's uniform signature: unpack and call :func:`gravity_kernel`."""
+    return gravity_kernel(q, st.nd, st.n_nodes, p.node_mass, p.g, r)
+
+
+@njit(cache=True)
+def gravity_kernel(q, nd, n_nodes, node_mass, g, r):
     """Weight ``m_i g`` on every node (no stiffness); returns the potential ``-sum m g.x`` (J)."""
-    nd = st.nd
-    node_mass = p.node_mass
-    g = p.g
     energy = 0.0
-    for i in range(st.n_nodes):
+    for i in range(n_nodes):
         for a in range(3):
             r[nd * i + a] -= node_mass[i] * g[a]
             energy -= node_mass[i] * g[a] * q[nd * i + a]

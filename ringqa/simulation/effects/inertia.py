@@ -28,20 +28,24 @@ class InertiaArgs(NamedTuple):
     active: bool
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def add_inertia(p, q, st, sw, r, B, jac):
-    """Implicit inertia ``M (q - q_hist - dt v_hist) / dt^2`` (lumped masses); returns 0."""
+    """The effect's uniform signature: unpack and call :func:`inertia_kernel` (if active)."""
     if not p.active:
         return 0.0
-    nd = st.nd
-    kl = st.kl
-    dt = st.dt
-    q_prev = st.q_hist
-    v_prev = st.v_hist
+    return inertia_kernel(
+        q, st.q_hist, st.v_hist, st.nd, st.n_nodes, st.kl, p.node_mass, p.node_rot, st.dt, r,
+        B, jac,
+    )  # fmt: skip
+
+
+@njit(cache=True)
+def inertia_kernel(q, q_prev, v_prev, nd, n_nodes, kl, node_mass, node_rot, dt, r, B, jac):
+    """Implicit inertia ``M (q - q_prev - dt v_prev) / dt^2`` (lumped masses); returns 0."""
     inv = 1.0 / (dt * dt)
-    for i in range(st.n_nodes):
+    for i in range(n_nodes):
         for a in range(nd):
-            m = p.node_mass[i] if a < 3 else p.node_rot[i]
+            m = node_mass[i] if a < 3 else node_rot[i]
             idx = nd * i + a
             r[idx] += m * (q[idx] - q_prev[idx] - dt * v_prev[idx]) * inv
             if jac:

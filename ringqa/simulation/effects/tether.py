@@ -26,17 +26,20 @@ class TetherArgs(NamedTuple):
     coef: float
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def add_tether(p, q, st, sw, r, B, jac):
-    """``coef (x - x_ref) / dt`` on every node (scaled by ``st.floor_scale``); returns 0."""
+    """The effect's uniform signature: call :func:`tether_kernel` when the tether is on
+    (its coefficient scaled by ``st.floor_scale``)."""
     if p.coef == 0.0:
         return 0.0
-    nd = st.nd
-    kl = st.kl
-    dt = st.dt
-    coef = p.coef * st.floor_scale
-    q_ref = st.q_ref
-    for i in range(st.n_nodes):
+    return tether_kernel(q, st.q_ref, st.nd, st.n_nodes, st.kl, p.coef * st.floor_scale, st.dt,
+                         r, B, jac)  # fmt: skip
+
+
+@njit(cache=True)
+def tether_kernel(q, q_ref, nd, n_nodes, kl, coef, dt, r, B, jac):
+    """``coef (x - x_ref) / dt`` on every node; returns 0."""
+    for i in range(n_nodes):
         for a in range(3):
             idx = nd * i + a
             r[idx] += coef * (q[idx] - q_ref[idx]) / dt

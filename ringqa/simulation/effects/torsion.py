@@ -25,16 +25,20 @@ class TorsionArgs(NamedTuple):
     twist_k: np.ndarray
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def add_torsion(p, q, st, sw, r, B, jac):
+    """The effect's uniform signature: unpack and call :func:`torsion_kernel`."""
+    return torsion_kernel(q, st.nd, st.n_nodes, st.kl, p.twist_k, r, B, jac)
+
+
+@njit(cache=True)
+def torsion_kernel(q, nd, n_nodes, kl, twist_k, r, B, jac):
     """Twist energy ``k_j / 2 (phi_{j+1} - phi_j)^2`` per link (``k_j = GJ / l_j``)."""
-    nd = st.nd
-    kl = st.kl
     energy = 0.0
-    for j in range(st.n_nodes - 1):
+    for j in range(n_nodes - 1):
         i0 = nd * j + 3
         i1 = nd * (j + 1) + 3
-        k = p.twist_k[j]
+        k = twist_k[j]
         dphi = q[i1] - q[i0]
         energy += 0.5 * k * dphi * dphi
         r[i0] -= k * dphi

@@ -24,34 +24,37 @@ class WallDampingArgs(NamedTuple):
     active: bool
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def prepare_wall_damping(p, q, st, sw):
-    """Add the damping force to the samples' normal forces (after :mod:`.contact` computed the
-    elastic ones), then clamp the total at zero; returns the damping work over the step (J)."""
+    """The effect's uniform signature: call :func:`wall_damping_kernel` (if active)."""
     if not p.active:
         return 0.0
-    samp_d = sw.d
-    samp_z = sw.z
-    samp_F = sw.F
-    samp_dF = sw.dF
-    dt = st.dt
+    return wall_damping_kernel(
+        sw.d, st.d_hist, st.d_start, sw.z, sw.w, sw.wt, p.c_w, st.dt, sw.F, sw.dF
+    )
+
+
+@njit(cache=True)
+def wall_damping_kernel(samp_d, d_hist, d_start, samp_z, samp_w, samp_wt, c_w, dt, samp_F, samp_dF):
+    """Add the damping force to the samples' normal forces (after :mod:`.contact` computed the
+    elastic ones), then clamp the total at zero; returns the damping work over the step (J)."""
     work = 0.0
     for i in range(samp_d.shape[0]):
         z = samp_z[i]
         if z <= 0.0:
             continue
-        vn = (samp_d[i] - st.d_hist[i]) / dt
+        vn = (samp_d[i] - d_hist[i]) / dt
         if z <= 1.0:
             sh = (3.0 - 2.0 * z) * z * z
-            dsh = (6.0 * z - 6.0 * z * z) / sw.w[i]
+            dsh = (6.0 * z - 6.0 * z * z) / samp_w[i]
         else:
             sh = 1.0
             dsh = 0.0
-        cw = p.c_w * sw.wt[i]
+        cw = c_w * samp_wt[i]
         fd = cw * sh * vn
         samp_F[i] += fd
         samp_dF[i] += cw * (dsh * vn + sh / dt)
-        work += fd * (samp_d[i] - st.d_start[i])
+        work += fd * (samp_d[i] - d_start[i])
     # the wall never pulls: a negative total normal force is clamped to zero
     for i in range(samp_F.shape[0]):
         if samp_F[i] < 0.0:
@@ -60,7 +63,7 @@ def prepare_wall_damping(p, q, st, sw):
     return work
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def add_wall_damping(p, q, st, sw, r, B, jac):
     """Nothing to add itself: the damping force acts through the contact's normal force."""
     return 0.0
