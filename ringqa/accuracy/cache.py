@@ -19,6 +19,8 @@ from typing import Any
 
 import numpy as np
 
+from ringqa.jsonio import json_text
+
 CACHE_NAME = "runs.jsonl"
 
 
@@ -107,7 +109,9 @@ class RunRecord:
         return float(statistics.median(self.times_s)) if self.times_s else math.nan
 
     def as_json(self) -> str:
-        return json.dumps(
+        """One line of ``runs.jsonl`` (:func:`ringqa.jsonio.json_text`: NaN is written as null;
+        :meth:`from_json` reads it back as NaN)."""
+        return json_text(
             {
                 "key": self.key,
                 "overrides": self.overrides,
@@ -119,7 +123,7 @@ class RunRecord:
                 "positions_mm": np.round(self.positions_mm, 9).tolist(),
                 "directions": np.round(self.directions, 12).tolist(),
             },
-            default=str,
+            indent=None,
         )
 
     @classmethod

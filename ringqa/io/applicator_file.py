@@ -39,7 +39,6 @@ from __future__ import annotations
 import json
 import math
 import os
-import tempfile
 from pathlib import Path
 from typing import Any
 
@@ -48,6 +47,8 @@ import numpy as np
 from ringqa.errors import InputFileError, RingQAError
 from ringqa.geometry import Applicator, Centreline, Channel, GeometryError, Lumen, fit_circle
 from ringqa.io.points import read_points
+from ringqa.jsonio import json_text, to_jsonable
+from ringqa.outdir import atomic_write_text
 from ringqa.paths import data_dir
 from ringqa.units import m_to_mm, mm_to_m
 
@@ -155,7 +156,7 @@ def applicator_to_dict(app: Applicator, decimals: int | None = None) -> dict[str
             "= no flat; s_bounds_mm null = -inf / +inf",
             "frame": "ring plane normal points cranially, lateral to the patient's left",
         },
-        "metadata": _jsonable(app.metadata),
+        "metadata": to_jsonable(app.metadata),
         "ring_frame": {
             "centre_mm": [float(v) for v in m_to_mm(app.ring_centre_m)],
             "normal": [float(v) for v in app.ring_normal],
@@ -167,7 +168,7 @@ def applicator_to_dict(app: Applicator, decimals: int | None = None) -> dict[str
 
 
 def save_applicator(app: Applicator, path: str | os.PathLike, decimals: int | None = None) -> Path:
-    """Write ``app`` to ``path`` (JSON, mm) atomically (a temporary file renamed into place).
+    """Write ``app`` to ``path`` (JSON, mm) atomically (:func:`ringqa.outdir.atomic_write_text`).
 
     Parameters
     ----------
@@ -188,37 +189,12 @@ def save_applicator(app: Applicator, path: str | os.PathLike, decimals: int | No
     target = Path(path)
     if target.suffix.lower() != ".json":
         raise ApplicatorFileError(target, "applicator files are JSON", "use a .json file name")
-    doc = applicator_to_dict(app, decimals)
-    text = json.dumps(doc, indent=1, allow_nan=False) + "\n"
-    target.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=target.parent, prefix=f".{target.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w") as fh:
-            fh.write(text)
-        os.chmod(tmp, 0o644)  # mkstemp creates 0600; applicator files are meant to be shared
-        os.replace(tmp, target)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    return target
+    text = json_text(applicator_to_dict(app, decimals), indent=1) + "\n"
+    return atomic_write_text(target, text)
 
 
 # --------------------------------------------------------------------------------------------
 # reading
-
-
-def _jsonable(obj):
-    if isinstance(obj, dict):
-        return {str(k): _jsonable(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_jsonable(v) for v in obj]
-    if isinstance(obj, np.ndarray):
-        return _jsonable(obj.tolist())
-    if isinstance(obj, (np.floating, np.integer)):
-        return obj.item()
-    if isinstance(obj, float) and not math.isfinite(obj):
-        return None
-    return obj
 
 
 class _Reader:

@@ -12,32 +12,14 @@ Files per applicator (issue 5):
 
 from __future__ import annotations
 
-import json
-import math
 from pathlib import Path
 
-import numpy as np
 import pandas as pd
+
+from ringqa.jsonio import to_jsonable, write_json
 
 SCHEMA = "ringqa.commission/1"
 FLOAT_FORMAT = "%.6g"
-
-
-def _clean(value):
-    """JSON-safe copy: numpy -> python, NaN/inf -> None, tuples -> lists."""
-    if isinstance(value, dict):
-        return {str(k): _clean(v) for k, v in value.items()}
-    if isinstance(value, list | tuple):
-        return [_clean(v) for v in value]
-    if isinstance(value, np.ndarray):
-        return _clean(value.tolist())
-    if isinstance(value, np.generic):
-        return _clean(value.item())
-    if isinstance(value, float):
-        return value if math.isfinite(value) else None
-    if isinstance(value, Path):
-        return str(value)
-    return value
 
 
 def results_dict(result) -> dict:
@@ -49,7 +31,7 @@ def results_dict(result) -> dict:
         if not result.doses.empty
         else []
     )
-    return _clean(
+    return to_jsonable(
         {
             "schema": SCHEMA,
             "applicator": result.applicator,
@@ -85,7 +67,7 @@ def write_tables(result, folder: Path) -> list[Path]:
     ):
         df.to_csv(folder / name, index=False, float_format=FLOAT_FORMAT)
         out.append(folder / name)
-    (folder / "results.json").write_text(json.dumps(results_dict(result), indent=2))
+    write_json(folder / "results.json", results_dict(result), indent=2)
     out.append(folder / "results.json")
     return out
 
@@ -111,5 +93,5 @@ def write_batch_tables(batch, folder: Path) -> list[Path]:
         "summary": batch.summary.to_dict("records"),
         "provenance": batch.results[0].provenance.as_dict() if batch.results else None,
     }
-    (folder / "batch.json").write_text(json.dumps(_clean(info), indent=2))
+    write_json(folder / "batch.json", info, indent=2)
     return [folder / "summary.csv", folder / "batch.json"]

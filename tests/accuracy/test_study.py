@@ -268,3 +268,19 @@ def test_cache_is_not_reused_by_a_changed_engine(fake_scene, tmp_path, monkeypat
     sim2 = FakeSimulator()
     run_study(fake_scene, grid=grid, out_dir=tmp_path, simulator=sim2, repeats=1)
     assert sim2.calls == sim1.calls > 0
+
+
+def test_cached_run_with_nan_positions_round_trips():
+    """A failed run's NaN rows are written as JSON null (ringqa.jsonio's policy: runs.jsonl is
+    standard JSON) and read back as NaN; finite values come back exactly."""
+    from ringqa.accuracy.cache import RunRecord
+
+    pos = np.array([[1.0, 2.0, 3.0], [np.nan, np.nan, np.nan]])
+    rec = RunRecord("k", {"solver.increment_mm": np.float64(0.5)}, -1, "failed", (0.25,), 7, 12,
+                    pos, np.array([[0.0, 0.0, 1.0], [np.nan, np.nan, np.nan]]))  # fmt: skip
+    line = rec.as_json()
+    assert "NaN" not in line and "[null, null, null]" in line
+    assert '"solver.increment_mm": 0.5' in line  # a number, not the string "0.5"
+    back = RunRecord.from_json(line)
+    np.testing.assert_array_equal(back.positions_mm, pos)
+    assert back.overrides == {"solver.increment_mm": 0.5} and back.times_s == (0.25,)
