@@ -14,28 +14,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-
-def fit_ring_frame(points_mm) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
-    """Centre, unit normal, unit lateral and radius of the circle best fitting 3D points (mm).
-
-    Plane by SVD, then an algebraic (Kasa) circle fit in the plane. The lateral axis points
-    from the centre towards the points' mean (sign conventions of a real ring frame are unknown
-    here: this is the stand-in frame for analytic channels).
-    """
-    p = np.asarray(points_mm, float)
-    c0 = p.mean(axis=0)
-    _, _, vt = np.linalg.svd(p - c0)
-    e1, e2, n = vt[0], vt[1], vt[2]
-    u, v = (p - c0) @ e1, (p - c0) @ e2
-    a = np.column_stack([u, v, np.ones_like(u)])
-    sol, *_ = np.linalg.lstsq(a, u**2 + v**2, rcond=None)
-    uc, vc = sol[0] / 2, sol[1] / 2
-    r = math.sqrt(max(sol[2] + uc**2 + vc**2, 1e-12))
-    centre = c0 + uc * e1 + vc * e2
-    lat = c0 - centre
-    lat = lat - np.dot(lat, n) * n
-    lat = lat / np.linalg.norm(lat) if np.linalg.norm(lat) > 1e-9 else e1
-    return centre, n, lat, r
+from ringqa.geometry import fit_ring_frame
+from ringqa.units import m_to_mm, mm_to_m
 
 
 @dataclass(frozen=True)
@@ -83,10 +63,11 @@ def dose_model_for(scene, ref_positions_mm) -> DoseModel | None:
     ref = np.asarray(ref_positions_mm, float)
     if len(ref) < 3:
         return None
-    centre, normal, lat, r = fit_ring_frame(ref)
+    frame = fit_ring_frame(mm_to_m(ref), lateral="points_mean")
+    r = m_to_mm(frame.radius_m)
     if not (np.isfinite(r) and 1.0 < r < 1.0e3):
         return None
-    pts = dose_points_from_frame(centre, normal, lat, r)
+    pts = dose_points_from_frame(m_to_mm(frame.centre_m), frame.normal, frame.lateral, r)
     return DoseModel(
         points_array_mm(pts),
         tuple(p.name for p in pts),

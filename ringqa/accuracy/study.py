@@ -57,7 +57,6 @@ from ringqa.accuracy.dose import (
     _reference_dose,
     dose_error_pct,
     dose_model_for,
-    fit_ring_frame,
 )
 from ringqa.accuracy.figure import plot_study
 from ringqa.accuracy.grid import (
@@ -125,7 +124,6 @@ __all__ = [
     "engine_fingerprint",
     "execute",
     "expand_grid",
-    "fit_ring_frame",
     "flexible_sections",
     "is_model_change",
     "label_of",

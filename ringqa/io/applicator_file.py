@@ -45,7 +45,15 @@ from typing import Any
 import numpy as np
 
 from ringqa.errors import InputFileError, RingQAError
-from ringqa.geometry import Applicator, Centreline, Channel, GeometryError, Lumen, fit_circle
+from ringqa.geometry import (
+    Applicator,
+    Centreline,
+    Channel,
+    GeometryError,
+    Lumen,
+    RingFrame,
+    fit_ring_frame,
+)
 from ringqa.io.points import read_points
 from ringqa.jsonio import json_text, to_jsonable
 from ringqa.outdir import atomic_write_text
@@ -342,7 +350,9 @@ def _from_dict(doc, rd: _Reader) -> Applicator:
         raise rd.fail("metadata", "expected a JSON object")
     frame = doc.get("ring_frame")
     if frame is None:
-        centre, normal, lateral, radius = _fit_frame(channels, rd)
+        frame = _fit_frame(channels, rd)
+        centre, normal, lateral, radius = (frame.centre_m, frame.normal, frame.lateral,
+                                           frame.radius_m)  # fmt: skip
     else:
         centre = mm_to_m(rd.vector(frame, "centre_mm", "ring_frame"))
         normal = rd.vector(frame, "normal", "ring_frame")
@@ -368,24 +378,20 @@ def _from_dict(doc, rd: _Reader) -> Applicator:
         raise rd.fail("ring_frame/channels", str(exc)) from None
 
 
-def _fit_frame(channels, rd: _Reader):
-    """Ring frame from the first channel: circle fit to its distal 40 mm (normal chosen so the
-    proximal entry lies caudally; lateral = DICOM +x projected into the ring plane)."""
+def _fit_frame(channels, rd: _Reader) -> RingFrame:
+    """Ring frame from the first channel: :func:`ringqa.geometry.fit_ring_frame` of its distal
+    40 mm (the proximal entry lies caudally; lateral = patient left), refused unless a circle."""
     ch = channels[0]
     cl = ch.centreline
     s = np.linspace(max(0.0, cl.length_m - 0.04), cl.length_m, 81)
-    centre, normal, radius, rms = fit_circle(cl.position(s))
-    if rms > 0.5e-3:
+    frame = fit_ring_frame(cl.position(s), caudal_point_m=cl.position(0.0))
+    if frame.rms_m > 0.5e-3:
         raise rd.fail(
             "ring_frame", f"missing, and the distal 40 mm of channel {ch.name!r} is not a circle "
-            f"(rms {rms * 1e3:.2f} mm)", "give ring_frame {centre_mm, normal, lateral, radius_mm}",
+            f"(rms {frame.rms_m * 1e3:.2f} mm)",
+            "give ring_frame {centre_mm, normal, lateral, radius_mm}",
         )  # fmt: skip
-    if float((cl.position(0.0) - centre) @ normal) > 0:
-        normal = -normal
-    lateral = np.array([1.0, 0.0, 0.0]) - normal[0] * normal
-    if np.linalg.norm(lateral) < 1e-6:
-        lateral = np.array([0.0, 1.0, 0.0]) - normal[1] * normal
-    return centre, normal, lateral / np.linalg.norm(lateral), radius
+    return frame
 
 
 def _read_csv_points(rd: _Reader, field: str, name, kind: str) -> np.ndarray:

@@ -15,7 +15,6 @@ from ringqa.accuracy.study import (
     CONTRACT_COLUMNS,
     angle_errors_deg,
     default_grid,
-    fit_ring_frame,
     position_errors_mm,
 )
 from tests.accuracy.conftest import C_EL, C_INC, FakeSimulator, exact_positions_mm
@@ -58,21 +57,6 @@ def test_error_measures_by_hand():
     a = angle_errors_deg([[1.0, 0.0, 0.0]], [[1.0, 1.0, 0.0]])
     assert a.tolist() == pytest.approx([45.0])
     assert angle_errors_deg([[0.0, 0.0, 1.0]], [[0.0, 0.0, 1.0]]).tolist() == [0.0]
-
-
-def test_fit_ring_frame_recovers_circle():
-    """Points on a circle of radius 13 mm centred at (1, 2, 3) in a tilted plane: the fit returns
-    that centre and radius to 1e-9 mm and a normal perpendicular to the plane."""
-    n = np.array([0.0, 0.6, 0.8])
-    u = np.array([1.0, 0.0, 0.0])
-    v = np.cross(n, u)
-    phi = np.linspace(0.2, 4.0, 30)
-    pts = np.array([1.0, 2.0, 3.0]) + 13.0 * (np.outer(np.cos(phi), u) + np.outer(np.sin(phi), v))
-    c, normal, lat, r = fit_ring_frame(pts)
-    assert r == pytest.approx(13.0, abs=1e-9)
-    assert c == pytest.approx([1.0, 2.0, 3.0], abs=1e-9)
-    assert abs(np.dot(normal, n)) == pytest.approx(1.0, abs=1e-12)
-    assert abs(np.dot(lat, n)) < 1e-12
 
 
 def test_study_table_front_and_recommendation(fake_scene, fake_simulator, tmp_path):
