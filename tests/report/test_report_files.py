@@ -9,7 +9,7 @@ import pytest
 
 from ringqa.pipeline import commission, commission_batch
 from ringqa.report import SCHEMA, write_batch, write_report
-from tests.pipeline.fakes import fake_scene_factory, fake_simulator, make_applicator
+from tests.pipeline.fakes import fake_engine, fake_simulator, make_applicator
 
 DWELL_COLUMNS = {"applicator", "dwell", "path", "x_mm", "y_mm", "z_mm", "dir_x", "dir_y", "dir_z",
                  "dist_to_measured_mm"}  # fmt: skip
@@ -21,8 +21,7 @@ JSON_KEYS = {"schema", "applicator", "input", "input_kind", "reference", "passed
 
 @pytest.fixture(scope="module")
 def result():
-    return commission(make_applicator(tandem=True), simulator=fake_simulator(z_m=2e-4),
-                      scene_factory=fake_scene_factory())  # fmt: skip
+    return commission(make_applicator(tandem=True), engine=fake_engine(fake_simulator(z_m=2e-4)))
 
 
 def test_contract_files(result, tmp_path):
@@ -66,8 +65,7 @@ def test_failed_write_leaves_nothing(result, tmp_path, monkeypatch):
 def test_batch_folder(tmp_path):
     apps = [make_applicator(name="a"), make_applicator(name="b", r_b=0.3e-3),
             make_applicator(name="c", n_measured=0)]  # fmt: skip
-    batch = commission_batch(apps, progress=False, simulator=fake_simulator(),
-                             scene_factory=fake_scene_factory())  # fmt: skip
+    batch = commission_batch(apps, progress=False, engine=fake_engine())
     write_batch(batch, tmp_path / "all")
     out = tmp_path / "all"
     expected = {"a", "c", "summary.csv", "all_dwells.csv", "all_doses.csv", "batch.json",
