@@ -15,12 +15,25 @@ from dataclasses import dataclass
 import numpy as np
 
 from ringqa.geometry import fit_ring_frame
+from ringqa.plan import applicator_dose_points, dose_points_from_frame, points_array_mm
+from ringqa.simulation.scenefile import scene_to_dict
 from ringqa.units import m_to_mm, mm_to_m
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class DoseModel:
-    """Dose at fixed points for equal dwell times at given positions (for dose errors)."""
+    """Dose at fixed points for equal dwell times at given positions (for dose errors).
+
+    Attributes
+    ----------
+    points_mm : (k, 3) ndarray
+        The dose points, mm.
+    point_names : tuple of str
+    source_name : str
+        TG-43 source.
+    how : str
+        How the points were defined (for ``study.json``).
+    """
 
     points_mm: np.ndarray
     point_names: tuple[str, ...]
@@ -39,13 +52,24 @@ class DoseModel:
 
 
 def dose_model_for(scene, ref_positions_mm) -> DoseModel | None:
-    """The report's dose points for the scene's applicator, else a fitted-circle stand-in."""
-    try:
-        from ringqa.plan import applicator_dose_points, dose_points_from_frame, points_array_mm
-    except ImportError:  # pragma: no cover - plan layer missing
-        return None
+    """The report's dose points for the scene's applicator, else a fitted-circle stand-in.
+
+    Parameters
+    ----------
+    scene : Scene
+        Its channel spec (:func:`~ringqa.simulation.scenefile.scene_to_dict`) names the
+        applicator, if any.
+    ref_positions_mm : (n, 3) array_like
+        The reference run's dwells, mm (the stand-in circle is fitted to them).
+
+    Returns
+    -------
+    DoseModel or None
+        None when neither works (fewer than 3 dwells, no plausible circle).
+    """
     src = "flexisource"  # the Flexitron's source (the only cable preset with a source)
-    spec = scene.source.get("channel", {}) if isinstance(scene.source, Mapping) else {}
+    spec = scene_to_dict(scene).get("channel", {})
+    spec = spec if isinstance(spec, Mapping) else {}
     if spec.get("applicator"):
         try:
             from ringqa.io.applicator_file import load_applicator
@@ -87,17 +111,50 @@ def dose_error_pct(model: DoseModel | None, pos_mm, dirs, ref_dose) -> float:
     return float(np.max(np.abs(d / ref_dose - 1.0)) * 100.0)
 
 
-def _reference_dose(scene, ref_positions_mm, ref_directions, warnings: list[str]):
-    """The dose model of the scene and the reference run's dose, or (None, None).
+@dataclass(frozen=True, eq=False)
+class DoseReference:
+    """The dose points of a study and the reference run's dose there.
 
-    A failure of the dose model is recorded in ``warnings``; the study then has no dose errors.
+    Attributes
+    ----------
+    model : DoseModel or None
+        None: no dose errors are computed.
+    dose : (k,) ndarray or None
+        The reference run's dose at the model's points (arbitrary units).
+    warnings : tuple of str
+        Why there are no dose errors, when the model failed.
+    """
+
+    model: DoseModel | None
+    dose: np.ndarray | None
+    warnings: tuple[str, ...] = ()
+
+    @property
+    def how(self) -> str:
+        """How the dose points were defined (``study.json: dose_points``)."""
+        return self.model.how if self.model is not None else "not computed"
+
+
+def reference_dose(scene, ref_positions_mm, ref_directions) -> DoseReference:
+    """The dose model of the scene and the reference run's dose.
+
+    Parameters
+    ----------
+    scene : Scene
+    ref_positions_mm : (n, 3) array_like
+        The reference run's dwells, mm.
+    ref_directions : (n, 3) array_like
+        Its unit source directions.
+
+    Returns
+    -------
+    DoseReference
+        Without a model (and with a warning) when the dose cannot be computed.
     """
     dose_model = dose_model_for(scene, ref_positions_mm)
-    ref_dose = None
-    if dose_model is not None:
-        try:
-            ref_dose = dose_model.dose(ref_positions_mm, ref_directions)
-        except Exception as exc:
-            warnings.append(f"dose errors not computed: {exc}")
-            dose_model = None
-    return dose_model, ref_dose
+    if dose_model is None:
+        return DoseReference(None, None)
+    try:
+        return DoseReference(dose_model, dose_model.dose(ref_positions_mm, ref_directions))
+    except Exception as exc:
+        return DoseReference(None, None, (f"dose errors not computed: {exc}",))

@@ -15,6 +15,7 @@ from ringqa.accuracy.result import AccuracyStudy, recommendation_summary
 from ringqa.jsonio import to_jsonable, write_json
 from ringqa.outdir import atomic_write_text, staged_output
 from ringqa.provenance import Provenance
+from ringqa.simulation.scenefile import scene_to_dict, scene_with_overrides
 
 CSV_NAME = "accuracy.csv"
 PNG_NAME = "accuracy.png"
@@ -29,12 +30,9 @@ def write_study(study: AccuracyStudy, scene, out_dir: str | Path) -> None:
         study.table.to_csv(stage / CSV_NAME, index=False, float_format="%.6g")
         import pandas as pd
 
-        pd.DataFrame(
-            [
-                {**{k: v for k, v in lv.items() if k != "overrides"}, **lv["overrides"]}
-                for lv in study.reference.levels
-            ]
-        ).to_csv(stage / REFERENCE_CSV, index=False, float_format="%.6g")
+        pd.DataFrame([lv.csv_row() for lv in study.reference.levels]).to_csv(
+            stage / REFERENCE_CSV, index=False, float_format="%.6g"
+        )
         plot_study(study, stage / PNG_NAME)
         if study.recommended_overrides is not None:
             write_recommended(study, scene, stage / TOML_NAME)
@@ -65,7 +63,7 @@ def write_recommended(study: AccuracyStudy, scene, path: Path) -> None:
     """``recommended.toml``: the scene with the recommended settings, commented header."""
     import tomli_w
 
-    rec_scene = scene.with_overrides(study.recommended_overrides or {})
+    rec_scene = scene_with_overrides(scene, study.recommended_overrides or {})
     row = study.recommended or {}
     header = [
         f"# ringqa accuracy: cheapest settings meeting {study.target_mm:g} mm for {scene.name}",
@@ -76,7 +74,7 @@ def write_recommended(study: AccuracyStudy, scene, path: Path) -> None:
         f"# reference converged: {study.reference.converged} "
         f"(two finest levels agree to {study.reference.agreement_mm:.3g} mm)",
     ]
-    data = rec_scene.to_dict()
+    data = scene_to_dict(rec_scene)
     data["description"] = (
         f"recommended by ringqa accuracy for {study.target_mm:g} mm: {row.get('label', '')}"
     )

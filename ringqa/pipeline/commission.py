@@ -100,7 +100,7 @@ def commission(
     app = loaded.applicator
     ring = channel_of(app, cfg.channel)
     check_measured_path(input, ring, cfg.channel, loaded.kind, cfg.require_measured)
-    source = choose_source(cfg.source, cfg.sk_U, loaded.rtplan)
+    src = choose_source(cfg.source, cfg.sk_U, loaded.rtplan)
     reference = reference_dwells(app, ring, cfg.plan_step_mm)
     selection = plan_selection(app, ring, reference, cfg.plan_step_mm)
 
@@ -118,10 +118,10 @@ def commission(
     points = dose_points(app, loaded.rtplan, cfg.point_spec)
     tandem = tandem_dwells(app, cfg.tandem_dwells, cfg.plan_step_mm)
     plans = standard_plans(
-        reference, selection, simulated.dwells, centreline, tandem, points, source.source,
-        prescription_gy=cfg.prescription_gy, sk_U=source.sk_U,
+        reference, selection, simulated.dwells, centreline, tandem, points, src.source,
+        prescription_gy=cfg.prescription_gy, sk_U=src.sk_U,
     )  # fmt: skip
-    tables = dose_tables(app, loaded.rtplan, plans, points, source.source, source.sk_U)
+    tables = dose_tables(app, loaded.rtplan, plans, points, src.source, src.sk_U)
     dose_s = time.perf_counter() - t0
 
     verdicts = check_tolerances(
@@ -129,7 +129,7 @@ def commission(
     )
     n_tandem = 0 if tandem is None else len(tandem.relative_position_mm)
     summary = summarise(
-        app.name, source.source.name, reference, selection, n_tandem, dev, tables.doses, plans,
+        app.name, src.source.name, reference, selection, n_tandem, dev, tables.doses, plans,
         simulated.info, verdicts,
     )  # fmt: skip
     tandem_note = (
@@ -137,17 +137,17 @@ def commission(
         "the tandem is not simulated, so its dwells are the same in all plans."
     )
     notes = (
-        *source.notes,
+        *src.notes,
         loaded_text(app, ring, loaded.kind),
         reference_note(reference),
         *simulated.notes,
-        *simulation_notes(simulated.info, source.source, simulated.afterloader),
+        *simulation_notes(simulated.info, src.source, simulated.afterloader),
         *tables.notes,
         *((tandem_note,) if tandem is not None else ()),
         *verdict_meanings(verdicts),
     )
     used = RunSettings(
-        source=source.source.name, sk_U=source.sk_U, prescription_gy=cfg.prescription_gy,
+        source=src.source.name, sk_U=src.sk_U, prescription_gy=cfg.prescription_gy,
         cable=cfg.cable, channel=cfg.channel, plan_step_mm=cfg.plan_step_mm,
         tandem_dwells=cfg.tandem_dwells, position_limits_mm=cfg.position_limits_mm,
         dose_action_pct=cfg.dose_action_pct, dose_points=cfg.point_spec,

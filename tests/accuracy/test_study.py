@@ -17,6 +17,7 @@ from ringqa.accuracy.study import (
     default_grid,
     position_errors_mm,
 )
+from ringqa.simulation.scenefile import scene_with_overrides
 from tests.accuracy.conftest import C_EL, C_INC, FakeSimulator, exact_positions_mm
 
 GRID = {
@@ -103,8 +104,8 @@ def test_reference_is_really_converged(fake_scene, fake_simulator):
     ref = study.reference
     assert ref.converged
     assert ref.agreement_mm <= 0.1 * ref.smallest_error_mm
-    finest = ref.levels[-1]["overrides"]
-    res = FakeSimulator()(fake_scene.with_overrides(finest))
+    finest = ref.levels[-1].overrides
+    res = FakeSimulator()(scene_with_overrides(fake_scene, finest))
     adv = np.array(fake_scene.motion.advances_m) * 1e3
     true_err = np.max(np.linalg.norm(res.source_pos_m * 1e3 - exact_positions_mm(adv), axis=1))
     assert true_err <= 0.1 * ref.smallest_error_mm * 1.01
@@ -120,9 +121,9 @@ def test_unconverged_reference_is_reported(fake_scene, fake_simulator):
 def test_recommended_setting_reproduces_its_error(fake_scene, fake_simulator):
     """Re-running the recommended overrides gives the claimed max error (deterministic model)."""
     study = run_study(fake_scene, grid=GRID, simulator=fake_simulator, repeats=1)
-    again = FakeSimulator()(fake_scene.with_overrides(study.recommended_overrides))
-    finest = study.reference.levels[-1]["overrides"]
-    ref = FakeSimulator()(fake_scene.with_overrides(finest))
+    again = FakeSimulator()(scene_with_overrides(fake_scene, study.recommended_overrides))
+    finest = study.reference.levels[-1].overrides
+    ref = FakeSimulator()(scene_with_overrides(fake_scene, finest))
     err = np.max(np.linalg.norm((again.source_pos_m - ref.source_pos_m) * 1e3, axis=1))
     assert err == pytest.approx(study.recommended["max_err_mm"], rel=1e-9)
     assert err <= 0.1
