@@ -15,6 +15,7 @@ puts the source on the centreline: the numbers then measure everything except th
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import os
 import subprocess
@@ -56,15 +57,16 @@ def worker(out_dir: str, stand_in: bool) -> dict:
     sys.path.insert(0, str(ROOT))
     import ringqa.simulation as simulation
     from ringqa.io.applicator_file import shipped_applicators
-    from ringqa.pipeline import commission_batch
+    from ringqa.pipeline import commission_batch, default_engine
     from ringqa.report import write_batch_pdf, write_pdf, write_tables
 
     t_import = time.perf_counter() - t0
-    engine = getattr(simulation, "simulate", None)
-    used_stand_in = stand_in or engine is None
-    sim = _stand_in() if used_stand_in else engine
+    real = getattr(simulation, "simulate", None)
+    used_stand_in = stand_in or real is None
+    sim = _stand_in() if used_stand_in else real
     t1 = time.perf_counter()
-    batch = commission_batch(shipped_applicators(), progress=False, simulator=sim)
+    engine = dataclasses.replace(default_engine(), simulate=sim)
+    batch = commission_batch(shipped_applicators(), progress=False, engine=engine)
     t_pipeline = time.perf_counter() - t1
     out = Path(out_dir)
     t2 = time.perf_counter()
@@ -79,7 +81,7 @@ def worker(out_dir: str, stand_in: bool) -> dict:
     sums = {"load_s": 0.0, "simulation_s": 0.0, "dose_s": 0.0}
     for r in batch.results:
         for k in sums:
-            sums[k] += r.timings_s.get(k, 0.0)
+            sums[k] += getattr(r.timings, k)
     return {
         "stand_in_engine": used_stand_in,
         "n_ok": len(batch.results),

@@ -1,7 +1,9 @@
 """Shared fixtures for the whole suite.
 
 - ``shared_dir``: the read-only reference material beside the checkout (``../shared``); tests that
-  need it skip with a clear reason when it is absent (a user's clone does not have it).
+  need it skip with a clear reason when it is absent (a user's clone does not have it). This is
+  the ONLY skip in the suite outside tests/simulation and tests/tg43: anything else a test needs
+  must exist, and its absence is a failure.
 - Hypothesis runs with a deterministic profile so CI results are reproducible.
 """
 
@@ -45,6 +47,5 @@ def oncentra_plan_path(shared_dir: Path) -> Path:
     """The shared Oncentra 26 mm / 60 degree tandem-and-ring RT Plan."""
     plan_dir = shared_dir / "reference" / "rtplans" / "oncentra_ring26x60"
     path = plan_dir / "RP_ring26x60_oncentra43.dcm"
-    if not path.is_file():
-        pytest.skip(f"{path} not found")
+    assert path.is_file(), f"{path}: missing from the shared reference material"
     return path

@@ -3,16 +3,31 @@
 Every ``import`` in the package sources is read with ``ast`` (no code is run) and checked
 against the layer order written in DEVELOPERS.md:
 
-    foundations (units, errors, paths, provenance, outdir)
+    foundations (units, errors, paths, provenance, outdir, jsonio)
       -> geometry -> io -> simulation -> plan -> accuracy -> pipeline -> report -> cli
 
 A module may import its own layer and layers to its left, never to its right; ``tg43`` never
 imports ``ringqa``. The test fails with the offending file and import.
+
+Private names (the rule of :func:`test_no_private_imports`): a leading underscore means "this
+module only" for a name and "this package only" for a module.
+
+- A module never imports another module's private name (``from ringqa.x import _helper``):
+  whatever a second module needs is public, with a docstring (the pipeline's and the accuracy
+  study's steps hand each other public functions and dataclasses).
+- A private module (``_kernels.py``, ``cli/_options.py``) is imported only from inside its own
+  top-level package (``ringqa.simulation.solvers`` may use ``ringqa.simulation._kernels``; the
+  pipeline may not).
+- Dunder names (``__version__``) are public.
+
+Known exceptions are listed in :data:`PRIVATE_IMPORT_EXCEPTIONS` with their reason; the test also
+fails when an exception is no longer needed, so the list only shrinks.
 """
 
 from __future__ import annotations
 
 import ast
+import sys
 from pathlib import Path
 
 import pytest
@@ -20,7 +35,16 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 LAYERS = ["foundations", "geometry", "io", "simulation", "plan", "accuracy", "pipeline", "report",
           "cli"]  # fmt: skip
-FOUNDATIONS = {"units", "errors", "paths", "provenance", "outdir", "__init__", "__main__"}
+#: (source file or folder, imported name) -> why it is still allowed. Delete entries as they go.
+PRIVATE_IMPORT_EXCEPTIONS = {
+    ("ringqa/simulation/scenefile/", "*"): "the scenefile package split keeps the old module's "
+    "private helpers importable between its modules; being rebuilt with the engine",
+    ("ringqa/cli/simulate.py", "_resolve_scene_path"): "ringqa.simulation.scenefile has no "
+    "public name for it yet (the engine owner's package)",
+}
+
+FOUNDATIONS = {"units", "errors", "paths", "provenance", "outdir", "jsonio", "__init__",
+               "__main__"}  # fmt: skip
 
 
 def _layer(module: str) -> int | None:
@@ -82,6 +106,87 @@ def test_ringqa_imports_only_leftwards():
                 where = f"{path.relative_to(ROOT)}:{line}"
                 bad.append(f"{where} ({LAYERS[own]}) imports {mod} ({LAYERS[other]})")
     assert not bad, "imports against the data flow:\n" + "\n".join(bad)
+
+
+def _is_private(name: str) -> bool:
+    return name.startswith("_") and not (name.startswith("__") and name.endswith("__"))
+
+
+def _private_imports(path: Path):
+    """(line, module, name) of every import of a private name or a private module of ringqa."""
+    tree = ast.parse(path.read_text(), filename=str(path))
+    me = _module_name(path)
+    package = me if path.name == "__init__.py" else me.rsplit(".", 1)[0]
+    package = package.removesuffix(".__init__")
+    for node in ast.walk(tree):
+        if isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = package.split(".")[: len(package.split(".")) - node.level + 1]
+                module = ".".join([*base, node.module or ""]).rstrip(".")
+            else:
+                module = node.module or ""
+            if module.split(".")[0] != "ringqa":
+                continue
+            for alias in node.names:
+                yield node.lineno, module, alias.name
+        elif isinstance(node, ast.Import):
+            for alias in node.names:
+                if alias.name.split(".")[0] == "ringqa":
+                    yield node.lineno, alias.name, ""
+
+
+def _top_package(module: str) -> str:
+    parts = module.split(".")
+    return ".".join(parts[:2])
+
+
+def test_no_private_imports():
+    """No module imports another module's private name; a private module is used only inside its
+    own top-level package (the rule in the module docstring)."""
+    bad, used = [], set()
+    for path in _sources("ringqa"):
+        rel = str(path.relative_to(ROOT))
+        me = _module_name(path)
+        for line, module, name in _private_imports(path):
+            parts = [*module.split("."), *([name] if name else [])]
+            private_module = any(_is_private(p) for p in module.split(".")[1:])
+            private_name = bool(name) and _is_private(name)
+            # "from pkg import _mod" imports a private MODULE when pkg/_mod.py exists
+            target = ROOT.joinpath(*parts)
+            if private_name and (target.with_suffix(".py").is_file() or target.is_dir()):
+                private_name, private_module = False, True
+            problem = None
+            if private_name:
+                problem = f"imports the private name {name} from {module}"
+            elif private_module and _top_package(module) != _top_package(me):
+                problem = f"imports from the private module {'.'.join(parts)} of another package"
+            if problem is None:
+                continue
+            key = next(
+                (k for k in PRIVATE_IMPORT_EXCEPTIONS
+                 if rel.startswith(k[0]) and k[1] in ("*", name)),
+                None,
+            )  # fmt: skip
+            if key is not None:
+                used.add(key)
+                continue
+            bad.append(f"{rel}:{line} {problem}")
+    assert not bad, "private imports (make the name public, or keep it in its module):\n" + (
+        "\n".join(bad)
+    )
+    stale = set(PRIVATE_IMPORT_EXCEPTIONS) - used
+    assert not stale, f"exceptions no longer needed, delete them: {sorted(stale)}"
+
+
+def test_private_import_check_catches_a_violation(tmp_path, monkeypatch):
+    """The checker sees through relative imports: a module importing ``_helper`` from its
+    sibling, and one importing a sibling's private module by a relative path."""
+    pkg = tmp_path / "ringqa" / "pipeline"
+    pkg.mkdir(parents=True)
+    (pkg / "steps.py").write_text("from .dwells import _helper\nfrom ..geometry import _kernels\n")
+    monkeypatch.setattr(sys.modules[__name__], "ROOT", tmp_path)
+    found = list(_private_imports(pkg / "steps.py"))
+    assert found == [(1, "ringqa.pipeline.dwells", "_helper"), (2, "ringqa.geometry", "_kernels")]
 
 
 @pytest.mark.parametrize("package", ["ringqa", "tg43"])

@@ -19,6 +19,9 @@ from typing import Any
 
 import numpy as np
 
+from ringqa.jsonio import json_text
+from ringqa.simulation.scenefile import scene_to_dict, scene_with_overrides
+
 CACHE_NAME = "runs.jsonl"
 
 
@@ -58,13 +61,21 @@ def channel_fingerprint(channel) -> str:
     return h.hexdigest()[:16]
 
 
-def _salt(scene) -> str:
+def scene_salt(scene) -> str:
+    """What besides the settings decides a run: the engine's source and the channel's geometry."""
     return engine_fingerprint() + channel_fingerprint(scene.channel)
 
 
-def _key_of(scene, overrides) -> str:
-    s = scene.with_overrides(overrides) if overrides else scene
-    return run_key(s.to_dict(), _salt(s))
+def key_of(scene, overrides: Mapping[str, Any]) -> str:
+    """Cache key of ``scene`` with ``overrides`` (dotted keys, user units) applied.
+
+    Raises
+    ------
+    RingQAError
+        A bad override (the scene file's checker names the key).
+    """
+    s = scene_with_overrides(scene, overrides) if overrides else scene
+    return run_key(scene_to_dict(s), scene_salt(s))
 
 
 @dataclass(frozen=True)
@@ -107,7 +118,9 @@ class RunRecord:
         return float(statistics.median(self.times_s)) if self.times_s else math.nan
 
     def as_json(self) -> str:
-        return json.dumps(
+        """One line of ``runs.jsonl`` (:func:`ringqa.jsonio.json_text`: NaN is written as null;
+        :meth:`from_json` reads it back as NaN)."""
+        return json_text(
             {
                 "key": self.key,
                 "overrides": self.overrides,
@@ -119,7 +132,7 @@ class RunRecord:
                 "positions_mm": np.round(self.positions_mm, 9).tolist(),
                 "directions": np.round(self.directions, 12).tolist(),
             },
-            default=str,
+            indent=None,
         )
 
     @classmethod
@@ -138,8 +151,16 @@ class RunRecord:
         )
 
 
-class _Cache:
-    """Finished runs, one JSON line each in ``DIR/runs.jsonl`` (or in memory without a DIR)."""
+class RunCache:
+    """Finished runs, one JSON line each in ``DIR/runs.jsonl`` (or in memory without a DIR).
+
+    Parameters
+    ----------
+    path : Path or None
+        The ``runs.jsonl`` file (None: keep runs in memory only).
+    resume : bool
+        Read the runs already in ``path``; False deletes the file.
+    """
 
     def __init__(self, path: Path | None, resume: bool) -> None:
         self.path = path
@@ -157,9 +178,11 @@ class _Cache:
                 path.unlink()
 
     def get(self, key: str) -> RunRecord | None:
+        """The finished run of this key, or None."""
         return self.runs.get(key)
 
     def put(self, rec: RunRecord) -> None:
+        """Keep ``rec`` and append it to the file."""
         self.runs[rec.key] = rec
         if self.path is not None:
             self.path.parent.mkdir(parents=True, exist_ok=True)

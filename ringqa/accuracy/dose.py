@@ -14,33 +14,26 @@ from dataclasses import dataclass
 
 import numpy as np
 
-
-def fit_ring_frame(points_mm) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
-    """Centre, unit normal, unit lateral and radius of the circle best fitting 3D points (mm).
-
-    Plane by SVD, then an algebraic (Kasa) circle fit in the plane. The lateral axis points
-    from the centre towards the points' mean (sign conventions of a real ring frame are unknown
-    here: this is the stand-in frame for analytic channels).
-    """
-    p = np.asarray(points_mm, float)
-    c0 = p.mean(axis=0)
-    _, _, vt = np.linalg.svd(p - c0)
-    e1, e2, n = vt[0], vt[1], vt[2]
-    u, v = (p - c0) @ e1, (p - c0) @ e2
-    a = np.column_stack([u, v, np.ones_like(u)])
-    sol, *_ = np.linalg.lstsq(a, u**2 + v**2, rcond=None)
-    uc, vc = sol[0] / 2, sol[1] / 2
-    r = math.sqrt(max(sol[2] + uc**2 + vc**2, 1e-12))
-    centre = c0 + uc * e1 + vc * e2
-    lat = c0 - centre
-    lat = lat - np.dot(lat, n) * n
-    lat = lat / np.linalg.norm(lat) if np.linalg.norm(lat) > 1e-9 else e1
-    return centre, n, lat, r
+from ringqa.geometry import fit_ring_frame
+from ringqa.plan import applicator_dose_points, dose_points_from_frame, points_array_mm
+from ringqa.simulation.scenefile import scene_to_dict
+from ringqa.units import m_to_mm, mm_to_m
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class DoseModel:
-    """Dose at fixed points for equal dwell times at given positions (for dose errors)."""
+    """Dose at fixed points for equal dwell times at given positions (for dose errors).
+
+    Attributes
+    ----------
+    points_mm : (k, 3) ndarray
+        The dose points, mm.
+    point_names : tuple of str
+    source_name : str
+        TG-43 source.
+    how : str
+        How the points were defined (for ``study.json``).
+    """
 
     points_mm: np.ndarray
     point_names: tuple[str, ...]
@@ -59,13 +52,24 @@ class DoseModel:
 
 
 def dose_model_for(scene, ref_positions_mm) -> DoseModel | None:
-    """The report's dose points for the scene's applicator, else a fitted-circle stand-in."""
-    try:
-        from ringqa.plan import applicator_dose_points, dose_points_from_frame, points_array_mm
-    except ImportError:  # pragma: no cover - plan layer missing
-        return None
+    """The report's dose points for the scene's applicator, else a fitted-circle stand-in.
+
+    Parameters
+    ----------
+    scene : Scene
+        Its channel spec (:func:`~ringqa.simulation.scenefile.scene_to_dict`) names the
+        applicator, if any.
+    ref_positions_mm : (n, 3) array_like
+        The reference run's dwells, mm (the stand-in circle is fitted to them).
+
+    Returns
+    -------
+    DoseModel or None
+        None when neither works (fewer than 3 dwells, no plausible circle).
+    """
     src = "flexisource"  # the Flexitron's source (the only cable preset with a source)
-    spec = scene.source.get("channel", {}) if isinstance(scene.source, Mapping) else {}
+    spec = scene_to_dict(scene).get("channel", {})
+    spec = spec if isinstance(spec, Mapping) else {}
     if spec.get("applicator"):
         try:
             from ringqa.io.applicator_file import load_applicator
@@ -83,10 +87,11 @@ def dose_model_for(scene, ref_positions_mm) -> DoseModel | None:
     ref = np.asarray(ref_positions_mm, float)
     if len(ref) < 3:
         return None
-    centre, normal, lat, r = fit_ring_frame(ref)
+    frame = fit_ring_frame(mm_to_m(ref), lateral="points_mean")
+    r = m_to_mm(frame.radius_m)
     if not (np.isfinite(r) and 1.0 < r < 1.0e3):
         return None
-    pts = dose_points_from_frame(centre, normal, lat, r)
+    pts = dose_points_from_frame(m_to_mm(frame.centre_m), frame.normal, frame.lateral, r)
     return DoseModel(
         points_array_mm(pts),
         tuple(p.name for p in pts),
@@ -106,17 +111,50 @@ def dose_error_pct(model: DoseModel | None, pos_mm, dirs, ref_dose) -> float:
     return float(np.max(np.abs(d / ref_dose - 1.0)) * 100.0)
 
 
-def _reference_dose(scene, ref_positions_mm, ref_directions, warnings: list[str]):
-    """The dose model of the scene and the reference run's dose, or (None, None).
+@dataclass(frozen=True, eq=False)
+class DoseReference:
+    """The dose points of a study and the reference run's dose there.
 
-    A failure of the dose model is recorded in ``warnings``; the study then has no dose errors.
+    Attributes
+    ----------
+    model : DoseModel or None
+        None: no dose errors are computed.
+    dose : (k,) ndarray or None
+        The reference run's dose at the model's points (arbitrary units).
+    warnings : tuple of str
+        Why there are no dose errors, when the model failed.
+    """
+
+    model: DoseModel | None
+    dose: np.ndarray | None
+    warnings: tuple[str, ...] = ()
+
+    @property
+    def how(self) -> str:
+        """How the dose points were defined (``study.json: dose_points``)."""
+        return self.model.how if self.model is not None else "not computed"
+
+
+def reference_dose(scene, ref_positions_mm, ref_directions) -> DoseReference:
+    """The dose model of the scene and the reference run's dose.
+
+    Parameters
+    ----------
+    scene : Scene
+    ref_positions_mm : (n, 3) array_like
+        The reference run's dwells, mm.
+    ref_directions : (n, 3) array_like
+        Its unit source directions.
+
+    Returns
+    -------
+    DoseReference
+        Without a model (and with a warning) when the dose cannot be computed.
     """
     dose_model = dose_model_for(scene, ref_positions_mm)
-    ref_dose = None
-    if dose_model is not None:
-        try:
-            ref_dose = dose_model.dose(ref_positions_mm, ref_directions)
-        except Exception as exc:
-            warnings.append(f"dose errors not computed: {exc}")
-            dose_model = None
-    return dose_model, ref_dose
+    if dose_model is None:
+        return DoseReference(None, None)
+    try:
+        return DoseReference(dose_model, dose_model.dose(ref_positions_mm, ref_directions))
+    except Exception as exc:
+        return DoseReference(None, None, (f"dose errors not computed: {exc}",))

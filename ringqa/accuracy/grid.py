@@ -10,10 +10,12 @@ the first thing it reports.
 from __future__ import annotations
 
 from collections.abc import Mapping
+from dataclasses import dataclass
 from typing import Any
 
-from ringqa.accuracy.cache import _key_of
+from ringqa.accuracy.cache import key_of
 from ringqa.errors import RingQAError
+from ringqa.simulation.scenefile import scene_to_dict
 from ringqa.units import m_to_mm
 
 
@@ -34,7 +36,7 @@ def setting_value(scene, key: str):
             if s.name == name:
                 return round(m_to_mm(s.element_length_m), 9)
         raise AccuracyError(f"grid key {key}: the instrument has no section {name!r}")
-    node: Any = scene.to_dict()
+    node: Any = scene_to_dict(scene)
     for part in key.split("."):
         if not isinstance(node, Mapping) or part not in node:
             return None
@@ -65,7 +67,7 @@ def scaled_overrides(
     -------
     dict
         Dotted overrides in user units (mm, s), values rounded to 6 significant digits, for
-        ``scene.with_overrides``.
+        :func:`ringqa.simulation.scenefile.scene_with_overrides`.
     """
     out: dict[str, Any] = {}
     for name in flexible_sections(scene):
@@ -166,13 +168,19 @@ def label_of(overrides: Mapping[str, Any]) -> str:
     return " | ".join(parts)
 
 
-def _dedupe(scene, grid_list: list[dict]) -> list[dict]:
-    """Drop runs whose scene equals an earlier one (e.g. the scene's own settings spelled out)."""
+def dedupe_grid(scene, grid_list: list[dict]) -> list[dict]:
+    """Drop runs whose scene equals an earlier one (e.g. the scene's own settings spelled out).
+
+    Raises
+    ------
+    AccuracyError
+        A grid entry the scene cannot take (names the entry and the key).
+    """
     seen: set[str] = set()
     out = []
     for ov in grid_list:
         try:
-            key = _key_of(scene, ov)
+            key = key_of(scene, ov)
         except RingQAError as exc:
             raise AccuracyError(f"grid entry {ov}: {exc}") from None
         if key not in seen:
@@ -181,7 +189,23 @@ def _dedupe(scene, grid_list: list[dict]) -> list[dict]:
     return out
 
 
-def _finest_factors(scene, grid_list) -> tuple[float, float]:
+@dataclass(frozen=True)
+class FinestFactors:
+    """The finest refinement a grid uses, relative to the scene's own settings.
+
+    Attributes
+    ----------
+    element_length : float
+        Smallest factor on the flexible sections' element lengths (1: none finer).
+    step : float
+        Smallest factor on the increment (quasi-static) or time step (dynamic).
+    """
+
+    element_length: float
+    step: float
+
+
+def finest_factors(scene, grid_list) -> FinestFactors:
     """Smallest element-length and step factors (relative to the scene) used in the grid."""
     el_f, st_f = 1.0, 1.0
     key = _step_key(scene)
@@ -193,4 +217,4 @@ def _finest_factors(scene, grid_list) -> tuple[float, float]:
                 el_f = min(el_f, float(ov[k]) / setting_value(scene, k))
         if key in ov:
             st_f = min(st_f, float(ov[key]) / base_step)
-    return el_f, st_f
+    return FinestFactors(el_f, st_f)

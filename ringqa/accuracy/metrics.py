@@ -30,11 +30,13 @@ def angle_errors_deg(dirs, ref_dirs) -> np.ndarray:
     return np.degrees(np.arctan2(cross, dot))
 
 
-def _nanmax(a) -> float:
+def max_or_nan(a) -> float:
+    """The maximum, or NaN when ``a`` is empty or holds a non-finite value (a failed run)."""
     a = np.asarray(a, float)
     return float(np.max(a)) if a.size and np.all(np.isfinite(a)) else math.nan
 
 
-def _nanmedian(a) -> float:
+def median_or_nan(a) -> float:
+    """The median, or NaN when ``a`` is empty or holds a non-finite value (a failed run)."""
     a = np.asarray(a, float)
     return float(np.median(a)) if a.size and np.all(np.isfinite(a)) else math.nan

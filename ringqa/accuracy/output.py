@@ -6,15 +6,16 @@ The files are written atomically into the study's folder (with the figure of
 
 from __future__ import annotations
 
-import json
 import math
 from pathlib import Path
-
-import numpy as np
 
 from ringqa.accuracy.cache import engine_fingerprint
 from ringqa.accuracy.figure import plot_study
 from ringqa.accuracy.result import AccuracyStudy, recommendation_summary
+from ringqa.jsonio import to_jsonable, write_json
+from ringqa.outdir import atomic_write_text, staged_output
+from ringqa.provenance import Provenance
+from ringqa.simulation.scenefile import scene_to_dict, scene_with_overrides
 
 CSV_NAME = "accuracy.csv"
 PNG_NAME = "accuracy.png"
@@ -25,19 +26,13 @@ REFERENCE_CSV = "reference.csv"
 def write_study(study: AccuracyStudy, scene, out_dir: str | Path) -> None:
     """Write ``accuracy.csv``, ``reference.csv``, ``accuracy.png``, ``recommended.toml`` and
     ``study.json`` into ``out_dir`` (atomically; the run cache stays beside them)."""
-    from ringqa.outdir import staged_output
-    from ringqa.provenance import Provenance
-
     with staged_output(out_dir) as stage:
         study.table.to_csv(stage / CSV_NAME, index=False, float_format="%.6g")
         import pandas as pd
 
-        pd.DataFrame(
-            [
-                {**{k: v for k, v in lv.items() if k != "overrides"}, **lv["overrides"]}
-                for lv in study.reference.levels
-            ]
-        ).to_csv(stage / REFERENCE_CSV, index=False, float_format="%.6g")
+        pd.DataFrame([lv.csv_row() for lv in study.reference.levels]).to_csv(
+            stage / REFERENCE_CSV, index=False, float_format="%.6g"
+        )
         plot_study(study, stage / PNG_NAME)
         if study.recommended_overrides is not None:
             write_recommended(study, scene, stage / TOML_NAME)
@@ -61,26 +56,14 @@ def write_study(study: AccuracyStudy, scene, out_dir: str | Path) -> None:
             "warnings": list(study.warnings),
             "provenance": Provenance.now(settings={"scene": study.scene_name}).as_dict(),
         }
-        (stage / "study.json").write_text(json.dumps(_jsonable(info), indent=2))
-
-
-def _jsonable(obj):
-    if isinstance(obj, dict):
-        return {str(k): _jsonable(v) for k, v in obj.items()}
-    if isinstance(obj, list | tuple):
-        return [_jsonable(v) for v in obj]
-    if isinstance(obj, np.generic):
-        obj = obj.item()
-    if isinstance(obj, float) and not math.isfinite(obj):
-        return None
-    return obj
+        write_json(stage / "study.json", info, indent=2)
 
 
 def write_recommended(study: AccuracyStudy, scene, path: Path) -> None:
     """``recommended.toml``: the scene with the recommended settings, commented header."""
     import tomli_w
 
-    rec_scene = scene.with_overrides(study.recommended_overrides or {})
+    rec_scene = scene_with_overrides(scene, study.recommended_overrides or {})
     row = study.recommended or {}
     header = [
         f"# ringqa accuracy: cheapest settings meeting {study.target_mm:g} mm for {scene.name}",
@@ -91,8 +74,8 @@ def write_recommended(study: AccuracyStudy, scene, path: Path) -> None:
         f"# reference converged: {study.reference.converged} "
         f"(two finest levels agree to {study.reference.agreement_mm:.3g} mm)",
     ]
-    data = rec_scene.to_dict()
+    data = scene_to_dict(rec_scene)
     data["description"] = (
         f"recommended by ringqa accuracy for {study.target_mm:g} mm: {row.get('label', '')}"
     )
-    path.write_text("\n".join(header) + "\n" + tomli_w.dumps(_jsonable(data)))
+    atomic_write_text(path, "\n".join(header) + "\n" + tomli_w.dumps(to_jsonable(data)))

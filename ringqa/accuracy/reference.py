@@ -9,16 +9,56 @@ levels differ by at most a tenth of the smallest error any grid run reports agai
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
-from ringqa.accuracy.cache import RunRecord, _key_of
-from ringqa.accuracy.grid import AccuracyError, _finest_factors, scaled_overrides
+from ringqa.accuracy.cache import RunCache, RunRecord, key_of
+from ringqa.accuracy.grid import AccuracyError, finest_factors, scaled_overrides
 from ringqa.accuracy.metrics import position_errors_mm
 
 REFERENCE_TOL = 1.0e-10
 DEFAULT_NOISE_MM = 1.0e-4  # 0.1 um: below this dwell differences are numerical noise
+
+
+@dataclass(frozen=True)
+class ReferenceLevel:
+    """One refinement level of the reference (a row of ``reference.csv``).
+
+    Attributes
+    ----------
+    level : int
+        k = 1, 2, ...: the finest grid run's element lengths and step halved k times.
+    overrides : dict
+        Its dotted overrides (user units).
+    time_s : float
+        Its solve time, s (one run).
+    n_elements : int
+    status : int
+        0 success, 1 jammed, -1 failed.
+    diff_to_previous_mm : float
+        Max dwell difference to the previous level, mm (NaN for the first).
+    """
+
+    level: int
+    overrides: dict[str, Any]
+    time_s: float
+    n_elements: int
+    status: int
+    diff_to_previous_mm: float
+
+    def csv_row(self) -> dict[str, Any]:
+        """The ``reference.csv`` row: the fields, then one column per override key."""
+        return {
+            "level": self.level,
+            "time_s": self.time_s,
+            "n_elements": self.n_elements,
+            "status": self.status,
+            "diff_to_previous_mm": self.diff_to_previous_mm,
+            **self.overrides,
+        }
 
 
 @dataclass(frozen=True)
@@ -27,9 +67,8 @@ class ReferenceInfo:
 
     Attributes
     ----------
-    levels : tuple of dict
-        Per refinement level: ``overrides``, ``time_s``, ``n_elements``, ``status``,
-        ``diff_to_previous_mm`` (max dwell difference to the previous level).
+    levels : tuple of ReferenceLevel
+        Every refinement level run.
     agreement_mm : float
         Max dwell difference between the two finest levels (mm).
     smallest_error_mm : float
@@ -47,7 +86,7 @@ class ReferenceInfo:
         Ratio of the last two level differences.
     """
 
-    levels: tuple[dict, ...]
+    levels: tuple[ReferenceLevel, ...]
     agreement_mm: float
     smallest_error_mm: float
     converged: bool
@@ -72,9 +111,62 @@ def tail_estimate(diffs) -> tuple[float, float]:
     return float(d[-1] * r / (1.0 - r)), float(r)
 
 
-def _refinement_levels(
-    scene, grid_list, runs, get, cache, bar, *, max_levels, noise_mm, max_ref_time_s, warnings
-):
+@dataclass(frozen=True, eq=False)
+class Refinement:
+    """What the reference refinement ran and found.
+
+    Attributes
+    ----------
+    levels : tuple of ReferenceLevel
+    runs : tuple of RunRecord
+        The levels' runs, in the same order.
+    agreement_mm : float
+        Max dwell difference between the two finest levels, mm (inf with fewer than two).
+    smallest_error_mm : float
+        Smallest max error of a grid run against the finest level, mm.
+    converged : bool
+    warnings : tuple of str
+        A level that failed, a time budget that stopped the refinement.
+    """
+
+    levels: tuple[ReferenceLevel, ...]
+    runs: tuple[RunRecord, ...]
+    agreement_mm: float
+    smallest_error_mm: float
+    converged: bool
+    warnings: tuple[str, ...]
+
+
+@dataclass(frozen=True, eq=False)
+class Reference:
+    """The converged (or finest) reference run and how it was obtained.
+
+    Attributes
+    ----------
+    info : ReferenceInfo
+    run : RunRecord
+        The finest successful level: every grid run is compared with it.
+    warnings : tuple of str
+        Not converged, or converging slowly.
+    """
+
+    info: ReferenceInfo
+    run: RunRecord
+    warnings: tuple[str, ...]
+
+
+def refine_reference(
+    scene,
+    grid_list: list[dict],
+    runs: list[RunRecord],
+    get: Callable[..., RunRecord],
+    cache: RunCache,
+    bar,
+    *,
+    max_levels: int,
+    noise_mm: float,
+    max_ref_time_s: float,
+) -> Refinement:
     """Run the reference levels until the two finest agree, one fails, or time runs out.
 
     Parameters
@@ -86,29 +178,25 @@ def _refinement_levels(
         The finished grid runs (their smallest error sets the agreement needed).
     get : callable
         ``get(overrides, n_repeats) -> RunRecord``: a run, from the cache or executed.
-    cache : _Cache
+    cache : RunCache
         Levels found there are not subject to ``max_ref_time_s``.
     bar : progress bar
         Advanced by one per level.
     max_levels : int
+        Most levels.
     noise_mm : float
+        Agreement below which the reference counts as converged regardless, mm.
     max_ref_time_s : float
-    warnings : list of str
-        Appended to when a level fails or the time budget stops the refinement.
+        Do not start a level (beyond the second) predicted to take longer, s.
 
     Returns
     -------
-    levels : list of dict
-        One row of ``reference.csv`` per level.
-    level_recs : list of RunRecord
-    agreement : float
-        Max dwell difference between the two finest levels (mm; inf with fewer than two).
-    smallest : float
-        Smallest max error of a grid run against the finest level (mm).
-    converged : bool
+    Refinement
     """
-    finest_el, finest_step = _finest_factors(scene, grid_list)
-    levels: list[dict] = []
+    finest = finest_factors(scene, grid_list)
+    finest_el, finest_step = finest.element_length, finest.step
+    warnings: list[str] = []
+    levels: list[ReferenceLevel] = []
     level_recs: list[RunRecord] = []
     agreement = math.inf
     smallest = math.nan
@@ -118,7 +206,7 @@ def _refinement_levels(
         ov = scaled_overrides(
             scene, finest_el * f, finest_step * f, min(scene.solver.tol, REFERENCE_TOL)
         )
-        if level_recs and len(level_recs) >= 2 and cache.get(_key_of(scene, ov)) is None:
+        if level_recs and len(level_recs) >= 2 and cache.get(key_of(scene, ov)) is None:
             # each level doubles elements and steps: ~4x the time of the previous one
             predicted = 4.0 * level_recs[-1].time_s
             if predicted > max_ref_time_s:
@@ -134,16 +222,7 @@ def _refinement_levels(
             diff = float(
                 np.nanmax(position_errors_mm(rec.positions_mm, level_recs[-1].positions_mm))
             )
-        levels.append(
-            {
-                "level": k,
-                "overrides": ov,
-                "time_s": rec.time_s,
-                "n_elements": rec.n_elements,
-                "status": rec.status,
-                "diff_to_previous_mm": diff,
-            }
-        )
+        levels.append(ReferenceLevel(k, ov, rec.time_s, rec.n_elements, rec.status, diff))
         level_recs.append(rec)
         if rec.status != 0:
             warnings.append(f"reference level {k} did not succeed: {rec.message}")
@@ -162,25 +241,40 @@ def _refinement_levels(
         if np.isfinite(agreement) and agreement <= bound:
             converged = True
             break
-    return levels, level_recs, agreement, smallest, converged
+    return Refinement(
+        tuple(levels), tuple(level_recs), agreement, smallest, converged, tuple(warnings)
+    )
 
 
-def _reference_info(
-    scene, levels, level_recs, agreement, smallest, converged, noise_mm, warnings
-) -> tuple[ReferenceInfo, RunRecord]:
+def reference_from(scene, refinement: Refinement, noise_mm: float) -> Reference:
     """The reference (the finest successful level) and how it was obtained.
 
-    Warns (in ``warnings``) when it did not converge or converges slowly.
+    Parameters
+    ----------
+    scene : Scene
+        For messages (its name).
+    refinement : Refinement
+    noise_mm : float
+        For the convergence rule's text.
+
+    Returns
+    -------
+    Reference
+        With warnings when it did not converge or converges slowly.
 
     Raises
     ------
     AccuracyError
         No level succeeded.
     """
+    levels, level_recs = refinement.levels, refinement.runs
+    agreement, smallest = refinement.agreement_mm, refinement.smallest_error_mm
+    converged = refinement.converged
+    warnings: list[str] = []
     ref = next((r for r in reversed(level_recs) if r.status == 0), None)
     if ref is None:
         raise AccuracyError(
-            f"scene {scene.name}: no reference run succeeded ({levels[-1]['status']}: "
+            f"scene {scene.name}: no reference run succeeded ({levels[-1].status}: "
             f"{level_recs[-1].message}); fix the scene before studying its accuracy"
         )
     if not converged:
@@ -189,7 +283,7 @@ def _reference_info(
             f"{agreement:.3g} mm, more than a tenth of the smallest reported error "
             f"({smallest:.3g} mm); errors below ~{agreement:.2g} mm are not resolved"
         )
-    tail, ratio = tail_estimate([lv["diff_to_previous_mm"] for lv in levels])
+    tail, ratio = tail_estimate([lv.diff_to_previous_mm for lv in levels])
     if np.isfinite(tail) and np.isfinite(smallest) and tail > 0.1 * smallest:
         warnings.append(
             f"the reference levels converge slowly (each halving shrinks the change by only "
@@ -197,7 +291,7 @@ def _reference_info(
             f"than a tenth of the smallest reported error ({smallest:.2g} mm)"
         )
     reference = ReferenceInfo(
-        levels=tuple(levels),
+        levels=levels,
         agreement_mm=float(agreement),
         smallest_error_mm=float(smallest),
         converged=converged,
@@ -208,5 +302,4 @@ def _reference_info(
             f"levels agree to max(0.1 x smallest grid error, {noise_mm:g} mm)"
         ),
     )
-
-    return reference, ref
+    return Reference(reference, ref, tuple(warnings))

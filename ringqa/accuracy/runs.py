@@ -8,18 +8,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ringqa.accuracy.cache import RunRecord, _salt, run_key
-from ringqa.accuracy.grid import AccuracyError
+from ringqa.accuracy.cache import RunRecord, run_key, scene_salt
+from ringqa.simulation.scenefile import scene_to_dict, scene_with_overrides
 from ringqa.units import m_to_mm
-
-
-def _default_simulator():
-    import ringqa.simulation as sim
-
-    simulate = getattr(sim, "simulate", None)
-    if simulate is None:
-        raise AccuracyError("the simulation engine (ringqa.simulation.simulate) is not available")
-    return simulate
 
 
 def execute(scene, overrides, simulator, repeats: int = 3, max_repeat_s: float = 5.0) -> RunRecord:
@@ -28,8 +19,8 @@ def execute(scene, overrides, simulator, repeats: int = 3, max_repeat_s: float =
     The first call of a process compiles the kernels; the engine's ``solve_time_s`` excludes
     that. Repeats stop early once a single run takes more than ``max_repeat_s``.
     """
-    s = scene.with_overrides(overrides) if overrides else scene
-    key = run_key(s.to_dict(), _salt(s))
+    s = scene_with_overrides(scene, overrides) if overrides else scene
+    key = run_key(scene_to_dict(s), scene_salt(s))
     times: list[float] = []
     res = None
     for _ in range(max(1, repeats)):
@@ -66,7 +57,8 @@ class _NoBar:
         pass
 
 
-def _progress(total: int, on: bool):
+def progress_bar(total: int, on: bool):
+    """A tqdm bar over ``total`` runs on stderr, or a silent stand-in (``update``, ``close``)."""
     if not on:
         return _NoBar()
     from tqdm import tqdm

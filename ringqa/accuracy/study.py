@@ -44,27 +44,27 @@ from pathlib import Path
 
 from ringqa.accuracy.cache import (
     CACHE_NAME,
+    RunCache,
     RunRecord,
-    _Cache,
-    _key_of,
     channel_fingerprint,
     engine_fingerprint,
+    key_of,
     load_cached_runs,
     run_key,
 )
 from ringqa.accuracy.dose import (
     DoseModel,
-    _reference_dose,
+    DoseReference,
     dose_error_pct,
     dose_model_for,
-    fit_ring_frame,
+    reference_dose,
 )
 from ringqa.accuracy.figure import plot_study
 from ringqa.accuracy.grid import (
     DEFAULT_FACTORS,
     MODEL_KEYS,
     AccuracyError,
-    _dedupe,
+    dedupe_grid,
     default_grid,
     expand_grid,
     flexible_sections,
@@ -84,19 +84,22 @@ from ringqa.accuracy.output import (
 from ringqa.accuracy.reference import (
     DEFAULT_NOISE_MM,
     REFERENCE_TOL,
+    Reference,
     ReferenceInfo,
-    _reference_info,
-    _refinement_levels,
+    ReferenceLevel,
+    Refinement,
+    reference_from,
+    refine_reference,
     tail_estimate,
 )
 from ringqa.accuracy.result import SUMMARY_TARGETS_MM, AccuracyStudy, recommendation_summary
-from ringqa.accuracy.runs import _default_simulator, _progress, execute
+from ringqa.accuracy.runs import execute, progress_bar
 from ringqa.accuracy.table import (
     CONTRACT_COLUMNS,
     STATUS_WORDS,
-    _results_table,
     pareto_mask,
     recommend,
+    results_table,
 )
 
 __all__ = [
@@ -115,19 +118,25 @@ __all__ = [
     "AccuracyError",
     "AccuracyStudy",
     "DoseModel",
+    "DoseReference",
+    "Reference",
     "ReferenceInfo",
+    "ReferenceLevel",
+    "Refinement",
+    "RunCache",
     "RunRecord",
     "angle_errors_deg",
     "channel_fingerprint",
+    "dedupe_grid",
     "default_grid",
     "dose_error_pct",
     "dose_model_for",
     "engine_fingerprint",
     "execute",
     "expand_grid",
-    "fit_ring_frame",
     "flexible_sections",
     "is_model_change",
+    "key_of",
     "label_of",
     "load_cached_runs",
     "pareto_mask",
@@ -135,6 +144,10 @@ __all__ = [
     "position_errors_mm",
     "recommend",
     "recommendation_summary",
+    "reference_dose",
+    "reference_from",
+    "refine_reference",
+    "results_table",
     "run_key",
     "run_study",
     "setting_value",
@@ -198,53 +211,48 @@ def run_study(
 
     if not (isinstance(target_mm, int | float) and target_mm > 0 and math.isfinite(target_mm)):
         raise AccuracyError(f"--target-mm {target_mm!r}: must be a positive number of mm")
-    simulator = simulator or _default_simulator()
+    if simulator is None:
+        from ringqa.simulation import simulate as simulator
     grid_list = expand_grid(grid) if grid is not None else default_grid(scene, factors)
-    grid_list = _dedupe(scene, [{}, *grid_list])
+    grid_list = dedupe_grid(scene, [{}, *grid_list])
     out = Path(out_dir) if out_dir is not None else None
-    cache = _Cache(out / CACHE_NAME if out is not None else None, resume)
-    warnings: list[str] = []
+    cache = RunCache(out / CACHE_NAME if out is not None else None, resume)
 
     def get(overrides, n_repeats: int = repeats) -> RunRecord:
-        rec = cache.get(_key_of(scene, overrides))
+        rec = cache.get(key_of(scene, overrides))
         if rec is None:
             rec = execute(scene, overrides, simulator, repeats=n_repeats)
             cache.put(rec)
         return rec
 
-    bar = _progress(len(grid_list) + max_levels, progress)
+    bar = progress_bar(len(grid_list) + max_levels, progress)
     runs = []
     for ov in grid_list:
         runs.append(get(ov))
         bar.update(1)
-
-    levels, level_recs, agreement, smallest, converged = _refinement_levels(
+    refinement = refine_reference(
         scene, grid_list, runs, get, cache, bar, max_levels=max_levels, noise_mm=noise_mm,
-        max_ref_time_s=max_ref_time_s, warnings=warnings,
+        max_ref_time_s=max_ref_time_s,
     )  # fmt: skip
     bar.close()
-    reference, ref = _reference_info(
-        scene, levels, level_recs, agreement, smallest, converged, noise_mm, warnings
-    )
-
-    dose_model, ref_dose = _reference_dose(scene, ref.positions_mm, ref.directions, warnings)
-    table = _results_table(scene, grid_list, runs, ref, dose_model, ref_dose)
+    reference = reference_from(scene, refinement, noise_mm)
+    dose = reference_dose(scene, reference.run.positions_mm, reference.run.directions)
+    table = results_table(scene, grid_list, runs, reference.run, dose)
     rec_row = recommend(table, target_mm)
-    rec_ov = None
-    if rec_row is not None:
-        rec_ov = dict(grid_list[int(rec_row["run"])])
-    else:
-        warnings.append(f"no numerical setting in the grid meets {target_mm:g} mm")
+    rec_ov = None if rec_row is None else dict(grid_list[int(rec_row["run"])])
+    no_recommendation = () if rec_row is not None else (
+        f"no numerical setting in the grid meets {target_mm:g} mm",
+    )  # fmt: skip
     study = AccuracyStudy(
         scene_name=scene.name,
         table=table,
-        reference=reference,
+        reference=reference.info,
         target_mm=float(target_mm),
         recommended=rec_row,
         recommended_overrides=rec_ov,
-        dose_points=dose_model.how if dose_model is not None else "not computed",
+        dose_points=dose.how,
         out_dir=out,
-        warnings=tuple(warnings),
+        warnings=(*refinement.warnings, *reference.warnings, *dose.warnings, *no_recommendation),
         run_overrides=tuple(dict(g) for g in grid_list),
     )
     if out is not None:

@@ -12,9 +12,15 @@ from typing import Any
 
 import numpy as np
 
-from ringqa.accuracy.dose import dose_error_pct
+from ringqa.accuracy.cache import RunRecord
+from ringqa.accuracy.dose import DoseReference, dose_error_pct
 from ringqa.accuracy.grid import is_model_change, label_of, setting_value
-from ringqa.accuracy.metrics import _nanmax, _nanmedian, angle_errors_deg, position_errors_mm
+from ringqa.accuracy.metrics import (
+    angle_errors_deg,
+    max_or_nan,
+    median_or_nan,
+    position_errors_mm,
+)
 
 CONTRACT_COLUMNS = (
     "time_s",
@@ -49,7 +55,9 @@ def recommend(table, target_mm: float, include_model_changes: bool = False) -> d
     return row.to_dict()
 
 
-def _results_table(scene, grid_list, runs, ref, dose_model, ref_dose):
+def results_table(
+    scene, grid_list: list[dict], runs: list[RunRecord], ref: RunRecord, dose: DoseReference
+):
     """One row per grid run: its settings, label, kind, time, errors and Pareto flag.
 
     Parameters
@@ -62,9 +70,8 @@ def _results_table(scene, grid_list, runs, ref, dose_model, ref_dose):
         The finished runs, in the order of ``grid_list``.
     ref : RunRecord
         The reference run.
-    dose_model : DoseModel or None
-    ref_dose : ndarray or None
-        The reference run's dose at the model's points.
+    dose : DoseReference
+        The dose points and the reference run's dose there.
 
     Returns
     -------
@@ -94,11 +101,11 @@ def _results_table(scene, grid_list, runs, ref, dose_model, ref_dose):
             label=label_of(ov) if ov else f"scene ({label_of(base_numeric)})",
             kind="model" if is_model_change(ov) else "numerical",
             time_s=rec.time_s,
-            max_err_mm=_nanmax(pe),
-            median_err_mm=_nanmedian(pe),
-            max_err_deg=_nanmax(ae),
-            median_err_deg=_nanmedian(ae),
-            dose_err_pct=dose_error_pct(dose_model, rec.positions_mm, rec.directions, ref_dose)
+            max_err_mm=max_or_nan(pe),
+            median_err_mm=median_or_nan(pe),
+            max_err_deg=max_or_nan(ae),
+            median_err_deg=median_or_nan(ae),
+            dose_err_pct=dose_error_pct(dose.model, rec.positions_mm, rec.directions, dose.dose)
             if ok
             else math.nan,
             status=rec.status,

@@ -114,21 +114,21 @@ def _inputs(args) -> list:
 
 def run(args: argparse.Namespace) -> int:
     from ringqa.outdir import check_writable
-    from ringqa.pipeline import commission, commission_batch
+    from ringqa.pipeline import CommissionSettings, commission, commission_batch
     from ringqa.report import write_batch, write_report
     from ringqa.simulation.scenefile import parse_set_args
 
     check_writable(args.out)  # fail before the (long) simulations
-    kwargs = {
-        "scene_overrides": parse_set_args(args.overrides),
-        "source": args.source,
-        "prescription_gy": args.prescription_gy,
-        "dose_action_pct": args.dose_action_pct,
-        "require_measured": False if args.centreline_reference else None,
-    }
+    settings = CommissionSettings(
+        scene_overrides=parse_set_args(args.overrides),
+        source=args.source,
+        prescription_gy=args.prescription_gy,
+        dose_action_pct=args.dose_action_pct,
+        require_measured=False if args.centreline_reference else None,
+    )
     items = _inputs(args)
     if len(items) == 1 and not args.all_shipped and expand_folder(Path(args.inputs[0])) is None:
-        res = commission(items[0], progress=not args.quiet, **kwargs)
+        res = commission(items[0], settings, progress=not args.quiet)
         write_report(res, args.out, pdf=not args.no_pdf, accuracy_csv=args.accuracy_csv)
         verdicts = "; ".join(f"{v.status} {v.check}" for v in res.verdicts)
         print(
@@ -136,7 +136,7 @@ def run(args: argparse.Namespace) -> int:
             f"-> {args.out}"
         )
         return 0
-    batch = commission_batch(items, progress=not args.quiet, **kwargs)
+    batch = commission_batch(items, settings, progress=not args.quiet)
     write_batch(batch, args.out, pdf=not args.no_pdf, progress=not args.quiet)
     n = len(batch.results) + len(batch.failures)
     print(f"ringqa commission: {len(batch.results)} of {n} applicators commissioned -> {args.out}")

@@ -16,10 +16,10 @@ Exits with status 2 and a one-line reason when the plan cannot be read correctly
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 
+from ringqa.jsonio import write_json
 from ringqa.outdir import staged_output
 from ringqa.provenance import Provenance
 
@@ -44,7 +44,7 @@ def run(args: argparse.Namespace) -> int:
     prov = Provenance.now(inputs=[args.plan], settings={"command": "import"})
     with staged_output(args.out) as stage:
         written = write_plan_files(plan, stage)
-        (stage / "provenance.json").write_text(json.dumps(prov.as_dict(), indent=2) + "\n")
+        write_json(stage / "provenance.json", prov.as_dict(), indent=2, end="\n")
     for w in plan.warnings:
         print(f"ringqa import: note: {w}", file=sys.stderr)
     dwells = ", ".join(

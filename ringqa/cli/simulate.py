@@ -36,6 +36,7 @@ def add_parser(subparsers) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from ringqa.outdir import check_writable
+    from ringqa.simulation import simulate
     from ringqa.simulation.output import write_outputs
     from ringqa.simulation.scenefile import _resolve_scene_path, load_scene, parse_set_args
 
@@ -44,7 +45,6 @@ def run(args: argparse.Namespace) -> int:
     if args.trajectory:
         overrides["outputs.trajectory"] = True
     scene = load_scene(args.scene, overrides)
-    simulate = _engine()
     result = simulate(scene, progress=not args.quiet)
     scene_path = _resolve_scene_path(args.scene)
     inputs = [scene_path] if scene_path.is_file() else []
@@ -57,15 +57,3 @@ def run(args: argparse.Namespace) -> int:
     if result.status == 0:
         return 0
     return EXIT_JAMMED if result.status == 1 else EXIT_FAILED
-
-
-def _engine():
-    import ringqa.simulation as sim
-    from ringqa.errors import SimulationError
-
-    simulate = getattr(sim, "simulate", None)
-    if simulate is None:
-        raise SimulationError(
-            "the simulation engine is not installed in this build (ringqa.simulation.simulate)"
-        )
-    return simulate

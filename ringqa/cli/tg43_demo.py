@@ -7,11 +7,11 @@ consensus value and the difference where the source ships a QA table) and ``DIR/
 from __future__ import annotations
 
 import argparse
-import json
 from pathlib import Path
 
 import numpy as np
 
+from ringqa.jsonio import write_json
 from ringqa.outdir import staged_output
 from ringqa.provenance import Provenance
 
@@ -100,7 +100,7 @@ def run(args: argparse.Namespace) -> int:
     with staged_output(args.out) as stage:
         table.to_csv(stage / "along_away.csv", index=False, float_format="%.6g")
         _isodose_png(source, stage / "isodose.png")
-        (stage / "provenance.json").write_text(json.dumps(prov.as_dict(), indent=2))
+        write_json(stage / "provenance.json", prov.as_dict(), indent=2)
     msg = f"ringqa tg43-demo: {source.name}: {len(rows)} points -> {args.out}/along_away.csv"
     if "diff_pct" in table:
         msg += f" (max |diff| to consensus {table['diff_pct'].abs().max():.3f} %)"

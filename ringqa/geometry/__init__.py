@@ -3,7 +3,8 @@
 from ringqa.geometry.applicator import Applicator, Channel
 from ringqa.geometry.centreline import Centreline, CentrelineTable, GeometryError
 from ringqa.geometry.lumen import Lumen
-from ringqa.geometry.parametric import fit_circle, ring_applicator, ring_channel, tandem_channel
+from ringqa.geometry.parametric import ring_applicator, ring_channel, tandem_channel
+from ringqa.geometry.ring_frame import RingFrame, fit_circle, fit_ring_frame
 
 __all__ = [
     "Applicator",
@@ -12,7 +13,9 @@ __all__ = [
     "Channel",
     "GeometryError",
     "Lumen",
+    "RingFrame",
     "fit_circle",
+    "fit_ring_frame",
     "ring_applicator",
     "ring_channel",
     "tandem_channel",

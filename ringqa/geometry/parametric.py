@@ -322,31 +322,3 @@ def ring_applicator(diameter_mm: float, angle_deg: float, **kwargs) -> Applicato
         ring_radius_m=mm_to_m(dia / 2.0),
         metadata=meta,
     )
-
-
-def fit_circle(points_m) -> tuple[np.ndarray, np.ndarray, float, float]:
-    """Least-squares circle through 3-D points (plane by SVD, then an algebraic circle fit).
-
-    Parameters
-    ----------
-    points_m : (n, 3) array_like, n >= 3
-
-    Returns
-    -------
-    centre (3,), unit normal (3,) (sign arbitrary), radius, rms residual (all m).
-    """
-    p = np.asarray(points_m, dtype=float)
-    if p.ndim != 2 or p.shape[1] != 3 or p.shape[0] < 3 or not np.isfinite(p).all():
-        raise GeometryError("fit_circle: points_m must be finite (n >= 3, 3) in metres")
-    c0 = p.mean(axis=0)
-    _, _, vt = np.linalg.svd(p - c0)
-    e1, e2, nrm = vt[0], vt[1], vt[2]
-    x = (p - c0) @ e1
-    y = (p - c0) @ e2
-    a = np.c_[2 * x, 2 * y, np.ones_like(x)]
-    sol, *_ = np.linalg.lstsq(a, x * x + y * y, rcond=None)
-    cx, cy, c = sol
-    radius = float(np.sqrt(c + cx * cx + cy * cy))
-    centre = c0 + cx * e1 + cy * e2
-    res = np.sqrt((x - cx) ** 2 + (y - cy) ** 2) - radius
-    return centre, nrm, radius, float(np.sqrt(np.mean(res**2)))

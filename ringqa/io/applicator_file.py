@@ -39,15 +39,24 @@ from __future__ import annotations
 import json
 import math
 import os
-import tempfile
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from ringqa.errors import InputFileError, RingQAError
-from ringqa.geometry import Applicator, Centreline, Channel, GeometryError, Lumen, fit_circle
+from ringqa.geometry import (
+    Applicator,
+    Centreline,
+    Channel,
+    GeometryError,
+    Lumen,
+    RingFrame,
+    fit_ring_frame,
+)
 from ringqa.io.points import read_points
+from ringqa.jsonio import json_text, to_jsonable
+from ringqa.outdir import atomic_write_text
 from ringqa.paths import data_dir
 from ringqa.units import m_to_mm, mm_to_m
 
@@ -155,7 +164,7 @@ def applicator_to_dict(app: Applicator, decimals: int | None = None) -> dict[str
             "= no flat; s_bounds_mm null = -inf / +inf",
             "frame": "ring plane normal points cranially, lateral to the patient's left",
         },
-        "metadata": _jsonable(app.metadata),
+        "metadata": to_jsonable(app.metadata),
         "ring_frame": {
             "centre_mm": [float(v) for v in m_to_mm(app.ring_centre_m)],
             "normal": [float(v) for v in app.ring_normal],
@@ -167,7 +176,7 @@ def applicator_to_dict(app: Applicator, decimals: int | None = None) -> dict[str
 
 
 def save_applicator(app: Applicator, path: str | os.PathLike, decimals: int | None = None) -> Path:
-    """Write ``app`` to ``path`` (JSON, mm) atomically (a temporary file renamed into place).
+    """Write ``app`` to ``path`` (JSON, mm) atomically (:func:`ringqa.outdir.atomic_write_text`).
 
     Parameters
     ----------
@@ -188,37 +197,12 @@ def save_applicator(app: Applicator, path: str | os.PathLike, decimals: int | No
     target = Path(path)
     if target.suffix.lower() != ".json":
         raise ApplicatorFileError(target, "applicator files are JSON", "use a .json file name")
-    doc = applicator_to_dict(app, decimals)
-    text = json.dumps(doc, indent=1, allow_nan=False) + "\n"
-    target.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=target.parent, prefix=f".{target.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w") as fh:
-            fh.write(text)
-        os.chmod(tmp, 0o644)  # mkstemp creates 0600; applicator files are meant to be shared
-        os.replace(tmp, target)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    return target
+    text = json_text(applicator_to_dict(app, decimals), indent=1) + "\n"
+    return atomic_write_text(target, text)
 
 
 # --------------------------------------------------------------------------------------------
 # reading
-
-
-def _jsonable(obj):
-    if isinstance(obj, dict):
-        return {str(k): _jsonable(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_jsonable(v) for v in obj]
-    if isinstance(obj, np.ndarray):
-        return _jsonable(obj.tolist())
-    if isinstance(obj, (np.floating, np.integer)):
-        return obj.item()
-    if isinstance(obj, float) and not math.isfinite(obj):
-        return None
-    return obj
 
 
 class _Reader:
@@ -366,7 +350,9 @@ def _from_dict(doc, rd: _Reader) -> Applicator:
         raise rd.fail("metadata", "expected a JSON object")
     frame = doc.get("ring_frame")
     if frame is None:
-        centre, normal, lateral, radius = _fit_frame(channels, rd)
+        frame = _fit_frame(channels, rd)
+        centre, normal, lateral, radius = (frame.centre_m, frame.normal, frame.lateral,
+                                           frame.radius_m)  # fmt: skip
     else:
         centre = mm_to_m(rd.vector(frame, "centre_mm", "ring_frame"))
         normal = rd.vector(frame, "normal", "ring_frame")
@@ -392,24 +378,20 @@ def _from_dict(doc, rd: _Reader) -> Applicator:
         raise rd.fail("ring_frame/channels", str(exc)) from None
 
 
-def _fit_frame(channels, rd: _Reader):
-    """Ring frame from the first channel: circle fit to its distal 40 mm (normal chosen so the
-    proximal entry lies caudally; lateral = DICOM +x projected into the ring plane)."""
+def _fit_frame(channels, rd: _Reader) -> RingFrame:
+    """Ring frame from the first channel: :func:`ringqa.geometry.fit_ring_frame` of its distal
+    40 mm (the proximal entry lies caudally; lateral = patient left), refused unless a circle."""
     ch = channels[0]
     cl = ch.centreline
     s = np.linspace(max(0.0, cl.length_m - 0.04), cl.length_m, 81)
-    centre, normal, radius, rms = fit_circle(cl.position(s))
-    if rms > 0.5e-3:
+    frame = fit_ring_frame(cl.position(s), caudal_point_m=cl.position(0.0))
+    if frame.rms_m > 0.5e-3:
         raise rd.fail(
             "ring_frame", f"missing, and the distal 40 mm of channel {ch.name!r} is not a circle "
-            f"(rms {rms * 1e3:.2f} mm)", "give ring_frame {centre_mm, normal, lateral, radius_mm}",
+            f"(rms {frame.rms_m * 1e3:.2f} mm)",
+            "give ring_frame {centre_mm, normal, lateral, radius_mm}",
         )  # fmt: skip
-    if float((cl.position(0.0) - centre) @ normal) > 0:
-        normal = -normal
-    lateral = np.array([1.0, 0.0, 0.0]) - normal[0] * normal
-    if np.linalg.norm(lateral) < 1e-6:
-        lateral = np.array([0.0, 1.0, 0.0]) - normal[1] * normal
-    return centre, normal, lateral / np.linalg.norm(lateral), radius
+    return frame
 
 
 def _read_csv_points(rd: _Reader, field: str, name, kind: str) -> np.ndarray:

@@ -9,12 +9,12 @@ point files are in the format :func:`ringqa.io.points.read_points` reads.
 from __future__ import annotations
 
 import csv
-import json
 from pathlib import Path
 
 import numpy as np
 
 from ringqa.io.points import write_points
+from ringqa.jsonio import write_json
 from ringqa.units import mm_to_m
 
 
@@ -108,6 +108,6 @@ def write_plan_files(plan, out: Path) -> list[str]:
         "library": library_summary or None,
         "warnings": list(plan.warnings),
     }
-    (out / "plan.json").write_text(json.dumps(summary, indent=2) + "\n")
+    write_json(out / "plan.json", summary, indent=2, end="\n")
     written.append("plan.json")
     return written

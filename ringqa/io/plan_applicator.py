@@ -16,10 +16,10 @@ Conventions (interfaces.md):
   Without a marker: ``SourceApplicatorLength`` when given, else the lumen tip minus 5 mm, with
   a note in ``metadata["notes"]``;
 - measured path (most distal first, relative positions 0, step, ...) attached to its channel;
-- ring frame: a circle fitted to the circular distal part of the ring centreline
-  (:func:`fit_ring_circle`); ``ring_normal`` points to the tandem tip side (cranially), else away
-  from the stem entry; ``ring_lateral`` = patient left (+x in DICOM LPS) projected into the ring
-  plane.
+- ring frame: :func:`ringqa.geometry.fit_ring_frame` of the circular distal part of the ring
+  centreline (found by :func:`fit_ring_circle`); ``ring_normal`` points to the tandem tip side
+  (cranially), else away from the stem entry; ``ring_lateral`` = patient left (+x in DICOM LPS)
+  projected into the ring plane.
 """
 
 from __future__ import annotations
@@ -29,7 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ringqa.errors import InputFileError
-from ringqa.geometry import Applicator, Centreline, Channel, Lumen, fit_circle
+from ringqa.geometry import Applicator, Centreline, Channel, Lumen, fit_ring_frame
 from ringqa.geometry.parametric import FLAT_MM
 from ringqa.units import m_to_mm, mm_to_m
 
@@ -43,14 +43,17 @@ ON_CIRCLE_MM = 0.02
 
 @dataclass(frozen=True)
 class RingCircle:
-    """A circle fitted to the ring's circular part (mm).
+    """A circle fitted to the ring's circular part, and its axes (mm).
 
     Attributes
     ----------
     centre_mm : numpy.ndarray
         (3,) circle centre.
     normal : numpy.ndarray
-        (3,) unit plane normal (sign not yet chosen).
+        (3,) unit plane normal: towards the tandem tip when it was given, else away from the
+        ring channel's entry (cranial).
+    lateral : numpy.ndarray
+        (3,) unit in-plane vector towards the patient's left (DICOM +x projected).
     radius_mm : float
         Circle radius.
     n_points : int
@@ -61,15 +64,10 @@ class RingCircle:
 
     centre_mm: np.ndarray
     normal: np.ndarray
+    lateral: np.ndarray
     radius_mm: float
     n_points: int
     max_error_mm: float
-
-
-def _fit(points_mm: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
-    """Plane (SVD) then circle (algebraic fit): :func:`ringqa.geometry.fit_circle`, in mm."""
-    centre_m, normal, radius_m, _ = fit_circle(mm_to_m(points_mm))
-    return m_to_mm(centre_m), normal, m_to_mm(radius_m)
 
 
 def stem_end_mm(centreline_mm: np.ndarray, tol_mm: float = 0.01) -> float:
@@ -95,7 +93,9 @@ def _circle_error(points, centre, normal, radius) -> np.ndarray:
     return np.hypot(rho - radius, h)
 
 
-def fit_ring_circle(centreline_mm: np.ndarray, seed_mm: float = 20.0) -> RingCircle:
+def fit_ring_circle(
+    centreline_mm: np.ndarray, seed_mm: float = 20.0, tandem_tip_mm: np.ndarray | None = None
+) -> RingCircle:
     """Fit the circle of a ring channel from its distal end.
 
     Parameters
@@ -105,6 +105,9 @@ def fit_ring_circle(centreline_mm: np.ndarray, seed_mm: float = 20.0) -> RingCir
     seed_mm : float
         Arc length from the tip used for the first fit; the fit then grows proximally over every
         point within :data:`ON_CIRCLE_MM` of the circle and is refitted.
+    tandem_tip_mm : (3,) array_like, optional
+        The tandem's tip (cranial of the ring); without it the normal points away from the ring
+        channel's entry.
 
     Returns
     -------
@@ -115,8 +118,12 @@ def fit_ring_circle(centreline_mm: np.ndarray, seed_mm: float = 20.0) -> RingCir
     from_tip = np.concatenate([np.cumsum(seg[::-1])[::-1], [0.0]])
     k = max(int(np.count_nonzero(from_tip <= seed_mm)), 4)
     for _ in range(5):
-        part = cl[-k:]
-        centre, normal, radius = _fit(part)
+        frame = fit_ring_frame(
+            mm_to_m(cl[-k:]),
+            cranial_point_m=None if tandem_tip_mm is None else mm_to_m(tandem_tip_mm),
+            caudal_point_m=mm_to_m(cl[0]),
+        )
+        centre, normal, radius = m_to_mm(frame.centre_m), frame.normal, m_to_mm(frame.radius_m)
         err = _circle_error(cl, centre, normal, radius)
         off = np.flatnonzero(err[::-1] > ON_CIRCLE_MM)  # from the tip backwards
         k_new = int(off[0]) if off.size else len(cl)
@@ -124,7 +131,7 @@ def fit_ring_circle(centreline_mm: np.ndarray, seed_mm: float = 20.0) -> RingCir
             break
         k = k_new
     err = _circle_error(cl[-k:], centre, normal, radius)
-    return RingCircle(centre, normal, float(radius), int(k), float(err.max()))
+    return RingCircle(centre, normal, frame.lateral, float(radius), int(k), float(err.max()))
 
 
 def applicator_from_rtplan(plan):
@@ -226,15 +233,8 @@ def applicator_from_rtplan(plan):
             f"(parts: {', '.join(lc.description or lc.name for lc in plan.library.values())})",
             "ringqa commissions ring applicators; give a ring applicator plan",
         )
-    circle = fit_ring_circle(ring_cl_mm)
-    normal = circle.normal.copy()
-    if tandem_tip is not None:
-        if (tandem_tip - circle.centre_mm) @ normal < 0:
-            normal = -normal
-    elif (ring_cl_mm[0] - circle.centre_mm) @ normal > 0:
-        normal = -normal
-    left = np.array([1.0, 0.0, 0.0]) - normal[0] * normal
-    lateral = left / np.linalg.norm(left)
+    circle = fit_ring_circle(ring_cl_mm, tandem_tip_mm=tandem_tip)
+    normal = circle.normal
     stem = ring_cl_mm[min(20, len(ring_cl_mm) - 1)] - ring_cl_mm[0]
     stem = stem / np.linalg.norm(stem)
     angle = float(np.degrees(np.arcsin(min(1.0, abs(stem @ normal)))))
@@ -257,7 +257,7 @@ def applicator_from_rtplan(plan):
         channels=tuple(channels),
         ring_centre_m=mm_to_m(circle.centre_mm),
         ring_normal=normal,
-        ring_lateral=lateral,
+        ring_lateral=circle.lateral,
         ring_radius_m=mm_to_m(circle.radius_mm),
         metadata=metadata,
     )

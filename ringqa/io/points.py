@@ -23,6 +23,7 @@ column and the fix.
 from __future__ import annotations
 
 import csv
+import io
 import json
 import math
 from dataclasses import dataclass
@@ -31,6 +32,8 @@ from pathlib import Path
 import numpy as np
 
 from ringqa.errors import InputFileError
+from ringqa.jsonio import json_text
+from ringqa.outdir import atomic_write_text
 from ringqa.units import m_to_mm, mm_to_m
 
 KINDS = ("centreline", "path")
@@ -139,8 +142,8 @@ def write_points(
     Returns
     -------
     Path
-        The file written. Coordinates are written to 1e-6 mm, so reading the file back gives the
-        same points to 1 nm.
+        The file written (atomically: :func:`ringqa.outdir.atomic_write_text`). Coordinates are
+        written to 1e-6 mm, so reading the file back gives the same points to 1 nm.
     """
     pts = np.asarray(points_m, dtype=float)
     if pts.ndim != 2 or pts.shape[1] != 3:
@@ -154,17 +157,16 @@ def write_points(
         doc: dict = {"units": "mm", "points": [[round(float(v), 6) for v in row] for row in mm]}
         if rel is not None:
             doc[REL_COLUMN] = [round(float(v), 6) for v in rel]
-        p.write_text(json.dumps(doc, indent=1) + "\n")
-        return p
-    with open(p, "w", newline="") as fh:
-        w = csv.writer(fh)
-        w.writerow([*COLUMNS, *([REL_COLUMN] if rel is not None else [])])
-        for i, row in enumerate(mm):
-            cells = [f"{v:.6f}" for v in row]
-            if rel is not None:
-                cells.append(f"{rel[i]:.6f}")
-            w.writerow(cells)
-    return p
+        return atomic_write_text(p, json_text(doc, indent=1) + "\n")
+    buf = io.StringIO(newline="")
+    w = csv.writer(buf)
+    w.writerow([*COLUMNS, *([REL_COLUMN] if rel is not None else [])])
+    for i, row in enumerate(mm):
+        cells = [f"{v:.6f}" for v in row]
+        if rel is not None:
+            cells.append(f"{rel[i]:.6f}")
+        w.writerow(cells)
+    return atomic_write_text(p, buf.getvalue())
 
 
 # --------------------------------------------------------------------------------------------

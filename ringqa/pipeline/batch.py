@@ -9,7 +9,11 @@ from pathlib import Path
 
 import pandas as pd
 
-from ringqa.pipeline.commission import CommissioningResult, commission
+from ringqa.errors import RingQAError
+from ringqa.pipeline.commission import commission
+from ringqa.pipeline.result import CommissioningResult
+from ringqa.pipeline.settings import CommissionSettings
+from ringqa.pipeline.simulate import Engine
 
 
 @dataclass(frozen=True, eq=False)
@@ -23,8 +27,8 @@ class BatchResult:
     failures : tuple of (str, str)
         (input, one-line reason) for each applicator that failed.
     summary : pandas.DataFrame
-        One row per input: the result's ``summary`` dict, or ``applicator``, ``verdict`` =
-        ``"ERROR"`` and ``error`` for a failure.
+        One row per input: the result's summary row (:meth:`Summary.as_row`), or
+        ``applicator``, ``verdict`` = ``"ERROR"`` and ``error`` for a failure.
     """
 
     results: tuple[CommissioningResult, ...]
@@ -44,17 +48,25 @@ def _label(item) -> str:
     return str(getattr(item, "name", item))
 
 
-def commission_batch(inputs: Iterable, *, progress: bool = True, **kwargs) -> BatchResult:
+def commission_batch(
+    inputs: Iterable,
+    settings: CommissionSettings | None = None,
+    *,
+    engine: Engine | None = None,
+    progress: bool = True,
+) -> BatchResult:
     """Run :func:`commission` on each input; collect results and failures.
 
     Parameters
     ----------
     inputs : iterable
         Anything :func:`commission` accepts (names, paths, Applicators).
+    settings : CommissionSettings, optional
+        The same for every input.
+    engine : Engine, optional
+        The simulation engine (default: ringqa's).
     progress : bool
-        Show a tqdm progress bar on stderr.
-    **kwargs
-        Passed to :func:`commission` for every input.
+        Show a tqdm progress bar over the applicators on stderr.
 
     Returns
     -------
@@ -72,7 +84,7 @@ def commission_batch(inputs: Iterable, *, progress: bool = True, **kwargs) -> Ba
         label = _label(item)
         bar.set_postfix_str(label)
         try:
-            res = commission(item, **kwargs)
+            res = commission(item, settings, engine=engine)
         except Exception as exc:  # one applicator must not stop the batch
             reason = " ".join(str(exc).split()) or type(exc).__name__
             if not _is_user_error(exc):
@@ -81,15 +93,11 @@ def commission_batch(inputs: Iterable, *, progress: bool = True, **kwargs) -> Ba
             rows.append({"applicator": label, "verdict": "ERROR", "error": reason})
             continue
         results.append(res)
-        rows.append({**res.summary, "error": ""})
+        rows.append({**res.summary.as_row(), "error": ""})
     return BatchResult(tuple(results), tuple(failures), pd.DataFrame(rows))
 
 
 def _is_user_error(exc: Exception) -> bool:
-    from ringqa.errors import RingQAError
+    from tg43.errors import TG43Error
 
-    try:
-        from tg43.errors import TG43Error
-    except ImportError:  # pragma: no cover
-        TG43Error = RingQAError
     return isinstance(exc, RingQAError | TG43Error)

@@ -11,20 +11,55 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
+from ringqa.pipeline.dwells import PathDwells, PlanSelection, ReferenceDwells
 from ringqa.units import m_to_mm
 
 
-def deviation_components(ref_mm, ref_dir, other_mm, centre_mm, normal) -> dict[str, np.ndarray]:
+@dataclass(frozen=True, eq=False)
+class DeviationComponents:
+    """One path's displacement from the reference dwells, split in the ring frame (mm).
+
+    Attributes
+    ----------
+    dist_mm : (n,) ndarray
+        3D distance.
+    along_mm : (n,) ndarray
+        In the ring plane along the channel, distal positive.
+    radial_mm : (n,) ndarray
+        In the ring plane, outward from the ring centre positive.
+    out_of_plane_mm : (n,) ndarray
+        Along the ring normal, cranial positive.
+    """
+
+    dist_mm: np.ndarray
+    along_mm: np.ndarray
+    radial_mm: np.ndarray
+    out_of_plane_mm: np.ndarray
+
+
+def deviation_components(ref_mm, ref_dir, other_mm, centre_mm, normal) -> DeviationComponents:
     """Split ``other - ref`` into along-channel, radial (in the ring plane) and out-of-plane parts.
 
     The frame at each reference dwell: ``out`` = ring normal (cranial positive); ``radial`` = the
     in-plane direction from the ring centre to the reference dwell (outward positive); ``along`` =
     the remaining in-plane direction, signed so that DISTAL is positive (along ``ref_dir``).
 
+    Parameters
+    ----------
+    ref_mm : (n, 3) array_like
+        Reference dwell positions, mm.
+    ref_dir : (n, 3) array_like
+        Reference source directions (unit; give the sign of ``along``).
+    other_mm : (n, 3) array_like
+        The other path's positions, mm.
+    centre_mm : (3,) array_like
+        Ring centre, mm.
+    normal : (3,) array_like
+        Ring normal (cranial).
+
     Returns
     -------
-    dict
-        ``dist_mm``, ``along_mm``, ``radial_mm``, ``out_of_plane_mm``, each (n,).
+    DeviationComponents
     """
     ref = np.asarray(ref_mm, dtype=float)
     d = np.asarray(other_mm, dtype=float) - ref
@@ -36,12 +71,12 @@ def deviation_components(ref_mm, ref_dir, other_mm, centre_mm, normal) -> dict[s
     along = np.cross(n, rad)
     sign = np.sign(np.sum(along * np.asarray(ref_dir, dtype=float), axis=1))
     along *= np.where(sign == 0, 1.0, sign)[:, None]
-    return {
-        "dist_mm": np.linalg.norm(d, axis=1),
-        "along_mm": np.sum(d * along, axis=1),
-        "radial_mm": np.sum(d * rad, axis=1),
-        "out_of_plane_mm": d @ n,
-    }
+    return DeviationComponents(
+        dist_mm=np.linalg.norm(d, axis=1),
+        along_mm=np.sum(d * along, axis=1),
+        radial_mm=np.sum(d * rad, axis=1),
+        out_of_plane_mm=d @ n,
+    )
 
 
 def angle_deg(a, b) -> np.ndarray:
@@ -50,64 +85,61 @@ def angle_deg(a, b) -> np.ndarray:
     return np.degrees(np.arccos(np.clip(c, -1.0, 1.0)))
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Deviations:
     """The simulated and centreline dwells compared with the reference dwells.
 
     Attributes
     ----------
-    simulated, centreline : dict
-        :func:`deviation_components` of each path against the reference (``dist_mm``,
-        ``along_mm``, ``radial_mm``, ``out_of_plane_mm``, each (n,)).
+    simulated, centreline : DeviationComponents
+        Each path against the reference.
     angle_simulated_deg, angle_centreline_deg : ndarray
         Angle between each path's source direction and the reference's, degrees (n,).
     angle_sim_vs_centreline_deg : ndarray
         Angle between the simulated and the centreline source direction, degrees (n,).
     """
 
-    simulated: dict
-    centreline: dict
+    simulated: DeviationComponents
+    centreline: DeviationComponents
     angle_simulated_deg: np.ndarray
     angle_centreline_deg: np.ndarray
     angle_sim_vs_centreline_deg: np.ndarray
 
 
-def _deviations(app, ref, simulated, centreline) -> Deviations:
+def compare_with_reference(
+    app, reference: PathDwells, simulated: PathDwells, centreline: PathDwells
+) -> Deviations:
     """Compare the simulated and centreline dwells with the reference in the ring's frame.
 
     Parameters
     ----------
     app : Applicator
         Gives the ring frame (``ring_centre_m``, ``ring_normal``).
-    ref, simulated, centreline : (ndarray, ndarray)
-        Positions (n, 3) in mm and unit source directions (n, 3) of each path.
+    reference, simulated, centreline : PathDwells
+        Each path's (n, 3) positions in mm and unit directions, in the same dwell order.
 
     Returns
     -------
     Deviations
     """
-    ref_pos, ref_dir = ref
-    sim_pos, sim_dir = simulated
-    cl_pos, cl_dir = centreline
+    ref_pos, ref_dir = reference.positions_mm, reference.directions
     centre = m_to_mm(np.asarray(app.ring_centre_m, dtype=float))
     normal = np.asarray(app.ring_normal, dtype=float)
     return Deviations(
-        simulated=deviation_components(ref_pos, ref_dir, sim_pos, centre, normal),
-        centreline=deviation_components(ref_pos, ref_dir, cl_pos, centre, normal),
-        angle_simulated_deg=angle_deg(sim_dir, ref_dir),
-        angle_centreline_deg=angle_deg(cl_dir, ref_dir),
-        angle_sim_vs_centreline_deg=angle_deg(sim_dir, cl_dir),
+        simulated=deviation_components(ref_pos, ref_dir, simulated.positions_mm, centre, normal),
+        centreline=deviation_components(ref_pos, ref_dir, centreline.positions_mm, centre, normal),
+        angle_simulated_deg=angle_deg(simulated.directions, ref_dir),
+        angle_centreline_deg=angle_deg(centreline.directions, ref_dir),
+        angle_sim_vs_centreline_deg=angle_deg(simulated.directions, centreline.directions),
     )
 
 
-def _dwell_table(
+def dwell_table(
     app_name: str,
-    rel: np.ndarray,
-    in_plan: np.ndarray,
-    ref_kind: str,
-    ref,
-    simulated,
-    centreline,
+    reference: ReferenceDwells,
+    selection: PlanSelection,
+    simulated: PathDwells,
+    centreline: PathDwells,
     dev: Deviations,
 ) -> pd.DataFrame:
     """One row per dwell and path: the reference path first, then simulated (and centreline).
@@ -115,14 +147,11 @@ def _dwell_table(
     Parameters
     ----------
     app_name : str
-    rel : ndarray
-        Relative positions of the dwells, mm (n,).
-    in_plan : ndarray of bool
-        Which dwells the standard plan uses (n,).
-    ref_kind : str
-        ``"measured"`` or ``"centreline"`` (then the centreline is the reference path).
-    ref, simulated, centreline : (ndarray, ndarray)
-        Positions (n, 3) in mm and unit source directions (n, 3) of each path.
+    reference : ReferenceDwells
+        Its kind says which path is the reference (``"centreline"``: the centreline itself).
+    selection : PlanSelection
+        Which dwells the standard plan uses.
+    simulated, centreline : PathDwells
     dev : Deviations
 
     Returns
@@ -130,18 +159,21 @@ def _dwell_table(
     pandas.DataFrame
         The columns of :attr:`CommissioningResult.dwells`.
     """
-    zero = {k: np.zeros(rel.size) for k in dev.simulated}
-    paths = [("simulated", *simulated, dev.simulated, dev.angle_simulated_deg)]
+    rel, in_plan, ref_kind = reference.relative_position_mm, selection.in_plan, reference.kind
+    zeros = np.zeros(rel.size)
+    zero = DeviationComponents(zeros, zeros, zeros, zeros)
+    paths = [("simulated", simulated, dev.simulated, dev.angle_simulated_deg)]
     if ref_kind == "measured":
         paths = [
-            ("measured", *ref, zero, np.zeros(rel.size)),
+            ("measured", reference.dwells, zero, zeros),
             *paths,
-            ("centreline", *centreline, dev.centreline, dev.angle_centreline_deg),
+            ("centreline", centreline, dev.centreline, dev.angle_centreline_deg),
         ]
     else:
-        paths = [("centreline", *centreline, zero, np.zeros(rel.size)), *paths]
+        paths = [("centreline", centreline, zero, zeros), *paths]
     rows = []
-    for name, pos, dirs, comp, ang in paths:
+    for name, path, comp, ang in paths:
+        pos, dirs = path.positions_mm, path.directions
         for i in range(rel.size):
             rows.append(
                 {
@@ -155,11 +187,11 @@ def _dwell_table(
                     "dir_x": dirs[i, 0],
                     "dir_y": dirs[i, 1],
                     "dir_z": dirs[i, 2],
-                    "dist_to_measured_mm": comp["dist_mm"][i] if ref_kind == "measured" else np.nan,
-                    "dist_to_reference_mm": comp["dist_mm"][i],
-                    "along_mm": comp["along_mm"][i],
-                    "radial_mm": comp["radial_mm"][i],
-                    "out_of_plane_mm": comp["out_of_plane_mm"][i],
+                    "dist_to_measured_mm": comp.dist_mm[i] if ref_kind == "measured" else np.nan,
+                    "dist_to_reference_mm": comp.dist_mm[i],
+                    "along_mm": comp.along_mm[i],
+                    "radial_mm": comp.radial_mm[i],
+                    "out_of_plane_mm": comp.out_of_plane_mm[i],
                     "angle_deg": ang[i],
                     "in_plan": bool(in_plan[i]),
                 }

@@ -8,9 +8,12 @@ An RT Plan's own dwells and times are also dosed at its TPS points.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 import pandas as pd
 
+from ringqa.pipeline.dwells import PathDwells, PlanSelection, ReferenceDwells
 from ringqa.plan import (
     DosePoint,
     DwellSet,
@@ -23,73 +26,174 @@ from ringqa.plan import (
 from ringqa.units import mm_to_m
 
 
-def _dose_points(app, rtplan, spec) -> tuple[list, list]:
-    """The standard dose points of the applicator, and those plus the RT Plan's TPS points."""
-    std_points = list(applicator_dose_points(app, spec))
-    tps_points = []
+@dataclass(frozen=True, eq=False)
+class DosePoints:
+    """Where doses are computed.
+
+    Attributes
+    ----------
+    standard : tuple of DosePoint
+        The applicator's standard points (Point A left/right first: they set the plan times).
+    all : tuple of DosePoint
+        The standard points, then the RT Plan's own (TPS) points.
+    """
+
+    standard: tuple[DosePoint, ...]
+    all: tuple[DosePoint, ...]
+
+
+@dataclass(frozen=True, eq=False)
+class StandardPlans:
+    """The reference plan and the same dwell times on the other dwell sets.
+
+    Attributes
+    ----------
+    reference : Plan
+        Named ``"measured"`` or ``"centreline"`` (its dwells are the reference dwells).
+    simulated : Plan
+    centreline : Plan or None
+        Only when the reference is the measured path.
+    """
+
+    reference: Plan
+    simulated: Plan
+    centreline: Plan | None
+
+    @property
+    def in_order(self) -> tuple[Plan, ...]:
+        """The plans in table order: reference, simulated, centreline (when there is one)."""
+        rest = (self.simulated,) if self.centreline is None else (self.simulated, self.centreline)
+        return (self.reference, *rest)
+
+
+@dataclass(frozen=True, eq=False)
+class DoseTables:
+    """The dose and plan tables of a run.
+
+    Attributes
+    ----------
+    doses : pandas.DataFrame
+        :attr:`CommissioningResult.doses` (the RT Plan's own doses appended).
+    plan_dwells : pandas.DataFrame
+        :attr:`CommissioningResult.plan_dwells`.
+    notes : tuple of str
+        For the report (how the RT Plan's own dwells were oriented).
+    """
+
+    doses: pd.DataFrame
+    plan_dwells: pd.DataFrame
+    notes: tuple[str, ...]
+
+
+def dose_points(app, rtplan, spec) -> DosePoints:
+    """The standard dose points of the applicator, and those plus the RT Plan's TPS points.
+
+    Parameters
+    ----------
+    app : Applicator
+    rtplan : RTPlan or None
+    spec : DosePointSpec
+
+    Returns
+    -------
+    DosePoints
+    """
+    std_points = tuple(applicator_dose_points(app, spec))
+    tps_points: tuple[DosePoint, ...] = ()
     if rtplan is not None:
-        tps_points = [
+        tps_points = tuple(
             DosePoint(p.name, np.asarray(p.position_mm, dtype=float), "tps", p.tps_dose_gy)
             for p in getattr(rtplan, "points", ())
-        ]
-    return std_points, std_points + tps_points
+        )
+    return DosePoints(std_points, std_points + tps_points)
 
 
-def _standard_plans(
-    ref_kind, rel, in_plan, ref, simulated, centreline, tandem, std_points, source, *,
-    prescription_gy, sk_U,
-) -> dict[str, Plan]:  # fmt: skip
+def standard_plans(
+    reference: ReferenceDwells,
+    selection: PlanSelection,
+    simulated: PathDwells,
+    centreline: PathDwells,
+    tandem: DwellSet | None,
+    points: DosePoints,
+    source,
+    *,
+    prescription_gy: float,
+    sk_U: float,
+) -> StandardPlans:
     """The reference plan and the same times on the simulated (and centreline) dwells.
 
     Parameters
     ----------
-    ref_kind : str
-        ``"measured"`` or ``"centreline"``: the reference plan's name.
-    rel : ndarray
-        Relative positions of the reference dwells, mm.
-    in_plan : ndarray of bool
+    reference : ReferenceDwells
+        Its kind names the reference plan.
+    selection : PlanSelection
         Which dwells the plans use.
-    ref, simulated, centreline : (ndarray, ndarray)
-        Positions (n, 3) in mm and unit source directions (n, 3) of each path.
+    simulated, centreline : PathDwells
     tandem : DwellSet or None
         The tandem's dwells, the same in every plan.
-    std_points : list of DosePoint
-        The standard dose points; the first two (Point A left and right) set the times.
+    points : DosePoints
+        The first two standard points (Point A left and right) set the times.
     source : tg43.Source
-    prescription_gy, sk_U : float
-        Mean Point A dose, Gy, and air-kerma strength, U.
+    prescription_gy : float
+        Mean Point A dose, Gy.
+    sk_U : float
+        Air-kerma strength, U.
 
     Returns
     -------
-    dict
-        Plan name (``measured``/``centreline``, ``simulated``) -> Plan, the reference first.
+    StandardPlans
     """
-    ref_pos, ref_dir = ref
-    sim_pos, sim_dir = simulated
-    cl_pos, cl_dir = centreline
-    ring_ref = DwellSet("ring", rel[in_plan], ref_pos[in_plan], ref_dir[in_plan])
+    in_plan = selection.in_plan
+    ref = reference.dwells
+    ring_ref = DwellSet(
+        "ring", reference.relative_position_mm[in_plan], ref.positions_mm[in_plan],
+        ref.directions[in_plan],
+    )  # fmt: skip
     sets = [ring_ref] + ([tandem] if tandem is not None else [])
     ref_plan = standard_plan(
-        sets, points_array_mm(std_points[:2]), source, prescription_gy=prescription_gy,
-        sk_U=sk_U, name=ref_kind,
+        sets, points_array_mm(points.standard[:2]), source, prescription_gy=prescription_gy,
+        sk_U=sk_U, name=reference.kind,
     )  # fmt: skip
 
-    def _with_tandem(p_ring, d_ring):
-        if tandem is None:
-            return p_ring, d_ring
-        return (np.vstack([p_ring, tandem.positions_mm]), np.vstack([d_ring, tandem.directions]))
+    def on(path: PathDwells, name: str) -> Plan:
+        pos, dirs = path.positions_mm[in_plan], path.directions[in_plan]
+        if tandem is not None:
+            pos = np.vstack([pos, tandem.positions_mm])
+            dirs = np.vstack([dirs, tandem.directions])
+        return ref_plan.transfer(pos, dirs, name)
 
-    plans = {ref_kind: ref_plan}
-    plans["simulated"] = ref_plan.transfer(*_with_tandem(sim_pos[in_plan], sim_dir[in_plan]),
-                                           "simulated")  # fmt: skip
-    if ref_kind == "measured":
-        plans["centreline"] = ref_plan.transfer(
-            *_with_tandem(cl_pos[in_plan], cl_dir[in_plan]), "centreline"
-        )
-    return plans
+    cl_plan = on(centreline, "centreline") if reference.kind == "measured" else None
+    return StandardPlans(ref_plan, on(simulated, "simulated"), cl_plan)
 
 
-def _dose_table(app_name: str, plans: dict, ref_kind: str, points: list) -> pd.DataFrame:
+def dose_tables(
+    app, rtplan, plans: StandardPlans, points: DosePoints, source, sk_U: float
+) -> DoseTables:
+    """The dose table (every plan at every point; the RT Plan's own doses) and the plan table.
+
+    Parameters
+    ----------
+    app : Applicator
+    rtplan : RTPlan or None
+        Its own dwells and times are dosed at its TPS points.
+    plans : StandardPlans
+    points : DosePoints
+    source : tg43.Source
+    sk_U : float
+        Air-kerma strength, U (the RT Plan's own when it has one).
+
+    Returns
+    -------
+    DoseTables
+    """
+    doses = _dose_table(app.name, plans, points.all)
+    notes: list[str] = []
+    if rtplan is not None:
+        doses = _with_rtplan_doses(doses, rtplan, app, source, sk_U, notes)
+    return DoseTables(doses, _plan_table(app.name, plans), tuple(notes))
+
+
+def _dose_table(app_name: str, plans: StandardPlans, points) -> pd.DataFrame:
     """One row per dose point and plan: the dose and its difference from the reference plan's.
 
     Returns
@@ -98,10 +202,11 @@ def _dose_table(app_name: str, plans: dict, ref_kind: str, points: list) -> pd.D
         The columns of :attr:`CommissioningResult.doses` but for the RT Plan's own doses.
     """
     xyz = points_array_mm(points)
-    doses_ref = plans[ref_kind].dose_gy(xyz)
+    doses_ref = plans.reference.dose_gy(xyz)
     dose_rows = []
-    for pname, plan in plans.items():
-        d = doses_ref if pname == ref_kind else plan.dose_gy(xyz)
+    for plan in plans.in_order:
+        pname = plan.name
+        d = doses_ref if plan is plans.reference else plan.dose_gy(xyz)
         diff = relative_difference_pct(d, doses_ref)
         for k, pt in enumerate(points):
             dose_rows.append(
@@ -131,10 +236,11 @@ def _with_rtplan_doses(doses, rtplan, app, source, sk_U, notes: list[str]) -> pd
     return doses
 
 
-def _plan_table(app_name: str, plans: dict) -> pd.DataFrame:
+def _plan_table(app_name: str, plans: StandardPlans) -> pd.DataFrame:
     """The plans' dwells with their times: :attr:`CommissioningResult.plan_dwells`."""
     plan_rows = []
-    for pname, plan in plans.items():
+    for plan in plans.in_order:
+        pname = plan.name
         for j in range(plan.n_dwells):
             plan_rows.append(
                 {

@@ -7,9 +7,12 @@ circular part of the ring; the centreline dwell of relative position ``p`` sits 
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from ringqa.errors import RingQAError
+from ringqa.pipeline.result import RingGeometry
 from ringqa.plan import PLAN_STEP_MM, DwellSet, path_directions
 from ringqa.units import m_to_mm, mm_to_m
 
@@ -18,12 +21,80 @@ from ringqa.units import m_to_mm, mm_to_m
 TANDEM_DWELLS = 7
 
 
-def _centreline_dwells(channel, rel_mm: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Centreline positions (mm) and tangents at arc length s_ref - p."""
-    s_m = channel.s_ref_m - mm_to_m(np.asarray(rel_mm, dtype=float))
+@dataclass(frozen=True, eq=False)
+class PathDwells:
+    """Where the source sits at each dwell of one path (measured, simulated or centreline).
+
+    Attributes
+    ----------
+    positions_mm : (n, 3) ndarray
+        Source centres, mm.
+    directions : (n, 3) ndarray
+        Unit source directions (towards the source tip).
+    """
+
+    positions_mm: np.ndarray
+    directions: np.ndarray
+
+
+@dataclass(frozen=True, eq=False)
+class ReferenceDwells:
+    """The dwells every other path is compared with.
+
+    Attributes
+    ----------
+    kind : str
+        ``"measured"`` (the channel's measured source path) or ``"centreline"`` (none given:
+        the centreline on the circular part of the ring).
+    relative_position_mm : (n,) ndarray
+        Relative position of each dwell, mm (0 = most distal, increasing proximally).
+    dwells : PathDwells
+        Their positions and directions.
+    step_mm : float
+        Spacing of the relative positions, mm.
+    """
+
+    kind: str
+    relative_position_mm: np.ndarray
+    dwells: PathDwells
+    step_mm: float
+
+
+@dataclass(frozen=True, eq=False)
+class PlanSelection:
+    """Which reference dwells the standard plan uses.
+
+    Attributes
+    ----------
+    in_plan : (n,) ndarray of bool
+        True for every ``plan_step_mm / step_mm``-th reference dwell from the most distal.
+    s_ref_mm : float
+        The ring channel's reference arc length (relative position 0), mm.
+    """
+
+    in_plan: np.ndarray
+    s_ref_mm: float
+
+
+def centreline_dwells(channel, relative_position_mm: np.ndarray) -> PathDwells:
+    """The centreline dwells: position at arc length ``s_ref - p``, direction the unit tangent.
+
+    Parameters
+    ----------
+    channel : Channel
+        Gives ``s_ref_m`` and the centreline.
+    relative_position_mm : (n,) array_like
+        Relative positions p, mm.
+
+    Returns
+    -------
+    PathDwells
+        (n, 3) positions in mm and unit directions.
+    """
+    s_m = channel.s_ref_m - mm_to_m(np.asarray(relative_position_mm, dtype=float))
     pos = m_to_mm(np.asarray(channel.centreline.position(s_m), dtype=float).reshape(-1, 3))
     tan = np.asarray(channel.centreline.tangent(s_m), dtype=float).reshape(-1, 3)
-    return pos, tan / np.linalg.norm(tan, axis=1)[:, None]
+    return PathDwells(pos, tan / np.linalg.norm(tan, axis=1)[:, None])
 
 
 def _ring_arc_mm(app, channel, step_mm: float) -> float:
@@ -37,8 +108,7 @@ def _ring_arc_mm(app, channel, step_mm: float) -> float:
     r = m_to_mm(float(app.ring_radius_m))
     s_ref_mm = m_to_mm(channel.s_ref_m)
     rel = np.arange(0.0, s_ref_mm + 1e-9, step_mm)
-    pos, _ = _centreline_dwells(channel, rel)
-    d = pos - c
+    d = centreline_dwells(channel, rel).positions_mm - c
     h = d @ n
     rho = np.linalg.norm(d - np.outer(h, n), axis=1)
     on = (np.abs(rho - r) < 1.0) & (np.abs(h) < 1.0)
@@ -48,8 +118,28 @@ def _ring_arc_mm(app, channel, step_mm: float) -> float:
     return float(rel[k - 1])
 
 
-def _reference(app, channel, step_mm: float | None):
-    """Reference dwells of the ring: (kind, rel_mm, pos_mm, dirs, step_mm)."""
+def reference_dwells(app, channel, step_mm: float | None) -> ReferenceDwells:
+    """The reference dwells of the ring channel: its measured path, else the centreline.
+
+    Parameters
+    ----------
+    app : Applicator
+        Gives the ring frame (for the circular part when there is no measured path).
+    channel : Channel
+        The ring channel.
+    step_mm : float or None
+        Spacing of centreline reference dwells, mm (None: the plan step, 5 mm).
+
+    Returns
+    -------
+    ReferenceDwells
+
+    Raises
+    ------
+    RingQAError
+        A measured path of fewer than 2 positions or without a step; no measured path and no
+        circular part of the ring near s_ref.
+    """
     path = getattr(channel, "measured_path_m", None)
     if path is not None and len(path) < 2:
         raise RingQAError(
@@ -66,7 +156,7 @@ def _reference(app, channel, step_mm: float | None):
         pos = m_to_mm(np.asarray(path, dtype=float))
         step_mm_path = m_to_mm(float(step))
         rel = np.arange(pos.shape[0]) * step_mm_path
-        return "measured", rel, pos, path_directions(pos), step_mm_path
+        return ReferenceDwells("measured", rel, PathDwells(pos, path_directions(pos)), step_mm_path)
     step = PLAN_STEP_MM if step_mm is None else float(step_mm)
     arc = _ring_arc_mm(app, channel, step)
     if arc < step:
@@ -76,11 +166,26 @@ def _reference(app, channel, step_mm: float | None):
             "applicator folder)"
         )
     rel = np.arange(0.0, arc + 1e-9, step)
-    pos, tan = _centreline_dwells(channel, rel)
-    return "centreline", rel, pos, tan, step
+    return ReferenceDwells("centreline", rel, centreline_dwells(channel, rel), step)
 
 
-def _tandem_dwells(app, n_dwells: int, plan_step_mm: float) -> DwellSet | None:
+def tandem_dwells(app, n_dwells: int, plan_step_mm: float) -> DwellSet | None:
+    """The tandem's dwells of the standard plan (the same in every plan), or None.
+
+    Parameters
+    ----------
+    app : Applicator
+    n_dwells : int
+        How many (0: none).
+    plan_step_mm : float
+        Their spacing, mm: every ``plan_step_mm`` of the tandem's measured path, else on its
+        centreline from its s_ref.
+
+    Returns
+    -------
+    DwellSet or None
+        None without a ``"tandem"`` channel or with ``n_dwells`` 0.
+    """
     names = [c.name for c in app.channels]
     if "tandem" not in names or n_dwells <= 0:
         return None
@@ -95,18 +200,25 @@ def _tandem_dwells(app, n_dwells: int, plan_step_mm: float) -> DwellSet | None:
         return DwellSet("tandem", rel_path[keep], pos[keep], path_directions(pos)[keep])
     rel = np.arange(n_dwells) * plan_step_mm
     rel = rel[rel <= m_to_mm(ch.s_ref_m)]
-    pos, tan = _centreline_dwells(ch, rel)
-    return DwellSet("tandem", rel, pos, tan)
+    cl = centreline_dwells(ch, rel)
+    return DwellSet("tandem", rel, cl.positions_mm, cl.directions)
 
 
-def _plan_subset(app, ring, rel: np.ndarray, ref_step: float, plan_step_mm: float):
+def plan_selection(app, ring, reference: ReferenceDwells, plan_step_mm: float) -> PlanSelection:
     """Which reference dwells the standard plan uses (every ``plan_step_mm``), checked.
+
+    Parameters
+    ----------
+    app : Applicator
+    ring : Channel
+        The ring channel (gives s_ref).
+    reference : ReferenceDwells
+    plan_step_mm : float
+        Dwell spacing of the standard plan, mm.
 
     Returns
     -------
-    in_plan : ndarray of bool
-    s_ref_mm : float
-        The ring channel's reference arc length, mm.
+    PlanSelection
 
     Raises
     ------
@@ -114,6 +226,7 @@ def _plan_subset(app, ring, rel: np.ndarray, ref_step: float, plan_step_mm: floa
         The plan step is not a multiple of the reference step, or reference dwells lie beyond
         the channel entry.
     """
+    rel, ref_step = reference.relative_position_mm, reference.step_mm
     ratio = plan_step_mm / ref_step
     if abs(ratio - round(ratio)) > 1e-6 or round(ratio) < 1:
         raise RingQAError(
@@ -129,33 +242,45 @@ def _plan_subset(app, ring, rel: np.ndarray, ref_step: float, plan_step_mm: floa
             f"applicator {app.name}: {n_out} measured positions lie beyond the channel entry "
             f"(relative position > s_ref = {s_ref_mm:.1f} mm): check s_ref / the measured path"
         )
-    return in_plan, s_ref_mm
+    return PlanSelection(in_plan, s_ref_mm)
 
 
-def _reference_note(ref_kind: str, rel: np.ndarray, ref_step: float) -> str:
+def reference_note(reference: ReferenceDwells) -> str:
     """The report's statement of which reference the comparison uses."""
-    if ref_kind == "centreline":
+    if reference.kind == "centreline":
         return (
             "No measured source path ships with this applicator: the reference is the channel "
             "CENTRELINE, and the comparison is simulated vs centreline (no measurement involved)."
         )
-    return f"Reference: the measured source path ({rel.size} positions, {ref_step:g} mm apart)."
+    n, step = reference.relative_position_mm.size, reference.step_mm
+    return f"Reference: the measured source path ({n} positions, {step:g} mm apart)."
 
 
-def _geometry(app, s_ref_mm: float) -> dict:
-    """The ring frame and every channel's centreline (mm), for the report's plots."""
-    return {
-        "ring_centre_mm": m_to_mm(np.asarray(app.ring_centre_m, dtype=float)).tolist(),
-        "ring_normal": np.asarray(app.ring_normal, dtype=float).tolist(),
-        "ring_lateral": np.asarray(app.ring_lateral, dtype=float).tolist(),
-        "ring_radius_mm": m_to_mm(float(app.ring_radius_m)),
-        "s_ref_mm": float(s_ref_mm),
-        "centrelines_mm": {c.name: _dense_centreline_mm(c) for c in app.channels},
-        "metadata": dict(getattr(app, "metadata", {}) or {}),
-    }
+def ring_geometry(app, s_ref_mm: float) -> RingGeometry:
+    """The ring frame and every channel's centreline (mm), for the report's plots.
+
+    Parameters
+    ----------
+    app : Applicator
+    s_ref_mm : float
+        The ring channel's reference arc length, mm.
+
+    Returns
+    -------
+    RingGeometry
+    """
+    return RingGeometry(
+        ring_centre_mm=m_to_mm(np.asarray(app.ring_centre_m, dtype=float)),
+        ring_normal=np.asarray(app.ring_normal, dtype=float),
+        ring_lateral=np.asarray(app.ring_lateral, dtype=float),
+        ring_radius_mm=m_to_mm(float(app.ring_radius_m)),
+        s_ref_mm=float(s_ref_mm),
+        centrelines_mm={c.name: _dense_centreline_mm(c) for c in app.channels},
+        metadata=dict(getattr(app, "metadata", {}) or {}),
+    )
 
 
-def _dense_centreline_mm(channel, spacing_mm: float = 0.5) -> list:
+def _dense_centreline_mm(channel, spacing_mm: float = 0.5) -> np.ndarray:
     length_mm = m_to_mm(float(channel.centreline.length_m))
     s = np.linspace(0.0, length_mm, max(2, int(length_mm / spacing_mm) + 1))
-    return m_to_mm(np.asarray(channel.centreline.position(mm_to_m(s)), dtype=float)).tolist()
+    return m_to_mm(np.asarray(channel.centreline.position(mm_to_m(s)), dtype=float))

@@ -1,46 +1,77 @@
-"""What the user gave: the applicator, RT Plan, channel and source, and the settings checked.
+"""What the user gave: the applicator, RT Plan, channel and source, checked.
 
 An input is a shipped applicator name, a folder, an applicator JSON file, an RT Plan (``.dcm``,
-with Oncentra's applicator library) or an Applicator object; bad inputs and settings are refused
-here with a message that says what to change.
+with Oncentra's applicator library) or an Applicator object; bad inputs are refused here with a
+message that says what to change (bad settings already by
+:class:`~ringqa.pipeline.settings.CommissionSettings`).
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from ringqa.errors import RingQAError
 from ringqa.units import m_to_mm
 
+#: Air-kerma strength used when neither the settings nor an RT Plan give one, U (doses are
+#: compared relative to each other, so they do not depend on it).
+DEFAULT_SK_U = 40820.0
 
-def _checked_limits(prescription_gy, position_limits_mm, dose_action_pct) -> tuple[float, float]:
-    """Refuse a bad prescription, position tolerance or dose action level.
 
-    Returns
-    -------
-    (float, float)
-        The recommended and required position tolerance, mm.
+@dataclass(frozen=True, eq=False)
+class LoadedInput:
+    """The applicator (and RT Plan) an input names.
+
+    Attributes
+    ----------
+    applicator : Applicator
+    rtplan : RTPlan or None
+        The RT Plan the applicator came from.
+    kind : str
+        ``"shipped"``, ``"file"``, ``"folder"``, ``"rtplan"`` or ``"object"``.
+    files : tuple of Path
+        The input files (checksummed into the provenance).
     """
-    if not (np.isfinite(prescription_gy) and prescription_gy > 0):
-        raise RingQAError(f"--prescription-gy {prescription_gy!r}: must be a number > 0")
-    rec, req = (float(x) for x in position_limits_mm)
-    if not (np.isfinite(rec) and np.isfinite(req) and 0 < rec <= req):
-        raise RingQAError(
-            f"position_limits_mm {position_limits_mm!r}: give (recommended, required) with "
-            "0 < recommended <= required, e.g. (1, 2)"
-        )
-    if not (np.isfinite(dose_action_pct) and dose_action_pct > 0):
-        raise RingQAError(f"--dose-action-pct {dose_action_pct!r}: must be a number > 0")
-    return rec, req
+
+    applicator: Any
+    rtplan: Any
+    kind: str
+    files: tuple[Path, ...]
 
 
-def _load_input(item):
-    """(applicator, rtplan or None, kind, input files) for a name, path or Applicator object."""
+@dataclass(frozen=True)
+class SourceChoice:
+    """The TG-43 source and air-kerma strength of the run.
+
+    Attributes
+    ----------
+    source : tg43.Source
+    sk_U : float
+        Air-kerma strength, U.
+    notes : tuple of str
+        For the report (the RT Plan's source has no TG-43 data).
+    """
+
+    source: Any
+    sk_U: float
+    notes: tuple[str, ...]
+
+
+def load_input(item) -> LoadedInput:
+    """The applicator of a shipped name, folder, applicator JSON, RT Plan or Applicator object.
+
+    Raises
+    ------
+    RingQAError
+        Not one of those, or unreadable (the readers' errors name the file and field).
+    """
     if not isinstance(item, str | Path):
         if hasattr(item, "channels") and hasattr(item, "channel"):
-            return item, None, "object", []
+            return LoadedInput(item, None, "object", ())
         raise RingQAError(
             f"input {item!r}: give a shipped applicator name, a folder, an applicator JSON file "
             "or an RT Plan (.dcm)"
@@ -52,26 +83,26 @@ def _load_input(item):
         from ringqa.io.rtplan import applicator_from_rtplan, read_rtplan
 
         rtplan = read_rtplan(path)
-        return applicator_from_rtplan(rtplan), rtplan, "rtplan", [path]
+        return LoadedInput(applicator_from_rtplan(rtplan), rtplan, "rtplan", (path,))
     from ringqa.io.applicator_file import load_applicator
 
     app = load_applicator(item)
     if path.is_dir():
-        files = sorted(p for p in path.iterdir() if p.is_file())
-        return app, None, "folder", files
+        files = tuple(sorted(p for p in path.iterdir() if p.is_file()))
+        return LoadedInput(app, None, "folder", files)
     if path.is_file():
-        return app, None, "file", [path]
-    return app, None, "shipped", _shipped_file(str(item))
+        return LoadedInput(app, None, "file", (path,))
+    return LoadedInput(app, None, "shipped", _shipped_file(str(item)))
 
 
-def _shipped_file(name: str) -> list[Path]:
+def _shipped_file(name: str) -> tuple[Path, ...]:
     try:
         from ringqa.paths import data_dir
 
         p = data_dir() / "applicators" / f"{name}.json"
-        return [p] if p.is_file() else []
+        return (p,) if p.is_file() else ()
     except FileNotFoundError:
-        return []
+        return ()
 
 
 def _is_dicom(path: Path) -> bool:
@@ -83,7 +114,14 @@ def _is_dicom(path: Path) -> bool:
         return False
 
 
-def _channel(app, name: str):
+def channel_of(app, name: str):
+    """The applicator's channel ``name``.
+
+    Raises
+    ------
+    RingQAError
+        The applicator has no such channel (the message lists those it has).
+    """
     names = [c.name for c in app.channels]
     if name not in names:
         raise RingQAError(
@@ -92,7 +130,7 @@ def _channel(app, name: str):
     return app.channel(name)
 
 
-def _check_measured_path(input, ring, channel: str, kind: str, require_measured) -> None:
+def check_measured_path(input, ring, channel: str, kind: str, require_measured) -> None:
     """Refuse a channel without a measured source path where one is required.
 
     ``require_measured`` None means: required for user files (folder, JSON, RT Plan), not for
@@ -108,25 +146,41 @@ def _check_measured_path(input, ring, channel: str, kind: str, require_measured)
         )
 
 
-def _source_for(source, rtplan, notes: list[str]):
+def choose_source(source, sk_U: float | None, rtplan) -> SourceChoice:
+    """The TG-43 source and S_K: as given, else the RT Plan's, else Flexisource and 40820 U.
+
+    Parameters
+    ----------
+    source : str, tg43.Source or None
+    sk_U : float or None
+        Air-kerma strength, U.
+    rtplan : RTPlan or None
+
+    Returns
+    -------
+    SourceChoice
+    """
     import tg43
 
+    if sk_U is None:
+        sk_U = float(getattr(getattr(rtplan, "source", None), "sk_U", 0.0) or DEFAULT_SK_U)
+    notes: tuple[str, ...] = ()
     if isinstance(source, tg43.Source):
-        return source
+        return SourceChoice(source, float(sk_U), notes)
     if source is not None:
-        return tg43.load_source(source)
+        return SourceChoice(tg43.load_source(source), float(sk_U), notes)
     if rtplan is not None:
         name = getattr(rtplan.source, "tg43_name", None)
         if name:
-            return tg43.load_source(name)
-        notes.append(
+            return SourceChoice(tg43.load_source(name), float(sk_U), notes)
+        notes = (
             f"The RT Plan's source ({getattr(rtplan.source, 'model', '?')}) has no TG-43 data in "
-            "ringqa; the Flexisource data were used (choose one with --source)."
+            "ringqa; the Flexisource data were used (choose one with --source).",
         )
-    return tg43.load_source("flexisource")
+    return SourceChoice(tg43.load_source("flexisource"), float(sk_U), notes)
 
 
-def _loaded_text(app, ring, kind: str) -> str:
+def loaded_text(app, ring, kind: str) -> str:
     """One sentence: what was loaded (channels, lengths, lumen, measured path)."""
     parts = []
     for ch in app.channels:

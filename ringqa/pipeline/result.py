@@ -1,15 +1,21 @@
-"""What one commissioning run returns: the tolerance verdicts and the whole result.
+"""What one commissioning run returns: every part typed, as the report and ``results.json`` read it.
 
-:class:`Verdict` is one tolerance check as the report shows it; :class:`CommissioningResult`
-holds every table, verdict, note and setting of one run (see :mod:`ringqa.pipeline.commission`).
+:class:`CommissioningResult` holds the tables, the :class:`Verdict` s, the notes and typed parts:
+the ring :class:`RingGeometry`, the :class:`SimulationInfo` of the engine run, the
+:class:`RunSettings` used, the :class:`Summary` (one row of ``summary.csv``) and the
+:class:`Timings`. Each part's ``as_dict()`` is its ``results.json`` section (stable keys, in the
+order other tools have always read).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
+from typing import Any
 
+import numpy as np
 import pandas as pd
 
+from ringqa.plan import DosePointSpec
 from ringqa.provenance import Provenance
 
 
@@ -42,6 +48,7 @@ class Verdict:
     text: str
 
     def as_dict(self) -> dict:
+        """The ``results.json`` entry."""
         return {
             "check": self.check,
             "value": float(self.value),
@@ -49,6 +56,292 @@ class Verdict:
             "limits": [float(x) for x in self.limits],
             "status": self.status,
             "text": self.text,
+        }
+
+
+@dataclass(frozen=True, eq=False)
+class RingGeometry:
+    """The ring frame and the channels' centrelines, for the report's plots (mm).
+
+    Attributes
+    ----------
+    ring_centre_mm : (3,) ndarray
+        Centre of the ring channel's circle.
+    ring_normal : (3,) ndarray
+        Unit ring-plane normal, cranial.
+    ring_lateral : (3,) ndarray
+        Unit in-plane vector towards the patient's left.
+    ring_radius_mm : float
+        Radius of the ring channel's centreline circle.
+    s_ref_mm : float
+        Arc length of the ring channel's relative position 0.
+    centrelines_mm : dict of str to (k, 3) ndarray
+        Every channel's centreline, sampled every 0.5 mm (not in ``results.json``).
+    metadata : dict
+        The applicator's metadata.
+    """
+
+    ring_centre_mm: np.ndarray
+    ring_normal: np.ndarray
+    ring_lateral: np.ndarray
+    ring_radius_mm: float
+    s_ref_mm: float
+    centrelines_mm: dict[str, np.ndarray]
+    metadata: dict[str, Any]
+
+    def as_dict(self) -> dict:
+        """The ``results.json`` ``geometry`` section (without the centrelines)."""
+        return {
+            "ring_centre_mm": self.ring_centre_mm.tolist(),
+            "ring_normal": self.ring_normal.tolist(),
+            "ring_lateral": self.ring_lateral.tolist(),
+            "ring_radius_mm": self.ring_radius_mm,
+            "s_ref_mm": self.s_ref_mm,
+            "metadata": self.metadata,
+        }
+
+
+@dataclass(frozen=True, eq=False)
+class SimulationInfo:
+    """How the engine run went.
+
+    Attributes
+    ----------
+    status : int
+        0 success (a failed or jammed run raises before a result exists).
+    message : str
+        The engine's message.
+    warnings : tuple of str
+        The engine's warnings.
+    solve_time_s : float
+        The engine's solve time (JIT compilation excluded), s.
+    wall_time_s : float
+        Wall time of the run(s), retries included, s.
+    n_elements : int
+        Cable elements simulated.
+    settings : dict
+        The engine's own account of its settings (SI).
+    """
+
+    status: int
+    message: str
+    warnings: tuple[str, ...]
+    solve_time_s: float
+    wall_time_s: float
+    n_elements: int
+    settings: dict[str, Any]
+
+    def as_dict(self) -> dict:
+        """The ``results.json`` ``simulation`` section."""
+        return {
+            "status": self.status,
+            "message": self.message,
+            "warnings": list(self.warnings),
+            "solve_time_s": self.solve_time_s,
+            "wall_time_s": self.wall_time_s,
+            "n_elements": self.n_elements,
+            "settings": self.settings,
+        }
+
+
+@dataclass(frozen=True, eq=False)
+class RunSettings:
+    """The settings a run used (resolved: the source by name, S_K as a number).
+
+    Attributes
+    ----------
+    source : str
+        TG-43 source name.
+    sk_U : float
+        Air-kerma strength, U.
+    prescription_gy : float
+        Mean Point A dose of the standard plan, Gy.
+    cable : str
+        Instrument preset simulated.
+    channel : str
+        The channel simulated.
+    plan_step_mm : float
+        Dwell spacing of the standard plan, mm.
+    tandem_dwells : int
+        Tandem dwells of the standard plan (without a measured tandem path).
+    position_limits_mm : (float, float)
+        Recommended and required position tolerance, mm.
+    dose_action_pct : float
+        Dose-difference action level, %.
+    dose_points : DosePointSpec
+        Where the standard dose points are.
+    scene_overrides : dict
+        The ``--set`` overrides (dotted keys, user units).
+    scene : dict
+        The simulated scene in user units (empty if it could not be written).
+    """
+
+    source: str
+    sk_U: float
+    prescription_gy: float
+    cable: str
+    channel: str
+    plan_step_mm: float
+    tandem_dwells: int
+    position_limits_mm: tuple[float, float]
+    dose_action_pct: float
+    dose_points: DosePointSpec
+    scene_overrides: dict[str, Any]
+    scene: dict[str, Any]
+
+    def as_dict(self) -> dict:
+        """The ``results.json`` ``settings`` section (also the provenance's settings)."""
+        return {
+            "source": self.source,
+            "sk_U": self.sk_U,
+            "prescription_gy": self.prescription_gy,
+            "cable": self.cable,
+            "channel": self.channel,
+            "plan_step_mm": self.plan_step_mm,
+            "tandem_dwells": self.tandem_dwells,
+            "position_limits_mm": list(self.position_limits_mm),
+            "dose_action_pct": self.dose_action_pct,
+            "dose_points": self.dose_points.as_dict(),
+            "scene_overrides": dict(self.scene_overrides),
+            "scene": self.scene,
+        }
+
+
+@dataclass(frozen=True)
+class PathNumbers:
+    """The summary numbers of one compared path (simulated or centreline) against the reference.
+
+    Attributes
+    ----------
+    median_dist_mm, max_dist_mm : float
+        Median and largest 3D distance, mm.
+    max_along_mm, max_radial_mm, max_out_of_plane_mm : float
+        Largest |component| of the distance, mm (NaN without dwells).
+    max_angle_deg : float
+        Largest angle between the source directions, deg.
+    """
+
+    median_dist_mm: float
+    max_dist_mm: float
+    max_along_mm: float
+    max_radial_mm: float
+    max_out_of_plane_mm: float
+    max_angle_deg: float
+
+    def columns(self, tag: str) -> dict[str, float]:
+        """The ``summary.csv`` columns of this path (``median_dist_<tag>_mm``, ...)."""
+        return {
+            f"median_dist_{tag}_mm": self.median_dist_mm,
+            f"max_dist_{tag}_mm": self.max_dist_mm,
+            f"max_along_{tag}_mm": self.max_along_mm,
+            f"max_radial_{tag}_mm": self.max_radial_mm,
+            f"max_out_of_plane_{tag}_mm": self.max_out_of_plane_mm,
+            f"max_angle_{tag}_deg": self.max_angle_deg,
+        }
+
+
+@dataclass(frozen=True, eq=False)
+class Summary:
+    """The per-applicator numbers: one row of ``summary.csv`` (:meth:`as_row`).
+
+    Attributes
+    ----------
+    applicator, reference, source : str
+        Applicator name, ``"measured"`` or ``"centreline"``, TG-43 source name.
+    n_dwells : int
+        Reference dwells.
+    n_plan_dwells_ring, n_plan_dwells_tandem : int
+        Ring and tandem dwells of the standard plan.
+    s_ref_mm : float
+        Arc length of the ring channel's relative position 0, mm.
+    simulated : PathNumbers
+        Simulated path vs reference.
+    max_angle_sim_vs_centreline_deg : float
+        Largest angle between simulated and centreline source directions, deg.
+    centreline : PathNumbers or None
+        Centreline path vs the measured reference (None when the centreline is the reference).
+    max_abs_diff_pct : dict of str to dict of str to float
+        Plan (``simulated``, ``centreline``) -> point kind (``point_a``, ``surface``,
+        ``depth5``) -> largest |dose difference| to the reference plan, %.
+    point_a_mean_gy : float
+        Mean Point A dose of the reference plan, Gy.
+    simulation_status : int
+        The engine's status.
+    solve_time_s : float
+        The engine's solve time, s.
+    verdict : str
+        ``"PASS"``, ``"WARN"`` or ``"FAIL"`` (any FAIL or ACTION).
+    """
+
+    applicator: str
+    reference: str
+    source: str
+    n_dwells: int
+    n_plan_dwells_ring: int
+    n_plan_dwells_tandem: int
+    s_ref_mm: float
+    simulated: PathNumbers
+    max_angle_sim_vs_centreline_deg: float
+    centreline: PathNumbers | None
+    max_abs_diff_pct: dict[str, dict[str, float]]
+    point_a_mean_gy: float
+    simulation_status: int
+    solve_time_s: float
+    verdict: str
+
+    def as_row(self) -> dict[str, Any]:
+        """Column -> value of ``summary.csv`` (and ``results.json``'s ``summary``), in order."""
+        row: dict[str, Any] = {
+            "applicator": self.applicator,
+            "reference": self.reference,
+            "source": self.source,
+            "n_dwells": self.n_dwells,
+            "n_plan_dwells_ring": self.n_plan_dwells_ring,
+            "n_plan_dwells_tandem": self.n_plan_dwells_tandem,
+            "s_ref_mm": self.s_ref_mm,
+            **self.simulated.columns("sim"),
+            "max_angle_sim_vs_centreline_deg": self.max_angle_sim_vs_centreline_deg,
+        }
+        if self.centreline is not None:
+            row.update(self.centreline.columns("centreline"))
+        for plan, per_kind in self.max_abs_diff_pct.items():
+            for kind, value in per_kind.items():
+                row[f"max_abs_diff_{kind}_{plan}_pct"] = value
+        row["point_a_mean_gy"] = self.point_a_mean_gy
+        row["simulation_status"] = self.simulation_status
+        row["solve_time_s"] = self.solve_time_s
+        row["verdict"] = self.verdict
+        return row
+
+
+@dataclass(frozen=True)
+class Timings:
+    """Wall times of the run's steps, s.
+
+    Attributes
+    ----------
+    load_s : float
+        Reading the input.
+    simulation_s : float
+        The engine run(s).
+    dose_s : float
+        Dose points, plans and dose tables.
+    total_s : float
+        The whole run.
+    """
+
+    load_s: float
+    simulation_s: float
+    dose_s: float
+    total_s: float
+
+    def as_dict(self) -> dict[str, float]:
+        """The ``results.json`` ``timings_s`` section."""
+        return {
+            "load_s": self.load_s,
+            "simulation_s": self.simulation_s,
+            "dose_s": self.dose_s,
+            "total_s": self.total_s,
         }
 
 
@@ -61,8 +354,9 @@ class CommissioningResult:
     applicator : str
         Applicator name.
     input : str
-        What the user gave (name or path); ``input_kind`` one of ``shipped``, ``file``,
-        ``folder``, ``rtplan``, ``object``.
+        What the user gave (name or path).
+    input_kind : str
+        ``shipped``, ``file``, ``folder``, ``rtplan`` or ``object``.
     reference : str
         ``"measured"`` (a measured source path) or ``"centreline"`` (none shipped: the comparison
         is simulated vs centreline).
@@ -76,20 +370,19 @@ class CommissioningResult:
         x_mm, y_mm, z_mm, tps_dose_gy``.
     plan_dwells : pandas.DataFrame
         The three standard plans' dwells with their (equal) times.
-    summary : dict
+    summary : Summary
         Per-applicator numbers (one row of summary.csv).
     verdicts : tuple of Verdict
-    geometry : dict
-        For plots: ``ring_centre_mm``, ``ring_normal``, ``ring_lateral``, ``ring_radius_mm``,
-        ``centrelines_mm`` (channel name -> (k, 3)), ``s_ref_mm``.
-    simulation : dict
-        ``status, message, warnings, solve_time_s, n_elements, settings``.
-    settings : dict
+    geometry : RingGeometry
+        The ring frame and centrelines, for the plots.
+    simulation : SimulationInfo
+        How the engine run went.
+    settings : RunSettings
         Source, S_K, prescription, cable, tolerances, dose point definitions, scene settings.
     notes : tuple of str
         Statements the report must show (reference used, cable vs afterloader, ...).
     provenance : Provenance
-    timings_s : dict
+    timings : Timings
     """
 
     applicator: str
@@ -99,14 +392,14 @@ class CommissioningResult:
     dwells: pd.DataFrame
     doses: pd.DataFrame
     plan_dwells: pd.DataFrame
-    summary: dict
+    summary: Summary
     verdicts: tuple[Verdict, ...]
-    geometry: dict
-    simulation: dict
-    settings: dict
+    geometry: RingGeometry
+    simulation: SimulationInfo
+    settings: RunSettings
     notes: tuple[str, ...]
     provenance: Provenance
-    timings_s: dict = field(default_factory=dict)
+    timings: Timings
 
     @property
     def passed(self) -> bool:

@@ -3,15 +3,23 @@
 The cable is pushed to the advances ``s_ref - p`` of the reference dwells; a lumen narrower than
 the cable is refused first, a run that fails to converge is repeated with a finer input
 increment, and a jam is reported as :class:`SimulationJammedError` with where it stopped.
+
+The engine is reached through an :class:`Engine` (its four functions), so tests and other engines
+can stand in for :mod:`ringqa.simulation`: :func:`default_engine` is the real one.
 """
 
 from __future__ import annotations
 
 import time
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
 from ringqa.errors import RingQAError, SimulationError
+from ringqa.pipeline.dwells import PathDwells
+from ringqa.pipeline.result import SimulationInfo
 from ringqa.units import m_to_mm
 
 #: Afterloader each TG-43 source belongs to (for the cable-model note).
@@ -28,23 +36,64 @@ class SimulationJammedError(RingQAError):
     """The simulated cable jammed (or the engine failed) before reaching every dwell."""
 
 
-def _default_simulator():
-    try:
-        from ringqa.simulation import simulate
-    except ImportError as exc:  # the engine has not landed in this build
-        raise SimulationError(
-            "the source-cable simulation engine (ringqa.simulation.simulate) is not available "
-            "in this installation"
-        ) from exc
-    return simulate
+@dataclass(frozen=True)
+class Engine:
+    """The four engine functions the pipeline calls (:func:`default_engine`: ringqa's own).
+
+    Attributes
+    ----------
+    simulate : callable
+        ``simulate(scene, advances_mm=(n,) mm, progress=bool)`` -> a result with ``status``
+        (0 ok, 1 jammed, -1 failed), ``message``, ``advances_mm`` (n,), ``source_pos_m`` (n, 3)
+        and ``source_dir`` (n, 3); optionally ``warnings``, ``solve_time_s``, ``n_elements``,
+        ``settings``.
+    scene_for_channel : callable
+        ``scene_for_channel(channel, cable)`` -> a scene (with ``instrument.sections[].r_o_m``,
+        ``motion``, ``solver.increment_m``, ``instrument.afterloader`` where it has them).
+    scene_with_overrides : callable
+        ``scene_with_overrides(scene, {dotted key: value})`` -> a new scene.
+    scene_to_dict : callable
+        ``scene_to_dict(scene)`` -> the scene in user units (for provenance).
+    """
+
+    simulate: Callable[..., Any]
+    scene_for_channel: Callable[..., Any]
+    scene_with_overrides: Callable[[Any, Mapping[str, Any]], Any]
+    scene_to_dict: Callable[[Any], dict]
 
 
-def _default_scene_factory(channel, cable: str):
-    from ringqa.simulation import Scene
+def default_engine() -> Engine:
+    """ringqa's engine: :func:`ringqa.simulation.simulate` and the scene functions of
+    :mod:`ringqa.simulation.scenefile` (imported on first use: importing the pipeline stays
+    light)."""
+    from ringqa.simulation import simulate
+    from ringqa.simulation.scenefile import scene_for_channel, scene_to_dict, scene_with_overrides
 
-    if not hasattr(Scene, "for_channel"):
-        raise SimulationError("ringqa.simulation.Scene.for_channel is not available in this build")
-    return Scene.for_channel(channel, cable=cable)
+    return Engine(simulate, scene_for_channel, scene_with_overrides, scene_to_dict)
+
+
+@dataclass(frozen=True, eq=False)
+class SimulatedDwells:
+    """The engine's source positions at the reference dwells, and how the run went.
+
+    Attributes
+    ----------
+    dwells : PathDwells
+        Source centres (n, 3) in mm and unit directions (n, 3), in the reference's order.
+    info : SimulationInfo
+    scene : dict
+        The scene simulated, in user units (empty if it could not be written).
+    afterloader : str
+        The afterloader whose cable was simulated.
+    notes : tuple of str
+        For the report (a retry with a finer increment).
+    """
+
+    dwells: PathDwells
+    info: SimulationInfo
+    scene: dict
+    afterloader: str
+    notes: tuple[str, ...]
 
 
 def _cable_radius_m(scene) -> float | None:
@@ -76,7 +125,7 @@ def _check_clearance(app, channel, scene) -> None:
 RETRY_INCREMENT_FACTORS = (0.5, 0.25)
 
 
-def _run_engine(simulate, scene, advances, progress=False):
+def _run_engine(simulate, scene, advances, progress: bool = False):
     res = simulate(scene, advances_mm=advances, progress=progress)
     status = int(getattr(res, "status", 0))
     pos_m = np.asarray(res.source_pos_m, dtype=float).reshape(-1, 3)
@@ -84,23 +133,53 @@ def _run_engine(simulate, scene, advances, progress=False):
     return res, status, pos_m, ok
 
 
-def _simulate(
-    app, channel, rel_mm, *, cable, scene_overrides, simulator, scene_factory, notes, progress
-):
-    """Simulate the cable to the dwells at relative positions ``rel_mm`` (in their order).
+def simulate_dwells(
+    app,
+    channel,
+    relative_position_mm,
+    *,
+    cable: str,
+    scene_overrides: Mapping[str, Any],
+    engine: Engine | None = None,
+    progress: bool = False,
+) -> SimulatedDwells:
+    """Simulate the cable to the dwells at ``relative_position_mm`` (results in their order).
+
+    Parameters
+    ----------
+    app : Applicator
+    channel : Channel
+        The channel simulated.
+    relative_position_mm : (n,) array_like
+        Relative positions p of the dwells, mm: the cable is pushed to the advances s_ref - p.
+    cable : str
+        Instrument preset.
+    scene_overrides : mapping
+        Dotted scene keys -> values (user units).
+    engine : Engine, optional
+        Default :func:`default_engine`.
+    progress : bool
+        Show the engine's progress bar.
 
     Returns
     -------
-    tuple
-        Source positions (n, 3) in mm, unit source directions (n, 3), the run's info dict
-        (``status, message, warnings, solve_time_s, wall_time_s, n_elements, settings``), the
-        scene as a dict and the afterloader whose cable was simulated.
+    SimulatedDwells
+
+    Raises
+    ------
+    RingQAError
+        The lumen is not wider than the cable.
+    SimulationJammedError
+        The cable jammed, or the engine failed even with a finer increment.
     """
-    scene = (scene_factory or _default_scene_factory)(channel, cable)
+    engine = engine or default_engine()
+    rel_mm = relative_position_mm
+    notes: list[str] = []
+    scene = engine.scene_for_channel(channel, cable)
     if scene_overrides:
-        scene = scene.with_overrides(dict(scene_overrides))
+        scene = engine.scene_with_overrides(scene, dict(scene_overrides))
     _check_clearance(app, channel, scene)
-    simulate = simulator or _default_simulator()
+    simulate = engine.simulate
     s_ref_mm = m_to_mm(channel.s_ref_m)
     rel_sorted = np.sort(np.unique(np.round(np.asarray(rel_mm, dtype=float), 9)))[::-1]
     advances = s_ref_mm - rel_sorted  # increasing: the cable is pushed in, proximal -> distal
@@ -110,11 +189,11 @@ def _simulate(
     t0 = time.perf_counter()
     res, status, pos_m, ok = _run_engine(simulate, scene, advances, progress)
     inc_m = getattr(getattr(scene, "solver", None), "increment_m", None)
-    if not ok and status == -1 and inc_m and hasattr(scene, "with_overrides"):
+    if not ok and status == -1 and inc_m:
         first_message = str(getattr(res, "message", ""))
         for factor in RETRY_INCREMENT_FACTORS:
             inc_mm = m_to_mm(float(inc_m)) * factor
-            retry = scene.with_overrides({"solver.increment_mm": inc_mm})
+            retry = engine.scene_with_overrides(scene, {"solver.increment_mm": inc_mm})
             res, status, pos_m, ok = _run_engine(simulate, retry, advances, progress)
             if ok:
                 notes.append(
@@ -154,46 +233,44 @@ def _simulate(
         idx.append(i)
     idx = np.asarray(idx)
     d = dirs[idx]
-    info = {
-        "status": status,
-        "message": str(getattr(res, "message", "")),
-        "warnings": [str(w) for w in getattr(res, "warnings", ())],
-        "solve_time_s": float(getattr(res, "solve_time_s", wall)),
-        "wall_time_s": wall,
-        "n_elements": int(getattr(res, "n_elements", 0) or 0),
-        "settings": dict(getattr(res, "settings", {}) or {}),
-    }
-    scene_dict = {}
-    if hasattr(scene, "to_dict"):
-        try:
-            scene_dict = scene.to_dict()
-        except Exception:  # provenance must not break a run
-            scene_dict = {}
+    info = SimulationInfo(
+        status=status,
+        message=str(getattr(res, "message", "")),
+        warnings=tuple(str(w) for w in getattr(res, "warnings", ())),
+        solve_time_s=float(getattr(res, "solve_time_s", wall)),
+        wall_time_s=wall,
+        n_elements=int(getattr(res, "n_elements", 0) or 0),
+        settings=dict(getattr(res, "settings", {}) or {}),
+    )
+    try:
+        scene_dict = engine.scene_to_dict(scene)
+    except Exception:  # provenance must not break a run
+        scene_dict = {}
     afterloader = getattr(getattr(scene, "instrument", None), "afterloader", "") or cable
-    return (
-        m_to_mm(pos_m[idx]),
-        d / np.linalg.norm(d, axis=1)[:, None],
-        info,
-        scene_dict,
-        afterloader,
+    return SimulatedDwells(
+        dwells=PathDwells(m_to_mm(pos_m[idx]), d / np.linalg.norm(d, axis=1)[:, None]),
+        info=info,
+        scene=scene_dict,
+        afterloader=afterloader,
+        notes=tuple(notes),
     )
 
 
-def _simulation_notes(sim_info: dict, source, afterloader: str) -> list[str]:
+def simulation_notes(info: SimulationInfo, source, afterloader: str) -> list[str]:
     """The report's notes on a run: the engine's warnings, and a cable from another afterloader.
 
     Parameters
     ----------
-    sim_info : dict
-        The run's ``status, message, warnings, ...`` (from :func:`_simulate`).
+    info : SimulationInfo
+        The run (from :func:`simulate_dwells`).
     source : tg43.Source
         The plan's TG-43 source.
     afterloader : str
         The afterloader whose cable was simulated.
     """
     notes = []
-    if sim_info["warnings"]:
-        notes.append("Simulation warnings: " + "; ".join(sim_info["warnings"]))
+    if info.warnings:
+        notes.append("Simulation warnings: " + "; ".join(info.warnings))
     src_afterloader = SOURCE_AFTERLOADER.get(getattr(source, "name", ""), "")
     if src_afterloader and afterloader and src_afterloader != afterloader:
         notes.append(

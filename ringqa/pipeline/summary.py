@@ -9,23 +9,29 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from ringqa.pipeline.deviations import Deviations
+from ringqa.pipeline.deviations import DeviationComponents, Deviations
+from ringqa.pipeline.doses import StandardPlans
+from ringqa.pipeline.dwells import PlanSelection, ReferenceDwells
+from ringqa.pipeline.result import PathNumbers, SimulationInfo, Summary, Verdict
+
+#: The standard point kinds whose largest dose difference the summary reports.
+POINT_KINDS = ("point_a", "surface", "depth5")
 
 
-def _maxabs(a):
+def _maxabs(a) -> float:
     return float(np.max(np.abs(a))) if np.size(a) else float("nan")
 
 
-def _path_numbers(tag: str, comp: dict, angle_deg: np.ndarray) -> dict:
-    """Median and largest distance, largest components and angle of one path (``tag``)."""
-    return {
-        f"median_dist_{tag}_mm": float(np.median(comp["dist_mm"])),
-        f"max_dist_{tag}_mm": float(np.max(comp["dist_mm"])),
-        f"max_along_{tag}_mm": _maxabs(comp["along_mm"]),
-        f"max_radial_{tag}_mm": _maxabs(comp["radial_mm"]),
-        f"max_out_of_plane_{tag}_mm": _maxabs(comp["out_of_plane_mm"]),
-        f"max_angle_{tag}_deg": float(np.max(angle_deg)),
-    }
+def _path_numbers(comp: DeviationComponents, angle_deg: np.ndarray) -> PathNumbers:
+    """Median and largest distance, largest components and angle of one path."""
+    return PathNumbers(
+        median_dist_mm=float(np.median(comp.dist_mm)),
+        max_dist_mm=float(np.max(comp.dist_mm)),
+        max_along_mm=_maxabs(comp.along_mm),
+        max_radial_mm=_maxabs(comp.radial_mm),
+        max_out_of_plane_mm=_maxabs(comp.out_of_plane_mm),
+        max_angle_deg=float(np.max(angle_deg)),
+    )
 
 
 def _overall_verdict(verdicts) -> str:
@@ -36,75 +42,71 @@ def _overall_verdict(verdicts) -> str:
     )  # fmt: skip
 
 
-def _summary(
-    app,
-    source,
-    ref_kind: str,
-    rel: np.ndarray,
-    in_plan: np.ndarray,
+def summarise(
+    app_name: str,
+    source_name: str,
+    reference: ReferenceDwells,
+    selection: PlanSelection,
     n_tandem: int,
-    s_ref_mm: float,
     dev: Deviations,
     doses: pd.DataFrame,
-    plan_names,
-    sim_info: dict,
-    verdicts,
-) -> dict:
+    plans: StandardPlans,
+    simulation: SimulationInfo,
+    verdicts: tuple[Verdict, ...],
+) -> Summary:
     """The summary row of one commissioning run.
 
     Parameters
     ----------
-    app : Applicator
-    source : tg43.Source
-    ref_kind : str
-        ``"measured"`` or ``"centreline"``.
-    rel : ndarray
-        Relative positions of the reference dwells, mm.
-    in_plan : ndarray of bool
-        Which dwells the ring's standard plan uses.
+    app_name : str
+    source_name : str
+        TG-43 source name.
+    reference : ReferenceDwells
+    selection : PlanSelection
+        Which dwells the ring's standard plan uses, and s_ref.
     n_tandem : int
         Tandem dwells in the standard plan.
-    s_ref_mm : float
-        The ring channel's reference arc length, mm.
     dev : Deviations
     doses : pandas.DataFrame
         The dose table (TPS points are left out).
-    plan_names : iterable of str
-        The plans; each but the reference gets its dose differences.
-    sim_info : dict
-        The simulation's ``status`` and ``solve_time_s``.
-    verdicts : sequence of Verdict
+    plans : StandardPlans
+        Each plan but the reference gets its dose differences.
+    simulation : SimulationInfo
+        The simulation's status and solve time.
+    verdicts : tuple of Verdict
 
     Returns
     -------
-    dict
-        Column -> value of summary.csv.
+    Summary
     """
-    summary = {
-        "applicator": app.name,
-        "reference": ref_kind,
-        "source": source.name,
-        "n_dwells": int(rel.size),
-        "n_plan_dwells_ring": int(in_plan.sum()),
-        "n_plan_dwells_tandem": int(n_tandem),
-        "s_ref_mm": float(s_ref_mm),
-        **_path_numbers("sim", dev.simulated, dev.angle_simulated_deg),
-        "max_angle_sim_vs_centreline_deg": float(np.max(dev.angle_sim_vs_centreline_deg)),
-    }
-    if ref_kind == "measured":
-        summary.update(_path_numbers("centreline", dev.centreline, dev.angle_centreline_deg))
+    ref_kind = reference.kind
     std = doses[doses["kind"] != "tps"]
-    for pname in plan_names:
-        if pname == ref_kind:
-            continue
-        sub = std[std["plan"] == pname]
-        for kind_ in ("point_a", "surface", "depth5"):
-            summary[f"max_abs_diff_{kind_}_{pname}_pct"] = _maxabs(
-                sub.loc[sub["kind"] == kind_, "diff_pct"].to_numpy()
-            )
+    diffs: dict[str, dict[str, float]] = {}
+    for plan in plans.in_order[1:]:
+        sub = std[std["plan"] == plan.name]
+        diffs[plan.name] = {
+            kind: _maxabs(sub.loc[sub["kind"] == kind, "diff_pct"].to_numpy())
+            for kind in POINT_KINDS
+        }
     a_ref = std[(std["plan"] == ref_kind) & (std["kind"] == "point_a")]["dose_gy"]
-    summary["point_a_mean_gy"] = float(a_ref.mean())
-    summary["simulation_status"] = sim_info["status"]
-    summary["solve_time_s"] = sim_info["solve_time_s"]
-    summary["verdict"] = _overall_verdict(verdicts)
-    return summary
+    return Summary(
+        applicator=app_name,
+        reference=ref_kind,
+        source=source_name,
+        n_dwells=int(reference.relative_position_mm.size),
+        n_plan_dwells_ring=int(selection.in_plan.sum()),
+        n_plan_dwells_tandem=int(n_tandem),
+        s_ref_mm=float(selection.s_ref_mm),
+        simulated=_path_numbers(dev.simulated, dev.angle_simulated_deg),
+        max_angle_sim_vs_centreline_deg=float(np.max(dev.angle_sim_vs_centreline_deg)),
+        centreline=(
+            _path_numbers(dev.centreline, dev.angle_centreline_deg)
+            if ref_kind == "measured"
+            else None
+        ),
+        max_abs_diff_pct=diffs,
+        point_a_mean_gy=float(a_ref.mean()),
+        simulation_status=simulation.status,
+        solve_time_s=simulation.solve_time_s,
+        verdict=_overall_verdict(verdicts),
+    )

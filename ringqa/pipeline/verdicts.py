@@ -10,6 +10,7 @@ import numpy as np
 import pandas as pd
 
 from ringqa.pipeline.deviations import Deviations
+from ringqa.pipeline.doses import StandardPlans
 from ringqa.pipeline.result import Verdict
 
 #: Position tolerances, mm: recommended and required (AAPM MPPG 13.a, 2023; TG-56).
@@ -43,8 +44,8 @@ def _dose_verdict(check: str, diff_pct: np.ndarray, action: float) -> Verdict:
     )  # fmt: skip
 
 
-def _verdict_meanings(verdicts, ref_kind: str) -> list[str]:
-    """What a physicist should conclude from the verdicts that are not PASS."""
+def verdict_meanings(verdicts) -> list[str]:
+    """What a physicist should conclude from the verdicts that are not PASS (report notes)."""
     out = []
     for v in verdicts:
         if v.status == "PASS":
@@ -76,15 +77,14 @@ def _verdict_meanings(verdicts, ref_kind: str) -> list[str]:
     return out
 
 
-def _verdicts(
+def check_tolerances(
     ref_kind: str,
     dev: Deviations,
     doses: pd.DataFrame,
-    plan_names,
-    rec: float,
-    req: float,
+    plans: StandardPlans,
+    position_limits_mm: tuple[float, float],
     dose_action_pct: float,
-) -> list[Verdict]:
+) -> tuple[Verdict, ...]:
     """The position verdicts of the compared paths, then one dose verdict per compared plan.
 
     Parameters
@@ -95,33 +95,33 @@ def _verdicts(
         The simulated and centreline dwells' deviations from the reference.
     doses : pandas.DataFrame
         The dose table (TPS points are left out of the dose verdicts).
-    plan_names : iterable of str
-        The plans in table order; each but the reference gets a dose verdict.
-    rec, req : float
+    plans : StandardPlans
+        Each plan but the reference gets a dose verdict, in table order.
+    position_limits_mm : (float, float)
         Recommended and required position tolerance, mm.
     dose_action_pct : float
         Dose-difference action level, %.
 
     Returns
     -------
-    list of Verdict
+    tuple of Verdict
     """
+    rec, req = position_limits_mm
     verdicts = []
     if ref_kind == "measured":
         verdicts.append(_position_verdict("position: centreline vs measured",
-                                          dev.centreline["dist_mm"], rec, req))  # fmt: skip
+                                          dev.centreline.dist_mm, rec, req))  # fmt: skip
         verdicts.append(_position_verdict("position: simulated vs measured",
-                                          dev.simulated["dist_mm"], rec, req))  # fmt: skip
+                                          dev.simulated.dist_mm, rec, req))  # fmt: skip
     else:
         verdicts.append(_position_verdict("position: simulated vs centreline",
-                                          dev.simulated["dist_mm"], rec, req))  # fmt: skip
+                                          dev.simulated.dist_mm, rec, req))  # fmt: skip
     std = doses[doses["kind"] != "tps"]
-    for pname in plan_names:
-        if pname == ref_kind:
-            continue
+    for plan in plans.in_order[1:]:
+        pname = plan.name
         sub = std[std["plan"] == pname]
         verdicts.append(
             _dose_verdict(f"dose: {pname} vs {ref_kind} plan", sub["diff_pct"].to_numpy(),
                           float(dose_action_pct))
         )  # fmt: skip
-    return verdicts
+    return tuple(verdicts)

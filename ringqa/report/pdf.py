@@ -20,6 +20,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from ringqa.pipeline import RingGeometry
+
 A4 = (8.27, 11.69)
 COLOURS = {"measured": "black", "simulated": "tab:red", "centreline": "tab:blue"}
 MARKERS = {"measured": "s", "simulated": "o", "centreline": "^"}
@@ -54,18 +56,18 @@ def _title(res, what: str) -> str:
     return textwrap.shorten(f"{what}: {res.applicator}", 62, placeholder="...")
 
 
-def _frame(geometry: dict):
+def _frame(geometry: RingGeometry):
     """Ring frame: centre (3,), e_left (3,), e_ant (3,) in-plane, e_cranial (3,)."""
-    c = np.asarray(geometry["ring_centre_mm"], dtype=float)
-    n = np.asarray(geometry["ring_normal"], dtype=float)
+    c = np.asarray(geometry.ring_centre_mm, dtype=float)
+    n = np.asarray(geometry.ring_normal, dtype=float)
     n = n / np.linalg.norm(n)
-    lat = np.asarray(geometry["ring_lateral"], dtype=float)
+    lat = np.asarray(geometry.ring_lateral, dtype=float)
     lat = lat - np.dot(lat, n) * n
     lat /= np.linalg.norm(lat)
     return c, lat, np.cross(n, lat), n
 
 
-def _project(xyz, geometry):
+def _project(xyz, geometry: RingGeometry):
     c, e1, e2, n = _frame(geometry)
     d = np.asarray(xyz, dtype=float).reshape(-1, 3) - c
     return d @ e1, d @ e2, d @ n
@@ -84,23 +86,23 @@ def _title_page(plt, res) -> list:
     lines = [
         ("Applicator", f"{res.applicator}  (input: {res.input}, {res.input_kind})"),
         ("Reference path", _reference_text(res)),
-        ("Source (TG-43)", f"{s['source']}, S_K = {s['sk_U']:.0f} U"),
-        ("Cable model", f"{s['cable']} preset (all simulation settings: last page)"),
+        ("Source (TG-43)", f"{s.source}, S_K = {s.sk_U:.0f} U"),
+        ("Cable model", f"{s.cable} preset (all simulation settings: last page)"),
         (
             "Standard plan",
-            f"dwells every {s['plan_step_mm']:g} mm, equal times, "
-            f"mean Point A dose = {s['prescription_gy']:g} Gy",
+            f"dwells every {s.plan_step_mm:g} mm, equal times, "
+            f"mean Point A dose = {s.prescription_gy:g} Gy",
         ),
         (
             "s_ref",
-            f"{res.summary['s_ref_mm']:.2f} mm of centreline arc length from the channel "
+            f"{res.summary.s_ref_mm:.2f} mm of centreline arc length from the channel "
             "entry to relative position 0 (most distal dwell)",
         ),
         (
             "Tolerances",
-            f"position {s['position_limits_mm'][0]:g} mm recommended / "
-            f"{s['position_limits_mm'][1]:g} mm required (AAPM MPPG 13.a); "
-            f"dose action level {s['dose_action_pct']:g} %",
+            f"position {s.position_limits_mm[0]:g} mm recommended / "
+            f"{s.position_limits_mm[1]:g} mm required (AAPM MPPG 13.a); "
+            f"dose action level {s.dose_action_pct:g} %",
         ),
         ("Software", f"{prov.software} (Python {prov.python})"),
         ("Date (UTC)", prov.created_utc),
@@ -168,21 +170,19 @@ def _settings_page(plt, res):
     s = res.settings
     sim = res.simulation
     flat = {
-        k: v
-        for k, v in _flatten(s.get("scene") or {}).items()
-        if not isinstance(v, list | tuple | dict)
+        k: v for k, v in _flatten(s.scene).items() if not isinstance(v, list | tuple | dict)
     } or {"(engine defaults)": ""}
-    for k, v in dict(s.get("scene_overrides", {})).items():
+    for k, v in s.scene_overrides.items():
         flat[f"--set {k}"] = v
     run = {
-        "simulation status": f"{sim.get('status')} {sim.get('message', '')}".strip(),
-        "simulation solve time": f"{sim.get('solve_time_s', 0.0):.2f} s",
-        "elements": sim.get("n_elements"),
-        **{f"dose point {k}": v for k, v in s.get("dose_points", {}).items()},
-        "plan step": f"{s['plan_step_mm']:g} mm",
-        "tandem dwells (no measured path)": s["tandem_dwells"],
+        "simulation status": f"{sim.status} {sim.message}".strip(),
+        "simulation solve time": f"{sim.solve_time_s:.2f} s",
+        "elements": sim.n_elements,
+        **{f"dose point {k}": v for k, v in s.dose_points.as_dict().items()},
+        "plan step": f"{s.plan_step_mm:g} mm",
+        "tandem dwells (no measured path)": s.tandem_dwells,
     }
-    for w in sim.get("warnings", []):
+    for w in sim.warnings:
         run.setdefault("engine warnings", "")
         run["engine warnings"] += f"{w}; "
     y = 0.92
@@ -210,7 +210,7 @@ def _settings_page(plt, res):
 def _reference_text(res) -> str:
     if res.reference == "measured":
         return (
-            f"MEASURED source path ({res.summary['n_dwells']} positions); simulated and "
+            f"MEASURED source path ({res.summary.n_dwells} positions); simulated and "
             "centreline dwells are compared with it"
         )
     return (
@@ -242,7 +242,7 @@ def _positions_page(plt, res):
     )
     geo = res.geometry
     ax1, ax2 = axes
-    for name, line in geo["centrelines_mm"].items():
+    for name, line in geo.centrelines_mm.items():
         u, v, h = _project(np.asarray(line), geo)
         ax1.plot(u, v, "-", color="0.75", lw=1, label=f"{name} centreline")
         ax2.plot(u, h, "-", color="0.75", lw=1)
@@ -271,7 +271,7 @@ def _positions_page(plt, res):
                     fontsize=6,
                     color="0.3",
                 )
-    r = geo["ring_radius_mm"]
+    r = geo.ring_radius_mm
     lim = r + 8
     ax1.set_xlim(-lim, lim)
     ax1.set_ylim(-lim, lim)
@@ -315,7 +315,7 @@ def _deviation_page(plt, res):
         ha="left",
     )
     d = res.dwells
-    lim_rec, lim_req = res.settings["position_limits_mm"]
+    lim_rec, lim_req = res.settings.position_limits_mm
     ax = axes[0]
     for path, sub in _compared_paths(d, ref):
         ax.plot(
@@ -383,7 +383,7 @@ def _dose_page(plt, res):
     geo = res.geometry
     ax1 = fig.add_axes((0.08, 0.60, 0.40, 0.32))
     ax2 = fig.add_axes((0.56, 0.60, 0.40, 0.32))
-    for line in geo["centrelines_mm"].values():
+    for line in geo.centrelines_mm.values():
         u, v, h = _project(np.asarray(line), geo)
         ax1.plot(u, v, "-", color="0.75", lw=1)
         ax2.plot(u, h, "-", color="0.75", lw=1)
@@ -431,16 +431,16 @@ def _dose_page(plt, res):
         ax.set_aspect("equal")
         ax.grid(alpha=0.3)
     ax1.legend(fontsize=7, loc="lower right")
-    spec = res.settings["dose_points"]
+    spec = res.settings.dose_points
     fig.text(
         0.06,
         0.555,
         textwrap.fill(
-            f"A L/R = Point A left/right: {spec['point_a_lateral_mm']:g} mm lateral of the ring "
-            f"axis, {spec['point_a_height_mm']:g} mm cranial of the ring channel plane. S L/R = "
-            f"lateral ring surface, {spec['surface_offset_mm']:g} mm outside the channel "
+            f"A L/R = Point A left/right: {spec.point_a_lateral_mm:g} mm lateral of the ring "
+            f"axis, {spec.point_a_height_mm:g} mm cranial of the ring channel plane. S L/R = "
+            f"lateral ring surface, {spec.surface_offset_mm:g} mm outside the channel "
             "centreline in the ring plane (outer surface of the Ring CT/MR mesh). 5 L/R = "
-            f"{spec['depth_mm']:g} mm deeper. Purple: the RT Plan's own points.",
+            f"{spec.depth_mm:g} mm deeper. Purple: the RT Plan's own points.",
             115,
         ),
         fontsize=8,
@@ -584,7 +584,7 @@ def _accuracy_page(plt, res, table: pd.DataFrame):
     if "pareto" in t:
         front = t[t["pareto"].astype(bool)].sort_values("time_s")
         ax.step(front["time_s"], front["max_err_mm"], where="post", c="C3", label="Pareto front")
-    lim_rec = res.settings["position_limits_mm"][0]
+    lim_rec = res.settings.position_limits_mm[0]
     ax.axhline(
         0.1 * lim_rec,
         color="0.4",
@@ -679,7 +679,7 @@ def write_batch_pdf(batch, path: Path, *, png_dir: Path | None = None) -> Path:
             for med in bp["medians"]:
                 med.set_color("black")
         lim_rec, lim_req = (
-            batch.results[0].settings["position_limits_mm"] if batch.results else (1.0, 2.0)
+            batch.results[0].settings.position_limits_mm if batch.results else (1.0, 2.0)
         )
         ax.axhline(lim_rec, color="#ef6c00", ls="--", lw=1, label=f"{lim_rec:g} mm recommended")
         ax.axhline(lim_req, color="#c62828", ls="--", lw=1, label=f"{lim_req:g} mm required")

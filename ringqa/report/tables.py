@@ -12,36 +12,19 @@ Files per applicator (issue 5):
 
 from __future__ import annotations
 
-import json
-import math
 from pathlib import Path
 
-import numpy as np
 import pandas as pd
+
+from ringqa.jsonio import to_jsonable, write_json
+from ringqa.pipeline import BatchResult, CommissioningResult
 
 SCHEMA = "ringqa.commission/1"
 FLOAT_FORMAT = "%.6g"
 
 
-def _clean(value):
-    """JSON-safe copy: numpy -> python, NaN/inf -> None, tuples -> lists."""
-    if isinstance(value, dict):
-        return {str(k): _clean(v) for k, v in value.items()}
-    if isinstance(value, list | tuple):
-        return [_clean(v) for v in value]
-    if isinstance(value, np.ndarray):
-        return _clean(value.tolist())
-    if isinstance(value, np.generic):
-        return _clean(value.item())
-    if isinstance(value, float):
-        return value if math.isfinite(value) else None
-    if isinstance(value, Path):
-        return str(value)
-    return value
-
-
-def results_dict(result) -> dict:
-    """The results.json content of one CommissioningResult (stable keys)."""
+def results_dict(result: CommissioningResult) -> dict:
+    """The results.json content of one CommissioningResult (stable keys, plain JSON data)."""
     points = (
         result.doses[result.doses["plan"] == result.reference][
             ["point", "kind", "x_mm", "y_mm", "z_mm"]
@@ -49,7 +32,7 @@ def results_dict(result) -> dict:
         if not result.doses.empty
         else []
     )
-    return _clean(
+    return to_jsonable(
         {
             "schema": SCHEMA,
             "applicator": result.applicator,
@@ -58,21 +41,21 @@ def results_dict(result) -> dict:
             "reference": result.reference,
             "passed": result.passed,
             "verdicts": [v.as_dict() for v in result.verdicts],
-            "summary": result.summary,
+            "summary": result.summary.as_row(),
             "notes": list(result.notes),
-            "settings": result.settings,
-            "simulation": result.simulation,
+            "settings": result.settings.as_dict(),
+            "simulation": result.simulation.as_dict(),
             "dose_points": points,
             "doses": result.doses.to_dict("records"),
-            "geometry": {k: v for k, v in result.geometry.items() if k != "centrelines_mm"},
-            "timings_s": result.timings_s,
+            "geometry": result.geometry.as_dict(),
+            "timings_s": result.timings.as_dict(),
             "provenance": result.provenance.as_dict(),
             "files": ["dwells.csv", "doses.csv", "plan_dwells.csv", "summary.csv", "report.pdf"],
         }
     )
 
 
-def write_tables(result, folder: Path) -> list[Path]:
+def write_tables(result: CommissioningResult, folder: Path) -> list[Path]:
     """Write dwells.csv, doses.csv, plan_dwells.csv, summary.csv and results.json into folder."""
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
@@ -81,16 +64,16 @@ def write_tables(result, folder: Path) -> list[Path]:
         ("dwells.csv", result.dwells),
         ("doses.csv", result.doses),
         ("plan_dwells.csv", result.plan_dwells),
-        ("summary.csv", pd.DataFrame([result.summary])),
+        ("summary.csv", pd.DataFrame([result.summary.as_row()])),
     ):
         df.to_csv(folder / name, index=False, float_format=FLOAT_FORMAT)
         out.append(folder / name)
-    (folder / "results.json").write_text(json.dumps(results_dict(result), indent=2))
+    write_json(folder / "results.json", results_dict(result), indent=2)
     out.append(folder / "results.json")
     return out
 
 
-def write_batch_tables(batch, folder: Path) -> list[Path]:
+def write_batch_tables(batch: BatchResult, folder: Path) -> list[Path]:
     """The cross-applicator summary.csv, all_dwells.csv and batch.json of a BatchResult."""
     folder = Path(folder)
     batch.summary.to_csv(folder / "summary.csv", index=False, float_format=FLOAT_FORMAT)
@@ -111,5 +94,5 @@ def write_batch_tables(batch, folder: Path) -> list[Path]:
         "summary": batch.summary.to_dict("records"),
         "provenance": batch.results[0].provenance.as_dict() if batch.results else None,
     }
-    (folder / "batch.json").write_text(json.dumps(_clean(info), indent=2))
+    write_json(folder / "batch.json", info, indent=2)
     return [folder / "summary.csv", folder / "batch.json"]

@@ -17,12 +17,11 @@ File contract (issue 4; other tools read these):
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
+from ringqa.jsonio import json_text, to_jsonable
 from ringqa.outdir import staged_output
 from ringqa.provenance import Provenance
 from ringqa.simulation.result import DWELL_COLUMNS
@@ -77,31 +76,12 @@ def dwell_table(result):
     )
 
 
-def _jsonable(obj: Any):
-    if isinstance(obj, dict):
-        return {str(k): _jsonable(v) for k, v in obj.items()}
-    if isinstance(obj, list | tuple):
-        return [_jsonable(v) for v in obj]
-    if isinstance(obj, np.ndarray):
-        return _jsonable(obj.tolist())
-    if isinstance(obj, np.bool_):
-        return bool(obj)
-    if isinstance(obj, np.integer):
-        return int(obj)
-    if isinstance(obj, np.floating | float):
-        v = float(obj)
-        return v if np.isfinite(v) else str(v)
-    if isinstance(obj, str | int | bool) or obj is None:
-        return obj
-    return str(obj)
-
-
 def run_record(result, scene, inputs=()) -> dict:
     """The ``run.json`` content for a result (see the module docstring for the keys)."""
     iters = np.asarray(getattr(result, "newton_iters", []), dtype=int)
     scene_dict = scene.to_dict()
     prov = Provenance.now(inputs=inputs, settings={"scene": scene.name})
-    return _jsonable(
+    return to_jsonable(
         {
             "status": int(result.status),
             "success": int(result.status) == 0,
@@ -130,7 +110,7 @@ def write_trajectory(path: Path, result, scene) -> None:
     with h5py.File(path, "w") as h5:
         h5.attrs["format_version"] = TRAJECTORY_FORMAT_VERSION
         h5.attrs["software"] = f"ringqa {__version__}"
-        h5.attrs["scene"] = json.dumps(_jsonable(scene.to_dict()))
+        h5.attrs["scene"] = json_text(scene.to_dict(), indent=None)
         h5.attrs["status"] = int(result.status)
         h5.attrs["message"] = str(result.message)
         grp = h5.create_group("dwells")
@@ -182,7 +162,7 @@ def write_outputs(out_dir, result, scene, inputs=(), trajectory: bool | None = N
     want_h5 = scene.outputs.trajectory if trajectory is None else trajectory
     with staged_output(out_dir) as stage:
         dwell_table(result).to_csv(stage / "dwells.csv", index=False, float_format="%.6f")
-        (stage / "run.json").write_text(json.dumps(record, indent=2))
+        (stage / "run.json").write_text(json_text(record, indent=2))
         if want_h5:
             write_trajectory(stage / "trajectory.h5", result, scene)
     return record

@@ -9,15 +9,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import ringqa.simulation as sim
 from ringqa.accuracy import run_study
-from ringqa.simulation.scenefile import load_scene
+from ringqa.simulation import simulate
+from ringqa.simulation.scenefile import load_scene, scene_with_overrides
 
 SCENE = Path(__file__).resolve().parents[2] / "data" / "scenes" / "ring13-push100.toml"
-pytestmark = pytest.mark.skipif(
-    getattr(sim, "simulate", None) is None,
-    reason="the engine (ringqa.simulation.simulate) is absent",
-)
 
 
 @pytest.mark.slow
@@ -44,8 +40,8 @@ def test_reference_converged_and_recommendation_reproduces():
     row = study.recommend(target)
     assert row is not None
     overrides = study.run_overrides[int(row["run"])]
-    again = sim.simulate(scene.with_overrides(overrides) if overrides else scene)
-    finest = sim.simulate(scene.with_overrides(ref.levels[-1]["overrides"]))
+    again = simulate(scene_with_overrides(scene, overrides) if overrides else scene)
+    finest = simulate(scene_with_overrides(scene, ref.levels[-1].overrides))
     err = np.max(np.linalg.norm((again.source_pos_m - finest.source_pos_m) * 1e3, axis=1))
     assert err == pytest.approx(row["max_err_mm"], abs=1e-9)
     assert err <= target

@@ -9,17 +9,12 @@ import pandas as pd
 import pytest
 
 from ringqa.cli import main
-from tests.pipeline.fakes import (
-    centreline_simulator,
-    fake_scene_factory,
-    fake_simulator,
-    make_applicator,
-    real_engine,
-)
+from ringqa.pipeline.inputs import LoadedInput
+from tests.pipeline.fakes import fake_engine, fake_simulator, make_applicator
 
 # the module (ringqa.pipeline's attribute 'commission' is the function)
 pc = importlib.import_module("ringqa.pipeline.commission")
-# where the pipeline looks up its default engine and scene factory
+# where the pipeline looks up its default engine
 ps = importlib.import_module("ringqa.pipeline.simulate")
 
 FAKES = {
@@ -40,7 +35,7 @@ def fake_world(monkeypatch):
             from ringqa.errors import RingQAError
 
             raise RingQAError(f"{name}: no such applicator")
-        return FAKES[name](), None, "folder" if name == "nopath" else "shipped", []
+        return LoadedInput(FAKES[name](), None, "folder" if name == "nopath" else "shipped", ())
 
     ok, jam = fake_simulator(), fake_simulator(jam_after=3)
 
@@ -52,13 +47,12 @@ def fake_world(monkeypatch):
     current = {"name": None, "channel": None}
 
     def loader(item):
-        app, plan, kind, files = load(item)
-        current["name"], current["channel"] = str(item), app.channel("ring")
-        return app, plan, kind, files
+        loaded = load(item)
+        current["name"], current["channel"] = str(item), loaded.applicator.channel("ring")
+        return loaded
 
-    monkeypatch.setattr(pc, "_load_input", loader)
-    monkeypatch.setattr(ps, "_default_simulator", lambda: simulator)
-    monkeypatch.setattr(ps, "_default_scene_factory", fake_scene_factory())
+    monkeypatch.setattr(pc, "load_input", loader)
+    monkeypatch.setattr(ps, "default_engine", lambda: fake_engine(simulator))
 
 
 def test_single(fake_world, tmp_path, capsys):
@@ -123,16 +117,8 @@ def test_bad_set(fake_world, tmp_path, capsys):
 EXAMPLE = "data/examples/oncentra_ring26x60/RP_ring26x60_oncentra43.dcm"
 
 
-@pytest.fixture
-def engine(monkeypatch):
-    """The real engine when it is installed, else the centreline stand-in."""
-    if real_engine() is None:
-        monkeypatch.setattr(ps, "_default_simulator", lambda: centreline_simulator())
-    return real_engine()
-
-
 @pytest.mark.slow
-def test_oncentra_example(engine, repo_root, tmp_path):
+def test_oncentra_example(repo_root, tmp_path):
     """Must-show 1: the report lists measured, simulated and centreline dwells with distances,
     Point A = 7 Gy within 0.1 %, and the RT Plan's TPS points beside the TPS doses."""
     out = tmp_path / "onc"
@@ -149,7 +135,7 @@ def test_oncentra_example(engine, repo_root, tmp_path):
 
 
 @pytest.mark.slow
-def test_all_shipped(engine, tmp_path, capsys):
+def test_all_shipped(tmp_path, capsys):
     """Must-show 2: one command, six reports and the cross-applicator summary."""
     out = tmp_path / "all"
     assert main(["commission", "--all-shipped", "--out", str(out), "--quiet"]) == 0
@@ -160,7 +146,7 @@ def test_all_shipped(engine, tmp_path, capsys):
 
 
 @pytest.mark.slow
-def test_folder_of_applicators(engine, tmp_path):
+def test_folder_of_applicators(tmp_path):
     """A folder holding two shipped rings saved as applicator JSON files is a batch of two."""
     from ringqa.io.applicator_file import load_applicator, save_applicator
 
@@ -184,8 +170,6 @@ def test_empty_folder_is_refused(tmp_path, capsys):
 def test_real_jam_is_clean(tmp_path, capsys):
     """The real engine with a 0.05 N jam threshold jams on the way into ring26x60: exit 2, one
     line naming the jam, and no output folder."""
-    if real_engine() is None:
-        pytest.skip("the simulation engine is not installed")
     out = tmp_path / "out"
     args = ["commission", "ring26x60", "--out", str(out), "--set", "solver.jam_force_n=0.05"]
     code = main([*args, "--quiet"])

@@ -1,6 +1,10 @@
 """Stand-ins for the geometry and the engine, so the pipeline is tested on its own (shared by
 tests/pipeline, tests/report and tests/cli through ``tests.pipeline.fakes``).
 
+The engine is an :class:`ringqa.pipeline.Engine`: :func:`fake_engine` (fake scenes and a fake
+simulator) for the stand-in applicators, :func:`stand_in_engine` (ringqa's real scenes with a
+stand-in simulator) for real applicators.
+
 The ring: a straight stem along +y (x = 13 mm, 40 mm long) joining, tangentially, a circle of
 radius R = 13 mm around the origin in the z = 0 plane, run counter-clockwise for 264 degrees
 (59.9 mm) to the lumen tip; s_ref = tip - 5 mm. Cranial = +z, patient's left = +x. SI units, as
@@ -9,9 +13,12 @@ the geometry API.
 
 from __future__ import annotations
 
+import dataclasses
 from types import SimpleNamespace
 
 import numpy as np
+
+from ringqa.pipeline import Engine, default_engine
 
 R = 0.013
 STEM = 0.040
@@ -103,18 +110,45 @@ def make_applicator(*, measured_offset_m=0.5e-3, n_measured=30, step=2.5e-3, tan
 
 
 def fake_scene_factory(r_o=0.45e-3):
+    """``scene_for_channel`` of the fake engine: a scene of one cable section of radius r_o."""
+
     def factory(channel, cable):
-        scene = SimpleNamespace(
+        return SimpleNamespace(
             channel=channel,
+            cable=cable,
             instrument=SimpleNamespace(sections=[SimpleNamespace(r_o_m=r_o)],
                                        afterloader="flexitron"),
             overrides={},
         )  # fmt: skip
-        scene.with_overrides = lambda d: (scene.overrides.update(d), scene)[1]
-        scene.to_dict = lambda: {"instrument": {"preset": cable}, **scene.overrides}
-        return scene
 
     return factory
+
+
+def fake_with_overrides(scene, overrides):
+    """``scene_with_overrides`` of the fake engine: records the overrides in the scene."""
+    scene.overrides.update(overrides)
+    return scene
+
+
+def fake_scene_to_dict(scene):
+    """``scene_to_dict`` of the fake engine: the preset and the overrides."""
+    return {"instrument": {"preset": scene.cable}, **scene.overrides}
+
+
+def fake_engine(simulator=None, scene_factory=None) -> Engine:
+    """The fake engine: fake scenes (:func:`fake_scene_factory`) and a fake simulator."""
+    return Engine(
+        simulate=simulator or fake_simulator(),
+        scene_for_channel=scene_factory or fake_scene_factory(),
+        scene_with_overrides=fake_with_overrides,
+        scene_to_dict=fake_scene_to_dict,
+    )
+
+
+def stand_in_engine(simulator) -> Engine:
+    """ringqa's engine with ``simulator`` instead of ``ringqa.simulation.simulate`` (real scenes
+    and applicators, no mechanics)."""
+    return dataclasses.replace(default_engine(), simulate=simulator)
 
 
 def fake_simulator(offset_m=0.3e-3, z_m=0.0, jam_after=None, along_m=0.0, exact=None, warnings=()):
@@ -167,10 +201,3 @@ def centreline_simulator(offset_m=0.0):
         )
 
     return simulate
-
-
-def real_engine():
-    """ringqa.simulation.simulate when the engine has landed, else None."""
-    import ringqa.simulation as simulation
-
-    return getattr(simulation, "simulate", None)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from types import SimpleNamespace
 
 import numpy as np
@@ -11,23 +12,24 @@ from hypothesis import strategies as st
 
 from ringqa.errors import RingQAError
 from ringqa.pipeline import (
+    CommissionSettings,
     SimulationJammedError,
     commission,
     commission_batch,
     deviation_components,
 )
+from tests.pipeline.fakes import stand_in_engine
 
 DWELL_COLUMNS = ["applicator", "dwell", "path", "x_mm", "y_mm", "z_mm", "dir_x", "dir_y", "dir_z",
                  "dist_to_measured_mm"]  # fmt: skip
 DOSE_COLUMNS = ["applicator", "point", "plan", "dose_gy", "diff_pct"]
 
 
-def _run(fakes, app=None, sim=None, **kw):
+def _run(fakes, app=None, sim=None, **settings):
     return commission(
         app if app is not None else fakes.applicator(),
-        simulator=sim or fakes.simulator(),
-        scene_factory=fakes.scene_factory(),
-        **kw,
+        CommissionSettings(**settings),
+        engine=fakes.engine(sim or fakes.simulator()),
     )
 
 
@@ -49,8 +51,8 @@ def test_known_displacements_give_known_distances(fakes):
     np.testing.assert_allclose(cl[cl.relative_position_mm < 54.9]["radial_mm"], -0.5, atol=1e-9)
     np.testing.assert_allclose(sim["along_mm"], 0.0, atol=1e-9)
     np.testing.assert_allclose(sim["out_of_plane_mm"], 0.0, atol=1e-12)
-    assert res.summary["median_dist_sim_mm"] == pytest.approx(0.2)
-    assert res.summary["max_dist_centreline_mm"] == pytest.approx(0.5)
+    assert res.summary.simulated.median_dist_mm == pytest.approx(0.2)
+    assert res.summary.centreline.max_dist_mm == pytest.approx(0.5)
     assert [v.status for v in res.verdicts[:2]] == ["PASS", "PASS"]
     assert res.reference == "measured"
 
@@ -64,7 +66,7 @@ def test_simulator_gets_the_advances_s_ref_minus_p(fakes):
     s_ref = 40 + 13 * np.deg2rad(264) - 5
     np.testing.assert_allclose(np.sort(adv), s_ref - np.arange(30)[::-1] * 2.5)
     assert np.all(np.diff(adv) > 0)
-    assert res.summary["s_ref_mm"] == pytest.approx(s_ref)
+    assert res.summary.s_ref_mm == pytest.approx(s_ref)
 
 
 def test_out_of_plane_and_along_components(fakes):
@@ -91,9 +93,9 @@ def test_components_add_up(d, phi, rho):
     ref = np.array([[rho * np.cos(phi), rho * np.sin(phi), 0.7]])
     tangent = np.array([[-np.sin(phi), np.cos(phi), 0.0]])
     c = deviation_components(ref, tangent, ref + np.array(d), np.zeros(3), [0, 0, 1])
-    total = c["along_mm"] ** 2 + c["radial_mm"] ** 2 + c["out_of_plane_mm"] ** 2
-    np.testing.assert_allclose(total, c["dist_mm"] ** 2, atol=1e-9)
-    assert c["out_of_plane_mm"][0] == pytest.approx(d[2])
+    total = c.along_mm**2 + c.radial_mm**2 + c.out_of_plane_mm**2
+    np.testing.assert_allclose(total, c.dist_mm**2, atol=1e-9)
+    assert c.out_of_plane_mm[0] == pytest.approx(d[2])
 
 
 def test_doses_and_prescription(fakes):
@@ -166,13 +168,9 @@ def test_lumen_smaller_than_cable(fakes):
         _run(fakes, app=fakes.applicator(r_b=0.4e-3))
 
 
-def test_bad_settings(fakes):
-    with pytest.raises(RingQAError, match="prescription"):
-        _run(fakes, prescription_gy=-1)
-    with pytest.raises(RingQAError, match="dose-action-pct"):
-        _run(fakes, dose_action_pct=0)
-    with pytest.raises(RingQAError, match="recommended <= required"):
-        _run(fakes, position_limits_mm=(2, 1))
+def test_settings_that_do_not_fit_the_applicator(fakes):
+    """Valid settings the stand-in ring cannot take: a plan step of 4 mm is not a multiple of
+    the measured path's 2.5 mm; the ring has no channel 'ovoid'."""
     with pytest.raises(RingQAError, match="multiple"):
         _run(fakes, plan_step_mm=4.0)
     with pytest.raises(RingQAError, match="no channel 'ovoid'"):
@@ -183,8 +181,7 @@ def test_batch_reports_a_failure_and_completes_the_rest(fakes):
     """Three applicators, the middle one with a lumen too narrow: two results, one failure row."""
     apps = [fakes.applicator(name="a"), fakes.applicator(name="b", r_b=0.3e-3),
             fakes.applicator(name="c")]  # fmt: skip
-    batch = commission_batch(apps, progress=False, simulator=fakes.simulator(),
-                             scene_factory=fakes.scene_factory())  # fmt: skip
+    batch = commission_batch(apps, progress=False, engine=fakes.engine())
     assert [r.applicator for r in batch.results] == ["a", "c"]
     assert batch.failures[0][0] == "b" and "cannot pass" in batch.failures[0][1]
     assert list(batch.summary["verdict"] == "ERROR") == [False, True, False]
@@ -202,7 +199,7 @@ def test_backward_stepping_gets_decreasing_advances(fakes):
         return scene
 
     sim = fakes.simulator()
-    res = commission(fakes.applicator(), simulator=sim, scene_factory=factory)
+    res = commission(fakes.applicator(), engine=fakes.engine(sim, factory))
     assert np.all(np.diff(sim.calls[0]) < 0)
     sim_rows = res.dwells[res.dwells.path == "simulated"]
     np.testing.assert_allclose(sim_rows["dist_to_measured_mm"], 0.2, atol=1e-9)
@@ -222,14 +219,12 @@ def test_non_convergence_is_retried_with_a_finer_increment(fakes):
     def factory(channel, cable):
         scene = base(channel, cable)
         scene.solver = SimpleNamespace(increment_m=1e-3)
-
-        def with_overrides(d):
-            new = factory(channel, cable)
-            new.solver = SimpleNamespace(increment_m=d.get("solver.increment_mm", 1.0) * 1e-3)
-            return new
-
-        scene.with_overrides = with_overrides
         return scene
+
+    def with_overrides(scene, d):
+        new = factory(scene.channel, scene.cable)
+        new.solver = SimpleNamespace(increment_m=d.get("solver.increment_mm", 1.0) * 1e-3)
+        return new
 
     tried = []
 
@@ -242,13 +237,14 @@ def test_non_convergence_is_retried_with_a_finer_increment(fakes):
             res.source_pos_m[-4:] = np.nan
         return res
 
+    engine = dataclasses.replace(fakes.engine(picky, factory), scene_with_overrides=with_overrides)
     picky.never = False
-    res = commission(fakes.applicator(), simulator=picky, scene_factory=factory)
+    res = commission(fakes.applicator(), engine=engine)
     assert tried == [1e-3, 0.5e-3]
     assert any("repeated with 0.5 mm" in n for n in res.notes)
     picky.never = True
     with pytest.raises(SimulationJammedError, match=r"failed after .* 26 of 30 dwells reached"):
-        commission(fakes.applicator(), simulator=picky, scene_factory=factory)
+        commission(fakes.applicator(), engine=engine)
 
 
 def test_real_applicator_with_a_lumen_narrower_than_the_cable():
@@ -269,4 +265,4 @@ def test_real_applicator_with_a_lumen_narrower_than_the_cable():
         raise AssertionError("must not simulate")
 
     with pytest.raises(RingQAError, match=r"lumen radius 0.30 mm .* 0.42 mm: the cable cannot"):
-        commission(app, simulator=never)
+        commission(app, engine=stand_in_engine(never))

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from ringqa.pipeline import commission, commission_batch
-from tests.pipeline.fakes import centreline_simulator
+from tests.pipeline.fakes import centreline_simulator, stand_in_engine
 
 EXAMPLE = "data/examples/oncentra_ring26x60/RP_ring26x60_oncentra43.dcm"
 TPS_GY = {"A1": 7.157785, "A2": 7.042215, "Bladder": 3.872681, "ICRU": 3.510379}
@@ -16,7 +16,7 @@ TPS_GY = {"A1": 7.157785, "A2": 7.042215, "Bladder": 3.872681, "ICRU": 3.510379}
 
 @pytest.fixture(scope="module")
 def oncentra(repo_root):
-    return commission(repo_root / EXAMPLE, simulator=centreline_simulator())
+    return commission(repo_root / EXAMPLE, engine=stand_in_engine(centreline_simulator()))
 
 
 def test_oncentra_lists_three_paths_with_distances(oncentra):
@@ -35,8 +35,8 @@ def test_oncentra_centreline_vs_measured_in_the_published_range(oncentra):
     maxima 3.5-6.3 mm over the six Ring CT/MR geometries (Straathof 2024, section 3.1); Humer
     2015 found mean deviations 3.2-4.5 mm. This plan's measured path must fall in that range."""
     s = oncentra.summary
-    assert 1.3 <= s["median_dist_centreline_mm"] <= 2.4
-    assert 3.5 <= s["max_dist_centreline_mm"] <= 6.3
+    assert 1.3 <= s.centreline.median_dist_mm <= 2.4
+    assert 3.5 <= s.centreline.max_dist_mm <= 6.3
 
 
 def test_oncentra_point_a_and_tps_points(oncentra):
@@ -52,7 +52,7 @@ def test_oncentra_point_a_and_tps_points(oncentra):
     for name, tps in TPS_GY.items():
         assert own.loc[name, "tps_dose_gy"] == pytest.approx(tps)
         assert own.loc[name, "dose_gy"] == pytest.approx(tps, rel=0.02)
-    assert oncentra.settings["source"] == "mhdr-v2"
+    assert oncentra.settings.source == "mhdr-v2"
     assert any("flexitron" in n and "microselectron" in n for n in oncentra.notes)
 
 
@@ -74,7 +74,7 @@ def test_six_shipped_rings(tmp_path):
     from ringqa.report import write_batch
 
     sim = centreline_simulator(offset_m=0.3e-3)  # the CLI test runs the real engine
-    batch = commission_batch(shipped_applicators(), progress=False, simulator=sim)
+    batch = commission_batch(shipped_applicators(), progress=False, engine=stand_in_engine(sim))
     assert batch.ok, batch.failures
     assert len(batch.results) == 6
     assert all(r.reference == "centreline" for r in batch.results)

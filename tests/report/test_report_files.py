@@ -9,7 +9,7 @@ import pytest
 
 from ringqa.pipeline import commission, commission_batch
 from ringqa.report import SCHEMA, write_batch, write_report
-from tests.pipeline.fakes import fake_scene_factory, fake_simulator, make_applicator
+from tests.pipeline.fakes import fake_engine, fake_simulator, make_applicator
 
 DWELL_COLUMNS = {"applicator", "dwell", "path", "x_mm", "y_mm", "z_mm", "dir_x", "dir_y", "dir_z",
                  "dist_to_measured_mm"}  # fmt: skip
@@ -19,10 +19,34 @@ JSON_KEYS = {"schema", "applicator", "input", "input_kind", "reference", "passed
              "timings_s", "provenance", "files"}  # fmt: skip
 
 
+#: The column order of summary.csv and the key order of results.json's typed sections, as
+#: ringqa 0.1 wrote them before the result became typed (other tools read them by position too).
+SUMMARY_COLUMNS = (
+    "applicator,reference,source,n_dwells,n_plan_dwells_ring,n_plan_dwells_tandem,s_ref_mm,"
+    "median_dist_sim_mm,max_dist_sim_mm,max_along_sim_mm,max_radial_sim_mm,"
+    "max_out_of_plane_sim_mm,max_angle_sim_deg,max_angle_sim_vs_centreline_deg,"
+    "median_dist_centreline_mm,max_dist_centreline_mm,max_along_centreline_mm,"
+    "max_radial_centreline_mm,max_out_of_plane_centreline_mm,max_angle_centreline_deg,"
+    "max_abs_diff_point_a_simulated_pct,max_abs_diff_surface_simulated_pct,"
+    "max_abs_diff_depth5_simulated_pct,max_abs_diff_point_a_centreline_pct,"
+    "max_abs_diff_surface_centreline_pct,max_abs_diff_depth5_centreline_pct,point_a_mean_gy,"
+    "simulation_status,solve_time_s,verdict"
+).split(",")
+SECTION_KEYS = {
+    "settings": ["source", "sk_U", "prescription_gy", "cable", "channel", "plan_step_mm",
+                 "tandem_dwells", "position_limits_mm", "dose_action_pct", "dose_points",
+                 "scene_overrides", "scene"],
+    "simulation": ["status", "message", "warnings", "solve_time_s", "wall_time_s", "n_elements",
+                   "settings"],
+    "geometry": ["ring_centre_mm", "ring_normal", "ring_lateral", "ring_radius_mm", "s_ref_mm",
+                 "metadata"],
+    "timings_s": ["load_s", "simulation_s", "dose_s", "total_s"],
+}  # fmt: skip
+
+
 @pytest.fixture(scope="module")
 def result():
-    return commission(make_applicator(tandem=True), simulator=fake_simulator(z_m=2e-4),
-                      scene_factory=fake_scene_factory())  # fmt: skip
+    return commission(make_applicator(tandem=True), engine=fake_engine(fake_simulator(z_m=2e-4)))
 
 
 def test_contract_files(result, tmp_path):
@@ -39,6 +63,10 @@ def test_contract_files(result, tmp_path):
     assert len(pd.read_csv(out / "summary.csv")) == 1
     data = json.loads((out / "results.json").read_text())
     assert set(data) == JSON_KEYS
+    assert (out / "summary.csv").read_text().splitlines()[0].split(",") == SUMMARY_COLUMNS
+    assert list(data["summary"]) == SUMMARY_COLUMNS
+    for section, keys in SECTION_KEYS.items():
+        assert list(data[section]) == keys, section
     assert data["schema"] == SCHEMA
     assert data["provenance"]["software"].startswith("ringqa ")
     assert {v["status"] for v in data["verdicts"]} <= {"PASS", "WARN", "FAIL", "ACTION"}
@@ -66,8 +94,7 @@ def test_failed_write_leaves_nothing(result, tmp_path, monkeypatch):
 def test_batch_folder(tmp_path):
     apps = [make_applicator(name="a"), make_applicator(name="b", r_b=0.3e-3),
             make_applicator(name="c", n_measured=0)]  # fmt: skip
-    batch = commission_batch(apps, progress=False, simulator=fake_simulator(),
-                             scene_factory=fake_scene_factory())  # fmt: skip
+    batch = commission_batch(apps, progress=False, engine=fake_engine())
     write_batch(batch, tmp_path / "all")
     out = tmp_path / "all"
     expected = {"a", "c", "summary.csv", "all_dwells.csv", "all_doses.csv", "batch.json",

@@ -1,0 +1,143 @@
+"""The settings of a commissioning run, in one checked object: :class:`CommissionSettings`.
+
+Every field has the default of the command line (``ringqa commission``); a bad value is refused
+when the object is made, with a message that names the field (or its command-line option) and
+says what to give instead.
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+from ringqa.errors import RingQAError
+from ringqa.pipeline.dwells import TANDEM_DWELLS
+from ringqa.pipeline.verdicts import DOSE_ACTION_PCT, POSITION_RECOMMENDED_MM, POSITION_REQUIRED_MM
+from ringqa.plan import PLAN_STEP_MM, PRESCRIPTION_GY, DosePointSpec
+
+
+def _is_number(x) -> bool:
+    return isinstance(x, numbers.Real) and not isinstance(x, bool) and math.isfinite(x)
+
+
+@dataclass(frozen=True)
+class CommissionSettings:
+    """How to commission: plan, tolerances, source and simulation settings (mm, Gy, %, U).
+
+    Attributes
+    ----------
+    scene_overrides : mapping of str to value
+        Dotted scene keys -> values in user units (as ``--set``), e.g.
+        ``{"solver.increment_mm": 0.5}``.
+    source : str or tg43.Source or None
+        TG-43 source; None: the RT Plan's source, else ``"flexisource"``.
+    prescription_gy : float
+        Mean Point A dose of the standard plan, Gy (7); > 0.
+    sk_U : float or None
+        Air-kerma strength, U (None: the RT Plan's, else 40820 U; doses do not depend on it).
+    cable : str
+        Instrument preset for the simulation (``"flexitron"``).
+    channel : str
+        The applicator channel to simulate (``"ring"``).
+    point_spec : DosePointSpec
+        Where the standard dose points are.
+    plan_step_mm : float
+        Dwell spacing of the standard plan, mm (5); a multiple of the measured path's step.
+    tandem_dwells : int
+        Tandem dwells in the standard plan when the tandem has no measured path (7; 0: none).
+    position_limits_mm : (float, float)
+        Recommended and required source-position tolerance, mm (1, 2).
+    dose_action_pct : float
+        Dose-difference action level, % (5); > 0.
+    require_measured : bool or None
+        Refuse an applicator without a measured source path. None: refuse for user files
+        (folder, JSON, RT Plan), accept shipped applicators and Applicator objects (compared
+        simulated vs centreline).
+
+    Raises
+    ------
+    RingQAError
+        A value out of range or of the wrong type (the message names the field and the fix).
+    """
+
+    scene_overrides: Mapping[str, Any] = field(default_factory=dict)
+    source: Any = None
+    prescription_gy: float = PRESCRIPTION_GY
+    sk_U: float | None = None
+    cable: str = "flexitron"
+    channel: str = "ring"
+    point_spec: DosePointSpec = field(default_factory=DosePointSpec)
+    plan_step_mm: float = PLAN_STEP_MM
+    tandem_dwells: int = TANDEM_DWELLS
+    position_limits_mm: tuple[float, float] = (POSITION_RECOMMENDED_MM, POSITION_REQUIRED_MM)
+    dose_action_pct: float = DOSE_ACTION_PCT
+    require_measured: bool | None = None
+
+    def __post_init__(self) -> None:
+        def keep(name: str, value) -> None:
+            object.__setattr__(self, name, value)
+
+        if not (_is_number(self.prescription_gy) and self.prescription_gy > 0):
+            raise RingQAError(f"--prescription-gy {self.prescription_gy!r}: must be a number > 0")
+        limits = self.position_limits_mm
+        try:
+            pair = tuple(limits)
+        except TypeError:
+            pair = ()
+        if not (len(pair) == 2 and all(_is_number(x) for x in pair) and 0 < pair[0] <= pair[1]):
+            raise RingQAError(
+                f"position_limits_mm {limits!r}: give (recommended, required) with "
+                "0 < recommended <= required, e.g. (1, 2)"
+            )
+        if not (_is_number(self.dose_action_pct) and self.dose_action_pct > 0):
+            raise RingQAError(f"--dose-action-pct {self.dose_action_pct!r}: must be a number > 0")
+        if not (_is_number(self.plan_step_mm) and self.plan_step_mm > 0):
+            raise RingQAError(
+                f"plan_step_mm {self.plan_step_mm!r}: must be a number of mm > 0 (the standard "
+                "plan's dwell spacing, e.g. 5)"
+            )
+        n_tandem = self.tandem_dwells
+        if not (isinstance(n_tandem, numbers.Integral) and not isinstance(n_tandem, bool)
+                and n_tandem >= 0):  # fmt: skip
+            raise RingQAError(
+                f"tandem_dwells {self.tandem_dwells!r}: must be a whole number >= 0 (0: no "
+                "tandem dwells in the standard plan)"
+            )
+        if self.sk_U is not None and not (_is_number(self.sk_U) and self.sk_U > 0):
+            raise RingQAError(
+                f"sk_U {self.sk_U!r}: must be an air-kerma strength in U > 0, or None (the RT "
+                "Plan's, else 40820 U)"
+            )
+        for name in ("cable", "channel"):
+            value = getattr(self, name)
+            if not (isinstance(value, str) and value.strip()):
+                raise RingQAError(
+                    f"{name} {value!r}: must be a name, e.g. "
+                    + ('"flexitron"' if name == "cable" else '"ring"')
+                )
+        if not isinstance(self.point_spec, DosePointSpec):
+            raise RingQAError(
+                f"point_spec {self.point_spec!r}: must be a ringqa.plan.DosePointSpec"
+            )
+        if self.require_measured not in (None, True, False):
+            raise RingQAError(
+                f"require_measured {self.require_measured!r}: must be True, False or None "
+                "(None: required for user files only)"
+            )
+        overrides = self.scene_overrides
+        if not isinstance(overrides, Mapping) or not all(isinstance(k, str) for k in overrides):
+            raise RingQAError(
+                f"scene_overrides {overrides!r}: must map dotted scene keys to values, e.g. "
+                '{"solver.increment_mm": 0.5}'
+            )
+        keep("scene_overrides", dict(overrides))
+        keep("prescription_gy", float(self.prescription_gy))
+        keep("position_limits_mm", (float(pair[0]), float(pair[1])))
+        keep("dose_action_pct", float(self.dose_action_pct))
+        keep("plan_step_mm", float(self.plan_step_mm))
+        keep("tandem_dwells", int(n_tandem))
+        if self.sk_U is not None:
+            keep("sk_U", float(self.sk_U))
