@@ -32,7 +32,7 @@ sys.path.insert(0, str(ROOT))
 
 from ringqa.accuracy import scaled_overrides  # noqa: E402
 from ringqa.simulation import simulate  # noqa: E402
-from ringqa.simulation.scenefile import load_scene  # noqa: E402
+from ringqa.simulation.scenefile import load_scene, scene_with_overrides  # noqa: E402
 
 SCENE = ROOT / "data" / "scenes" / "ring13-push100.toml"
 #: the issue-4 target: at most this solve time AND this max dwell error vs the 4x-refined run
@@ -58,7 +58,7 @@ def err_mm(a, b) -> float:
 
 def refined(scene, f: float):
     """``scene`` with every element length and the increment (or time step) times ``f``."""
-    return scene.with_overrides(scaled_overrides(scene, f, f))
+    return scene_with_overrides(scene, scaled_overrides(scene, f, f))
 
 
 def row(name, res, t, err=None, t_base=None) -> dict:
@@ -127,7 +127,7 @@ def main() -> int:
         "engine's default 20 mm approach": {"solver.approach_mm": 20.0},
     }
     for name, ov in others.items():
-        other = base.with_overrides(ov)
+        other = scene_with_overrides(base, ov)
         ro, to = timed(other, reps)
         ror, tor = timed(refined(other, 0.25), 1)
         out["quasistatic"] += [
@@ -138,8 +138,8 @@ def main() -> int:
     print("\n2. scaling with element count (increment fixed)")
     pts = []
     for f in (2.0, 1.0, 0.5, 0.25):
-        s = base.with_overrides(
-            {"discretisation.element_length_mm": {"thin": thin * f, "thick": thick * f}}
+        s = scene_with_overrides(
+            base, {"discretisation.element_length_mm": {"thin": thin * f, "thick": thick * f}}
         )
         r, tt = timed(s, reps)
         pts.append((r.n_elements, tt, r.status))
@@ -165,12 +165,12 @@ def main() -> int:
         cases = dict(list(cases.items())[:3])
     out["effects"] = []
     for name, ov in cases.items():
-        s = base.with_overrides(ov) if ov else base
+        s = scene_with_overrides(base, ov) if ov else base
         r, tt = timed(s, reps)
         out["effects"].append(row(name, r, tt, err_mm(r, res), t))
 
     print("\n4. dynamic solver (0.5 m/s, inertia, wall damping) vs 4x refined (dt, elements)")
-    dyn = base.with_overrides(
+    dyn = scene_with_overrides(base,
         {"solver.kind": "dynamic", "effects.inertia": True, "effects.wall_damping": True,
          "motion.speed_mm_s": 500.0, "solver.time_step_s": 1e-3}
     )  # fmt: skip

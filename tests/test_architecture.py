@@ -36,12 +36,7 @@ ROOT = Path(__file__).resolve().parents[1]
 LAYERS = ["foundations", "geometry", "io", "simulation", "plan", "accuracy", "pipeline", "report",
           "cli"]  # fmt: skip
 #: (source file or folder, imported name) -> why it is still allowed. Delete entries as they go.
-PRIVATE_IMPORT_EXCEPTIONS = {
-    ("ringqa/simulation/scenefile/", "*"): "the scenefile package split keeps the old module's "
-    "private helpers importable between its modules; being rebuilt with the engine",
-    ("ringqa/cli/simulate.py", "_resolve_scene_path"): "ringqa.simulation.scenefile has no "
-    "public name for it yet (the engine owner's package)",
-}
+PRIVATE_IMPORT_EXCEPTIONS: dict[tuple[str, str], str] = {}
 
 FOUNDATIONS = {"units", "errors", "paths", "provenance", "outdir", "jsonio", "__init__",
                "__main__"}  # fmt: skip
@@ -199,3 +194,87 @@ def test_packages_import_without_side_effects(package, capsys):
     importlib.import_module(package)
     assert capsys.readouterr().out == ""
     assert "matplotlib.pyplot" not in set(sys.modules) - before
+
+
+def _import_graph() -> dict[str, set[str]]:
+    """module -> the ringqa modules it imports (every import, also inside functions).
+
+    ``from pkg import name`` counts as an import of ``pkg.name`` when that is a module, else of
+    ``pkg``; importing ``a.b.c`` is an edge to ``a.b.c`` only (not to its parent packages).
+    """
+    graph: dict[str, set[str]] = {}
+    for path in _sources("ringqa"):
+        if "_data" in path.parts:
+            continue
+        me = _module_name(path).removesuffix(".__init__")
+        tree = ast.parse(path.read_text(), filename=str(path))
+        package = me if path.name == "__init__.py" else me.rsplit(".", 1)[0]
+        edges = graph.setdefault(me, set())
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Import):
+                mods = [a.name for a in node.names]
+            elif isinstance(node, ast.ImportFrom):
+                if node.level:
+                    base = package.split(".")[: len(package.split(".")) - node.level + 1]
+                    module = ".".join([*base, node.module or ""]).rstrip(".")
+                else:
+                    module = node.module or ""
+                mods = []
+                for alias in node.names:
+                    sub = ROOT.joinpath(*module.split("."), alias.name)
+                    is_module = sub.with_suffix(".py").is_file() or sub.is_dir()
+                    mods.append(f"{module}.{alias.name}" if is_module else module)
+            else:
+                continue
+            edges.update(m for m in mods if m.split(".")[0] == "ringqa" and m != me)
+    return graph
+
+
+def _cycles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """The strongly connected components with more than one module (Tarjan)."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    on: set[str] = set()
+    out: list[list[str]] = []
+
+    def visit(v: str) -> None:
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        on.add(v)
+        for w in graph.get(v, ()):
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            comp = []
+            while True:
+                w = stack.pop()
+                on.discard(w)
+                comp.append(w)
+                if w == v:
+                    break
+            if len(comp) > 1:
+                out.append(sorted(comp))
+
+    sys.setrecursionlimit(max(sys.getrecursionlimit(), 10000))
+    for v in sorted(graph):
+        if v not in index:
+            visit(v)
+    return out
+
+
+def test_no_import_circle():
+    """No two modules of ringqa import each other, directly or round a loop, not even from inside
+    a function (the scene model used to import its file format back: scene.py <-> scenefile)."""
+    cycles = _cycles(_import_graph())
+    assert not cycles, "import circles:\n" + "\n".join(" -> ".join(c) for c in cycles)
+
+
+def test_import_circle_check_catches_a_circle():
+    """The checker finds a two-module loop and a three-module loop."""
+    assert _cycles({"a": {"b"}, "b": {"a"}}) == [["a", "b"]]
+    assert _cycles({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == [["a", "b", "c"]]
+    assert _cycles({"a": {"b"}, "b": set()}) == []

@@ -38,7 +38,7 @@ def run(args: argparse.Namespace) -> int:
     from ringqa.outdir import check_writable
     from ringqa.simulation import simulate
     from ringqa.simulation.output import write_outputs
-    from ringqa.simulation.scenefile import _resolve_scene_path, load_scene, parse_set_args
+    from ringqa.simulation.scenefile import load_scene, parse_set_args, resolve_scene_path
 
     check_writable(args.out)
     overrides = parse_set_args(args.overrides)
@@ -46,7 +46,7 @@ def run(args: argparse.Namespace) -> int:
         overrides["outputs.trajectory"] = True
     scene = load_scene(args.scene, overrides)
     result = simulate(scene, progress=not args.quiet)
-    scene_path = _resolve_scene_path(args.scene)
+    scene_path = resolve_scene_path(args.scene)
     inputs = [scene_path] if scene_path.is_file() else []
     write_outputs(args.out, result, scene, inputs=inputs)
     n = len(result.advances_mm)

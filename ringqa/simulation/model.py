@@ -12,14 +12,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from ringqa.errors import SceneError, SimulationError
+from ringqa.errors import SimulationError
 from ringqa.simulation import _kernels as K
 from ringqa.simulation._cache import ensure_fresh_kernel_cache
 from ringqa.simulation.chain import build_chain, contact_samples
 from ringqa.simulation.channel import ChannelTable
 from ringqa.simulation.effects import EFFECTS, Bending, Contact, Tether
-from ringqa.simulation.effects.base import BuildContext, Samples, Step, is_cacheable, positive
-from ringqa.simulation.scene import INTEGRATORS
+from ringqa.simulation.effects.base import BuildContext, Samples, Step, is_cacheable
 from ringqa.simulation.solvers.newton import newton, newton_uncached
 from ringqa.simulation.solvers.predictor import predict
 
@@ -58,13 +57,7 @@ class Model:
         self.scene = scene
         self.warnings: list[str] = []
         solver = scene.solver
-        if solver.kind not in ("quasistatic", "dynamic"):
-            raise SceneError(f"solver.kind: {solver.kind!r} is not 'quasistatic' or 'dynamic'")
         self.dynamic = solver.kind == "dynamic"
-        if solver.integrator not in INTEGRATORS:
-            raise SceneError(
-                f"solver.integrator: {solver.integrator!r} is not one of {', '.join(INTEGRATORS)}"
-            )
         if solver.integrator == "bdf2" and not self.dynamic:
             self.warnings.append(
                 "solver.integrator = 'bdf2' applies to the dynamic solver only: ignored by the "
@@ -72,14 +65,15 @@ class Model:
             )
         self.table = ChannelTable.from_channel(scene.channel)
         inst = scene.instrument
-        self.cft = positive("instrument.centre_from_tip_m", inst.centre_from_tip_m, True)
-        self.speed = positive("motion.speed_m_s", scene.motion.speed_m_s)
-        self.increment = positive("solver.increment_m", solver.increment_m)
-        self.time_step = positive("solver.time_step_s", solver.time_step_s)
-        self.tol = positive("solver.tol", solver.tol)
-        self.max_iter = int(positive("solver.max_iter", solver.max_iter))
-        self.stab = positive("solver.stabilisation", solver.stabilisation, allow_zero=True)
-        approach = positive("solver.approach_m", solver.approach_m)
+        # the scene's values were validated where it was built (scene.py / scene_keys.py)
+        self.cft = float(inst.centre_from_tip_m)
+        self.speed = float(scene.motion.speed_m_s)
+        self.increment = float(solver.increment_m)
+        self.time_step = float(solver.time_step_s)
+        self.tol = float(solver.tol)
+        self.max_iter = int(solver.max_iter)
+        self.stab = float(solver.stabilisation)
+        approach = float(solver.approach_m)
         m = scene.motion
         self.u_start = (-self.cft) if m.start_m is None else float(m.start_m)
         u_deep = max(float(np.max(advances_m)), self.u_start)

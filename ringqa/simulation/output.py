@@ -25,6 +25,7 @@ from ringqa.jsonio import json_text, to_jsonable
 from ringqa.outdir import staged_output
 from ringqa.provenance import Provenance
 from ringqa.simulation.result import DWELL_COLUMNS
+from ringqa.simulation.scenefile import scene_to_dict
 from ringqa.units import m_to_mm
 
 TRAJECTORY_FORMAT_VERSION = "1.0"
@@ -79,7 +80,7 @@ def dwell_table(result):
 def run_record(result, scene, inputs=()) -> dict:
     """The ``run.json`` content for a result (see the module docstring for the keys)."""
     iters = np.asarray(getattr(result, "newton_iters", []), dtype=int)
-    scene_dict = scene.to_dict()
+    scene_dict = scene_to_dict(scene)
     prov = Provenance.now(inputs=inputs, settings={"scene": scene.name})
     return to_jsonable(
         {
@@ -110,7 +111,7 @@ def write_trajectory(path: Path, result, scene) -> None:
     with h5py.File(path, "w") as h5:
         h5.attrs["format_version"] = TRAJECTORY_FORMAT_VERSION
         h5.attrs["software"] = f"ringqa {__version__}"
-        h5.attrs["scene"] = json_text(scene.to_dict(), indent=None)
+        h5.attrs["scene"] = json_text(scene_to_dict(scene), indent=None)
         h5.attrs["status"] = int(result.status)
         h5.attrs["message"] = str(result.message)
         grp = h5.create_group("dwells")

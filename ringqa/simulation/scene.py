@@ -1,23 +1,53 @@
 """What a simulation is asked to do: the scene (channel, instrument, effects, motion, solver).
 
-These frozen dataclasses are the engine's whole input, in SI units. They are built from a TOML
-scene file by :mod:`ringqa.simulation.scenefile` (which validates keys and converts mm/deg/s to SI),
-or programmatically (``Scene.for_channel``). The engine assembles exactly the effects switched on
-here and nothing else.
+These frozen dataclasses are the engine's whole input, in SI units. They validate themselves in
+``__post_init__`` against the scene keys (:mod:`ringqa.simulation.scene_keys`: defaults, ranges
+and the names errors use are described there once), so a scene built in Python is checked
+exactly like one read from a TOML file by :mod:`ringqa.simulation.scenefile` (which converts
+mm/deg/s to SI). They know nothing of the file format. The engine assembles exactly the effects
+switched on here and nothing else.
 """
 
 from __future__ import annotations
 
+import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any
+
+from ringqa.errors import SceneError
+from ringqa.simulation.scene_keys import (
+    FRICTION_LAWS,
+    INTEGRATORS,
+    MOTION_KINDS,
+    SOLVER_KINDS,
+    check_fields,
+    default_si,
+)
 
 if TYPE_CHECKING:  # pragma: no cover
     from ringqa.geometry import Channel
 
-FRICTION_LAWS = ("none", "coulomb", "stribeck")
-SOLVER_KINDS = ("quasistatic", "dynamic")
-INTEGRATORS = ("backward_euler", "bdf2")
-MOTION_KINDS = ("constant", "stepwise", "retract")
+__all__ = [
+    "FRICTION_LAWS",
+    "INTEGRATORS",
+    "MOTION_KINDS",
+    "SOLVER_KINDS",
+    "CableSection",
+    "ChannelSpec",
+    "ContactParams",
+    "Effects",
+    "Instrument",
+    "Motion",
+    "Outputs",
+    "Scene",
+    "SolverSettings",
+]
+
+
+def _d(section: str, name: str):
+    """A field's default, from its scene key (in SI)."""
+    return field(default=default_si(section, name))
 
 
 @dataclass(frozen=True)
@@ -54,6 +84,16 @@ class CableSection:
     element_length_m: float
     rigid: bool = False
 
+    def __post_init__(self) -> None:
+        if not isinstance(self.name, str) or not self.name:
+            raise SceneError(f"instrument section name: expected a non-empty string, got "
+                             f"{self.name!r}")  # fmt: skip
+        try:
+            check_fields("section", self)
+        except SceneError as exc:
+            raise SceneError(f"instrument section {self.name!r}: "
+                             f"{str(exc).replace('section.', '')}") from None  # fmt: skip
+
 
 @dataclass(frozen=True)
 class Instrument:
@@ -76,6 +116,13 @@ class Instrument:
     centre_from_tip_m: float
     afterloader: str = ""
 
+    def __post_init__(self) -> None:
+        secs = tuple(self.sections)
+        if not secs or not all(isinstance(s, CableSection) for s in secs):
+            raise SceneError("instrument.sections: give at least one CableSection, tip first")
+        object.__setattr__(self, "sections", secs)
+        check_fields("instrument", self)
+
     @property
     def length_m(self) -> float:
         """Total modelled length (m)."""
@@ -89,12 +136,27 @@ class Effects:
     ``gravity_m_s2`` is the gravity vector (m/s^2) in the channel's frame, or None for off.
     """
 
-    torsion: bool = False
-    contact: bool = True
-    friction: str = "stribeck"  # one of FRICTION_LAWS
-    wall_damping: bool = False
-    inertia: bool = False
+    torsion: bool = _d("effects", "torsion")
+    contact: bool = _d("effects", "contact")
+    friction: str = _d("effects", "friction")  # one of FRICTION_LAWS
+    wall_damping: bool = _d("effects", "wall_damping")
+    inertia: bool = _d("effects", "inertia")
     gravity_m_s2: tuple[float, float, float] | None = None
+
+    def __post_init__(self) -> None:
+        check_fields("effects", self)
+        g = self.gravity_m_s2
+        if g is not None:
+            try:
+                vec = tuple(float(x) for x in g)
+            except (TypeError, ValueError):
+                vec = ()
+            if len(vec) != 3 or not all(math.isfinite(x) for x in vec):
+                raise SceneError(
+                    f"effects.gravity_m_s2: expected three finite numbers (m/s^2), got {g!r} "
+                    "(e.g. [0, -9.81, 0])"
+                )
+            object.__setattr__(self, "gravity_m_s2", vec)
 
 
 @dataclass(frozen=True)
@@ -108,7 +170,7 @@ class ContactParams:
     damping_ns_m : float
         Wall damping c_w (N s/m), used only when ``Effects.wall_damping``.
     mu_s, mu_k : float
-        Static (Stribeck peak) and kinetic friction coefficients.
+        Static (Stribeck peak) and kinetic friction coefficients (``mu_k <= mu_s``).
     v_brk_m_s : float
         Breakaway velocity (m/s).
     transition_m : float or None
@@ -130,16 +192,24 @@ class ContactParams:
         convergence studies; tight bends then sink deeper into the wall with the paper's k).
     """
 
-    stiffness_n_m: float = 1.0e5
-    damping_ns_m: float = 10.0
-    mu_s: float = 0.25
-    mu_k: float = 0.20
-    v_brk_m_s: float = 1.0e-3
+    stiffness_n_m: float = _d("contact", "stiffness_n_m")
+    damping_ns_m: float = _d("contact", "damping_ns_m")
+    mu_s: float = _d("contact", "mu_s")
+    mu_k: float = _d("contact", "mu_k")
+    v_brk_m_s: float = _d("contact", "v_brk_m_s")
     transition_m: float | None = None
-    transition_max_fraction: float = 0.2
+    transition_max_fraction: float = _d("contact", "transition_max_fraction")
     friction_v_reg_m_s: float | None = None
-    friction_slip_min_m: float = 1.0e-7
-    stiffness_per_length: bool = False
+    friction_slip_min_m: float = _d("contact", "friction_slip_min_m")
+    stiffness_per_length: bool = _d("contact", "stiffness_per_length")
+
+    def __post_init__(self) -> None:
+        check_fields("contact", self)
+        if self.mu_k > self.mu_s:
+            raise SceneError(
+                f"contact.mu_k: {self.mu_k:g} exceeds mu_s = {self.mu_s:g} (the kinetic "
+                "coefficient must not exceed the static (Stribeck peak) one)"
+            )
 
 
 @dataclass(frozen=True)
@@ -164,12 +234,21 @@ class Motion:
         Stepwise motion from the most distal advance backwards (backward-stepping afterloaders).
     """
 
-    kind: str = "constant"
+    kind: str = _d("motion", "kind")
     advances_m: tuple[float, ...] = ()
     speed_m_s: float = 0.5
     start_m: float | None = None
-    dwell_s: float = 0.0
-    backward: bool = False
+    dwell_s: float = _d("motion", "dwell_s")
+    backward: bool = _d("motion", "backward")
+
+    def __post_init__(self) -> None:
+        check_fields("motion", self)
+        adv = tuple(float(a) for a in self.advances_m)
+        if not all(math.isfinite(a) for a in adv):
+            raise SceneError("motion.advances_mm: every advance must be a finite number (mm)")
+        object.__setattr__(self, "advances_m", adv)
+        if self.start_m is not None and not math.isfinite(float(self.start_m)):
+            raise SceneError("motion.start_mm: must be a finite number (mm)")
 
 
 @dataclass(frozen=True)
@@ -189,8 +268,8 @@ class SolverSettings:
     max_iter : int
         Newton iterations per step before the step is cut.
     stabilisation : float
-        Small artificial viscosity (N s/m per node, or documented unit) that carries the
-        quasi-static solver through snap-through; 0 switches it off.
+        Small artificial viscosity (N s/m per node) that carries the quasi-static solver through
+        snap-through on every step; 0: only as the fallback of a step that fails.
     jam_force_n : float
         Push force above which the run is reported as jammed (N).
     jam_length_m : float
@@ -207,29 +286,50 @@ class SolverSettings:
         Time integrator of the dynamic solver: ``"backward_euler"`` (first order in the time
         step) or ``"bdf2"`` (second order: the two-step backward differentiation formula, a
         backward-Euler step for the first step and whenever the time step grows by more than
-        ``BDF2_MAX_RATIO``; see :func:`ringqa.simulation.solvers.driver.bdf2_history`).
+        ``BDF2_MAX_RATIO``; see :mod:`ringqa.simulation.solvers.integrators`).
         Quasi-static runs ignore it (their load steps have no time derivative to integrate).
     """
 
-    kind: str = "quasistatic"
-    increment_m: float = 1.0e-3
-    time_step_s: float = 1.0e-3
-    tol: float = 1.0e-8
-    max_iter: int = 50
-    stabilisation: float = 0.0
-    jam_force_n: float = 50.0
-    jam_length_m: float = 0.02
-    axial_stiffness_n: float = 1.0e6
-    approach_m: float = 0.02
-    contact_bow_fraction: float = 0.1
-    integrator: str = "backward_euler"
+    kind: str = _d("solver", "kind")
+    increment_m: float = _d("solver", "increment_m")
+    time_step_s: float = _d("solver", "time_step_s")
+    tol: float = _d("solver", "tol")
+    max_iter: int = _d("solver", "max_iter")
+    stabilisation: float = _d("solver", "stabilisation")
+    jam_force_n: float = _d("solver", "jam_force_n")
+    jam_length_m: float = _d("solver", "jam_length_m")
+    axial_stiffness_n: float = _d("solver", "axial_stiffness_n")
+    approach_m: float = _d("solver", "approach_m")
+    contact_bow_fraction: float = _d("solver", "contact_bow_fraction")
+    integrator: str = _d("solver", "integrator")
+
+    def __post_init__(self) -> None:
+        check_fields("solver", self)
+        if int(self.max_iter) != self.max_iter:
+            raise SceneError(f"solver.max_iter: must be an integer, got {self.max_iter!r}")
+        object.__setattr__(self, "max_iter", int(self.max_iter))
 
 
 @dataclass(frozen=True)
 class Outputs:
     """What to keep besides the dwell table."""
 
-    trajectory: bool = False
+    trajectory: bool = _d("outputs", "trajectory")
+
+    def __post_init__(self) -> None:
+        check_fields("outputs", self)
+
+
+@dataclass(frozen=True, eq=False)
+class ChannelSpec:
+    """How a scene file described its channel (user units), tied to the channel it built.
+
+    A :class:`Scene` keeps it only while its ``channel`` is that very channel: replace the
+    channel and the description is dropped (the writer then writes the channel inline).
+    """
+
+    spec: Mapping[str, Any]
+    channel: Any
 
 
 @dataclass(frozen=True)
@@ -248,8 +348,11 @@ class Scene:
     motion : Motion
     solver : SolverSettings
     outputs : Outputs
-    source : dict
-        The user-level (mm/deg/s) settings the scene came from, for provenance and round trips.
+    description : str
+        Free text.
+    channel_spec : ChannelSpec or None
+        How a scene file described the channel (an applicator name, an analytic shape); None for
+        a channel given as an object, or once the channel is replaced.
     """
 
     name: str
@@ -260,28 +363,24 @@ class Scene:
     motion: Motion = field(default_factory=Motion)
     solver: SolverSettings = field(default_factory=SolverSettings)
     outputs: Outputs = field(default_factory=Outputs)
-    source: dict[str, Any] = field(default_factory=dict)
+    description: str = ""
+    channel_spec: ChannelSpec | None = None
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.name, str):
+            raise SceneError(f"name: expected a string, got {self.name!r}")
+        for attr, cls in (("instrument", Instrument), ("effects", Effects),
+                          ("contact", ContactParams), ("motion", Motion),
+                          ("solver", SolverSettings), ("outputs", Outputs)):  # fmt: skip
+            if not isinstance(getattr(self, attr), cls):
+                raise SceneError(f"scene.{attr}: expected a {cls.__name__}")
+        if getattr(self.channel, "centreline", None) is None or not hasattr(self.channel, "lumen"):
+            raise SceneError(
+                "scene.channel: needs a centreline and a lumen (use ringqa.geometry.Channel)"
+            )
+        if self.channel_spec is not None and self.channel_spec.channel is not self.channel:
+            object.__setattr__(self, "channel_spec", None)
 
     def replace(self, **changes) -> Scene:
-        """A copy with some fields replaced (dataclasses.replace)."""
+        """A copy with some fields replaced (dataclasses.replace; validated again)."""
         return replace(self, **changes)
-
-    def to_dict(self) -> dict[str, Any]:
-        """The scene in user units (mm/deg/s), TOML-able; :func:`load_scene` reads it back."""
-        from ringqa.simulation.scenefile import scene_to_dict
-
-        return scene_to_dict(self)
-
-    def with_overrides(self, overrides: dict[str, Any]) -> Scene:
-        """A copy with dotted user-unit keys changed, e.g. ``{"solver.increment_mm": 0.5}``."""
-        from ringqa.simulation.scenefile import scene_with_overrides
-
-        return scene_with_overrides(self, overrides)
-
-    @classmethod
-    def for_channel(cls, channel: Channel, cable: str = "flexitron", **settings) -> Scene:
-        """A scene for a channel with a preset cable; settings as section tables in user units
-        (``solver={"increment_mm": 0.5}``) or ``solver__increment_mm=0.5``."""
-        from ringqa.simulation.scenefile import scene_for_channel
-
-        return scene_for_channel(channel, cable, **settings)

@@ -11,7 +11,7 @@ import pytest
 from ringqa.accuracy import scaled_overrides
 from ringqa.simulation import simulate
 from ringqa.simulation.output import dwell_table
-from ringqa.simulation.scenefile import load_scene
+from ringqa.simulation.scenefile import load_scene, scene_with_overrides
 
 #: the issue-4 contract, written out here so that a change to the code's list cannot pass
 CONTRACT_COLUMNS = ("advance_mm", "x_mm", "y_mm", "z_mm", "dir_x", "dir_y", "dir_z", "push_force_n",
@@ -54,7 +54,7 @@ def test_ring26_with_a_circular_lumen_runs():
 
 def _refined(scene, f: float):
     """``scene`` with every element length and the increment times ``f``."""
-    return scene.with_overrides(scaled_overrides(scene, f, f))
+    return scene_with_overrides(scene, scaled_overrides(scene, f, f))
 
 
 def _max_median_mm(a, b) -> tuple[float, float]:

@@ -15,7 +15,7 @@ import numpy as np
 from numba import njit
 
 from ringqa.simulation.band import add_block
-from ringqa.simulation.effects.base import BuildContext, Effect, positive, register_kernels
+from ringqa.simulation.effects.base import BuildContext, Effect, register_kernels
 
 
 class AxialArgs(NamedTuple):
@@ -84,7 +84,7 @@ class Inextensibility(Effect):
     @classmethod
     def build(cls, ctx: BuildContext) -> Inextensibility:
         """Always on; reads ``solver.axial_stiffness_n``."""
-        ea = positive("solver.axial_stiffness_n", ctx.scene.solver.axial_stiffness_n)
+        ea = float(ctx.scene.solver.axial_stiffness_n)
         return cls(np.ascontiguousarray(ctx.chain.link_len, dtype=np.float64), ea)
 
     def args(self) -> AxialArgs:

@@ -39,8 +39,6 @@ from typing import Any, ClassVar, NamedTuple
 import numpy as np
 from numba.extending import overload
 
-from ringqa.errors import SceneError
-
 
 class Step(NamedTuple):
     """What a kernel knows about the step it is solving (layout and history), SI.
@@ -295,19 +293,3 @@ def is_cacheable(effects: tuple) -> bool:
     """True when every args type in ``effects`` is defined in the ringqa package (so numba's
     disk cache can hold the specialisation: the module docstring says why)."""
     return all(type(a).__module__.startswith("ringqa.") for a in effects)
-
-
-# ------------------------------------------------------------------------------------------
-# validation helper shared by the units
-
-
-def positive(key: str, value, allow_zero: bool = False) -> float:
-    """``value`` as a finite float > 0 (>= 0 with ``allow_zero``); SceneError names ``key``."""
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise SceneError(f"{key}: expected a number, got {value!r}") from None
-    ok = np.isfinite(v) and (v >= 0 if allow_zero else v > 0)
-    if not ok:
-        raise SceneError(f"{key}: must be {'>= 0' if allow_zero else '> 0'}, got {value!r}")
-    return v

@@ -21,11 +21,10 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from ringqa.errors import SceneError
 from ringqa.simulation._kernels import closest_point, normal_at, normal_rate
 from ringqa.simulation.band import add_block
 from ringqa.simulation.channel import ChannelArgs
-from ringqa.simulation.effects.base import BuildContext, Effect, positive, register_kernels
+from ringqa.simulation.effects.base import BuildContext, Effect, register_kernels
 
 
 class ContactArgs(NamedTuple):
@@ -291,11 +290,9 @@ class Contact(Effect):
         if not ctx.scene.effects.contact:
             return None
         c = ctx.scene.contact
-        k = positive("contact.stiffness_n_m", c.stiffness_n_m)
-        tr = -1.0 if c.transition_m is None else positive("contact.transition_m", c.transition_m)
-        frac = positive("contact.transition_max_fraction", c.transition_max_fraction)
-        if frac >= 1.0:
-            raise SceneError("contact.transition_max_fraction: must be < 1 (e.g. 0.2)")
+        k = float(c.stiffness_n_m)
+        tr = -1.0 if c.transition_m is None else float(c.transition_m)
+        frac = float(c.transition_max_fraction)
         tb = ctx.table
         w_lumen = float(np.max(tb.seg_rb - tb.seg_ra))
         w = w_lumen if tr <= 0 else tr

@@ -8,7 +8,6 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from ringqa.errors import SceneError
 from ringqa.simulation.effects.base import BuildContext, Effect, register_kernels
 
 
@@ -56,10 +55,6 @@ class Gravity(Effect):
         if g is None:
             return None
         arr = np.asarray(g, dtype=float)
-        if arr.shape != (3,) or not np.all(np.isfinite(arr)):
-            raise SceneError(
-                "effects.gravity: expected three finite numbers (m/s^2), e.g. [0, -9.81, 0]"
-            )
         return cls(np.ascontiguousarray(ctx.chain.node_mass, dtype=np.float64), arr)
 
     def args(self) -> GravityArgs:

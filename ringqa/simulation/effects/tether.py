@@ -17,7 +17,7 @@ from typing import NamedTuple
 from numba import njit
 
 from ringqa.simulation.band import badd
-from ringqa.simulation.effects.base import BuildContext, Effect, positive, register_kernels
+from ringqa.simulation.effects.base import BuildContext, Effect, register_kernels
 
 
 class TetherArgs(NamedTuple):
@@ -63,8 +63,7 @@ class Tether(Effect):
     def build(cls, ctx: BuildContext) -> Tether:
         """Carried by every model (the initial equilibrium may need it, the quasi-static fallback
         may switch it on); ``solver.stabilisation`` applies to quasi-static runs only."""
-        stab = positive("solver.stabilisation", ctx.scene.solver.stabilisation, allow_zero=True)
-        return cls(0.0 if ctx.dynamic else stab)
+        return cls(0.0 if ctx.dynamic else float(ctx.scene.solver.stabilisation))
 
     def args(self) -> TetherArgs:
         return TetherArgs(self.coef)

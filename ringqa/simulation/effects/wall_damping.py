@@ -13,7 +13,7 @@ from typing import NamedTuple
 
 from numba import njit
 
-from ringqa.simulation.effects.base import BuildContext, Effect, positive, register_kernels
+from ringqa.simulation.effects.base import BuildContext, Effect, register_kernels
 
 
 class WallDampingArgs(NamedTuple):
@@ -88,7 +88,7 @@ class WallDamping(Effect):
         eff = ctx.scene.effects
         if not (eff.contact and eff.wall_damping):
             return None
-        return cls(positive("contact.damping_ns_m", ctx.scene.contact.damping_ns_m, True))
+        return cls(float(ctx.scene.contact.damping_ns_m))
 
     def args(self) -> WallDampingArgs:
         return WallDampingArgs(self.c_w, True)

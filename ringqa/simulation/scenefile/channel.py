@@ -15,14 +15,14 @@ from typing import Any
 import numpy as np
 
 from ringqa.errors import RingQAError, SceneError
-from ringqa.simulation.scenefile.check import _Checker
+from ringqa.simulation.scenefile.check import Checker
 from ringqa.units import deg_to_rad, m_to_mm, mm_to_m
 
 ANALYTIC_TIP_GAP_MM = 5.0  # analytic channels: s_ref = length - 5 mm (as the 1st ring marker)
-_POINT_SPACING_MM = 0.25  # sampling of analytic centrelines handed to Centreline.from_points
+POINT_SPACING_MM = 0.25  # sampling of analytic centrelines handed to Centreline.from_points
 
 
-def _arc(start, tangent, normal, radius, angle, n):
+def arc_points(start, tangent, normal, radius, angle, n):
     """Points of a planar arc from ``start`` with unit ``tangent``, bending towards ``normal``."""
     phi = np.linspace(0.0, angle, n)
     centre = start + radius * normal
@@ -32,12 +32,12 @@ def _arc(start, tangent, normal, radius, angle, n):
     return pts, end_t, end_n
 
 
-def _line(start, tangent, length, n):
+def line_points(start, tangent, length, n):
     return start + np.outer(np.linspace(0.0, length, n), tangent)
 
 
-def _count(length_mm: float) -> int:
-    return max(3, math.ceil(length_mm / _POINT_SPACING_MM) + 1)
+def point_count(length_mm: float) -> int:
+    return max(3, math.ceil(length_mm / POINT_SPACING_MM) + 1)
 
 
 def analytic_centreline_mm(spec: Mapping[str, Any]) -> np.ndarray:
@@ -58,38 +58,38 @@ def analytic_centreline_mm(spec: Mapping[str, Any]) -> np.ndarray:
     x, y = np.array([1.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0])
     o = np.zeros(3)
     if kind == "straight":
-        return _line(o, x, spec["length_mm"], _count(spec["length_mm"]))
+        return line_points(o, x, spec["length_mm"], point_count(spec["length_mm"]))
     r = spec["radius_mm"]
     straight = spec.get("straight_mm", 0.0)
-    parts = [_line(o, x, straight, _count(straight))] if straight > 0 else [o[None, :]]
+    parts = [line_points(o, x, straight, point_count(straight))] if straight > 0 else [o[None, :]]
     start = parts[-1][-1]
     if kind == "arc":
         ang = deg_to_rad(spec.get("angle_deg") or 180.0)
-        pts, t, _ = _arc(start, x, y, r, ang, _count(r * ang))
+        pts, t, _ = arc_points(start, x, y, r, ang, point_count(r * ang))
         parts.append(pts[1:])
         exit_mm = spec.get("exit_mm", 0.0)
         if exit_mm > 0:
-            parts.append(_line(pts[-1], t, exit_mm, _count(exit_mm))[1:])
+            parts.append(line_points(pts[-1], t, exit_mm, point_count(exit_mm))[1:])
     elif kind == "s-curve":
         ang = deg_to_rad(spec.get("angle_deg") or 90.0)
-        pts, t, nrm = _arc(start, x, y, r, ang, _count(r * ang))
+        pts, t, nrm = arc_points(start, x, y, r, ang, point_count(r * ang))
         parts.append(pts[1:])
-        pts2, t2, _ = _arc(pts[-1], t, -nrm, r, ang, _count(r * ang))
+        pts2, t2, _ = arc_points(pts[-1], t, -nrm, r, ang, point_count(r * ang))
         parts.append(pts2[1:])
         exit_mm = spec.get("exit_mm", 0.0)
         if exit_mm > 0:
-            parts.append(_line(pts2[-1], t2, exit_mm, _count(exit_mm))[1:])
+            parts.append(line_points(pts2[-1], t2, exit_mm, point_count(exit_mm))[1:])
     elif kind == "helix":
         ang = deg_to_rad(spec.get("angle_deg") or 360.0)
         pitch = spec.get("pitch_mm", 0.0)
         c = pitch / (2.0 * math.pi)
         # helix tangent at phi = 0 is (r, 0, c)/sqrt(r^2+c^2): tilt the approach to match it
-        n = _count(math.hypot(r, c) * ang)
+        n = point_count(math.hypot(r, c) * ang)
         phi = np.linspace(0.0, ang, n)
         helix = np.column_stack([r * np.sin(phi), r * (1.0 - np.cos(phi)), c * phi])
         t0 = np.array([r, 0.0, c]) / math.hypot(r, c)
         if straight > 0:
-            approach = _line(o, t0, straight, _count(straight))
+            approach = line_points(o, t0, straight, point_count(straight))
             parts = [approach, approach[-1] + helix[1:]]
         else:
             parts = [helix]
@@ -98,16 +98,16 @@ def analytic_centreline_mm(spec: Mapping[str, Any]) -> np.ndarray:
     return np.vstack(parts)
 
 
-def _lumen(ck: _Checker, sec: dict, required: bool):
+def read_lumen(ck: Checker, sec: dict, required: bool):
     try:
-        return _lumen_inner(ck, sec, required)
+        return _lumen_from_table(ck, sec, required)
     except SceneError:
         raise
     except RingQAError as exc:
         raise ck.fail("channel.lumen", str(exc), "check r_b_mm, r_a_mm, flat_mm") from None
 
 
-def _lumen_inner(ck: _Checker, sec: dict, required: bool):
+def _lumen_from_table(ck: Checker, sec: dict, required: bool):
     from ringqa.geometry import Lumen
 
     kind = ck.value("channel", "lumen", sec=sec)
@@ -173,7 +173,7 @@ def _lumen_inner(ck: _Checker, sec: dict, required: bool):
     return Lumen.circular(mm_to_m(r_b), mm_to_m(r_a))
 
 
-def build_channel(ck: _Checker):
+def build_channel(ck: Checker):
     """The :class:`ringqa.geometry.Channel` a scene's ``[channel]`` table describes."""
     sec = ck.section("channel")
     if not sec:
@@ -192,7 +192,7 @@ def build_channel(ck: _Checker):
             "give applicator = 'ring26x60' (or a file) or an analytic kind = 'arc'",
         )
     if kind == "applicator":
-        return _applicator_channel(ck, sec)
+        return applicator_channel(ck, sec)
     from ringqa.geometry import Centreline, Channel
 
     if kind == "points":
@@ -212,7 +212,7 @@ def build_channel(ck: _Checker):
         raise ck.fail(
             "channel", f"cannot build the centreline: {exc}", "check its parameters"
         ) from None
-    lumen = _lumen(ck, sec, required=True)
+    lumen = read_lumen(ck, sec, required=True)
     length_mm = m_to_mm(cl.length_m)
     s_ref_mm = sec.get("s_ref_mm", max(length_mm - ANALYTIC_TIP_GAP_MM, 0.5 * length_mm))
     if not 0 <= s_ref_mm <= length_mm:
@@ -236,7 +236,7 @@ def build_channel(ck: _Checker):
     )
 
 
-def _applicator_channel(ck: _Checker, sec: dict):
+def applicator_channel(ck: Checker, sec: dict):
     from ringqa.io.applicator_file import load_applicator
 
     name = sec.get("applicator")
@@ -265,7 +265,7 @@ def _applicator_channel(ck: _Checker, sec: dict):
         raise ck.fail(
             "channel.channel", f"{name!r} has no channel {chan_name!r}", f"choose one of {names}"
         ) from None
-    lumen = _lumen(ck, sec, required=False)
+    lumen = read_lumen(ck, sec, required=False)
     if lumen is not None:
         channel = replace(channel, lumen=lumen)
     if "s_ref_mm" in sec:

@@ -1,28 +1,34 @@
 """The entry points: a validated SI :class:`Scene` from a file, a dict, a scene or a channel.
 
-:func:`load_scene` reads the file and applies overrides (:mod:`.read`); ``_scene_from_data``
+:func:`load_scene` reads the file and applies overrides (:mod:`.read`); :func:`scene_from_data`
 checks every key (:mod:`.check`), builds the channel (:mod:`.channel`) and the other sections
-(:mod:`.sections`), and keeps the settings written back in user units (:mod:`.write`) as
-``scene.source``. :func:`scene_with_overrides` and :func:`scene_for_channel` go the same way.
+(:mod:`.sections`) and ties the ``[channel]`` table to the channel it built
+(``scene.channel_spec``, so :func:`~.write.scene_to_dict` can write it back as given).
+:func:`scene_with_overrides` and :func:`scene_for_channel` go the same way.
 """
 
 from __future__ import annotations
 
 import copy
 from collections.abc import Mapping
-from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from ringqa.errors import SceneError
 from ringqa.simulation.instruments import CABLE_PRESETS
-from ringqa.simulation.scene import Outputs, Scene
+from ringqa.simulation.scene import ChannelSpec, Scene
+from ringqa.simulation.scene_keys import SECTIONS, section_keys
 from ringqa.simulation.scenefile.channel import build_channel
-from ringqa.simulation.scenefile.check import SCHEMA, _Checker
-from ringqa.simulation.scenefile.read import _resolve_scene_path, apply_overrides, read_scene_dict
-from ringqa.simulation.scenefile.sections import _contact, _effects, _instrument, _motion, _solver
+from ringqa.simulation.scenefile.check import Checker
+from ringqa.simulation.scenefile.read import apply_overrides, read_scene_dict, resolve_scene_path
+from ringqa.simulation.scenefile.sections import (
+    read_contact,
+    read_effects,
+    read_instrument,
+    read_motion,
+    read_outputs,
+    read_solver,
+)
 from ringqa.simulation.scenefile.write import scene_to_dict
 
 
@@ -46,8 +52,6 @@ def load_scene(
     Returns
     -------
     Scene
-        With ``scene.source`` = the validated user-level dict (defaults filled in), which
-        :func:`scene_to_dict` writes back.
 
     Raises
     ------
@@ -57,50 +61,58 @@ def load_scene(
     if isinstance(path_or_dict, Mapping):
         data, origin, stem = dict(path_or_dict), "", None
     else:
-        path = _resolve_scene_path(path_or_dict)
+        path = resolve_scene_path(path_or_dict)
         data, origin, stem = read_scene_dict(path), f"{path}: ", path.stem
     data = apply_overrides(data, overrides, origin)
-    return _scene_from_data(data, origin, name or None, stem)
+    return scene_from_data(data, origin, name or None, stem)
 
 
-def _scene_from_data(data: dict, origin: str, name: str | None, stem: str | None, channel=None):
-    ck = _Checker(data, origin)
-    unknown = sorted(set(data) - set(SCHEMA) - set(SCHEMA[""]))
+def scene_from_data(
+    data: dict, origin: str = "", name: str | None = None, stem: str | None = None, channel=None
+) -> Scene:
+    """A :class:`Scene` from a user-unit dict (``origin`` prefixes errors; ``channel``: use this
+    channel object instead of building one from ``data["channel"]``)."""
+    ck = Checker(data, origin)
+    known_top = [k.name for k in section_keys("")]
+    unknown = sorted(set(data) - set(known_top) - {s for s in SECTIONS if s})
     if unknown:
         raise ck.fail(
             unknown[0],
             "unknown top-level key or table",
-            f"allowed: {', '.join([*SCHEMA[''], *[s for s in SCHEMA if s]])}",
+            f"allowed: {', '.join([*known_top, *[s for s in SECTIONS if s]])}",
         )
-    for sec_name, keys in SCHEMA.items():  # every key's name, type and range before any work
-        sec = ck.section(sec_name) if sec_name else data
-        for key in keys:
-            if key in sec:
-                ck.value(sec_name, key, sec=sec if sec_name else None)
+    for section in SECTIONS:  # every key's name, type and range before any work
+        sec = ck.section(section) if section else data
+        for k in section_keys(section):
+            if k.name in sec:
+                ck.value(section, k.name, sec=sec if section else None)
     scene_name = name or ck.value("", "name") or stem or "scene"
     preset = ck.value("instrument", "preset")
     if channel is None:
         channel = build_channel(ck)
-    motion, _ = _motion(ck, channel, preset)
-    instrument = _instrument(ck, float(np.max(motion.advances_m)), preset)
-    channel_spec = copy.deepcopy(data.get("channel", {}))
-    app = channel_spec.get("applicator")
+    spec = copy.deepcopy(data.get("channel", {}))
+    app = spec.get("applicator")
     if app is not None and origin and ("/" in str(app) or str(app).endswith(".json")):
         cand = Path(origin.rstrip(": ")).parent / str(app)
         if cand.exists():  # keep the scene usable from another folder
-            channel_spec["applicator"] = str(cand.resolve())
-    scene = Scene(
-        name=str(scene_name),
-        channel=channel,
-        instrument=instrument,
-        effects=_effects(ck),
-        contact=_contact(ck, preset),
-        motion=motion,
-        solver=_solver(ck),
-        outputs=Outputs(trajectory=ck.value("outputs", "trajectory")),
-        source={"channel": channel_spec, "description": ck.value("", "description")},
-    )
-    return replace(scene, source=scene_to_dict(scene))
+            spec["applicator"] = str(cand.resolve())
+    try:
+        return Scene(
+            name=str(scene_name),
+            channel=channel,
+            instrument=read_instrument(ck, preset),
+            effects=read_effects(ck),
+            contact=read_contact(ck, preset),
+            motion=read_motion(ck, channel, preset),
+            solver=read_solver(ck),
+            outputs=read_outputs(ck),
+            description=ck.value("", "description"),
+            channel_spec=ChannelSpec(spec, channel) if spec else None,
+        )
+    except SceneError as exc:  # a dataclass's own check: name the file too
+        if origin and not str(exc).startswith(origin):
+            raise SceneError(f"{origin}{exc}") from None
+        raise
 
 
 def scene_with_overrides(scene: Scene, overrides: Mapping[str, Any]) -> Scene:
@@ -121,7 +133,7 @@ def scene_with_overrides(scene: Scene, overrides: Mapping[str, Any]) -> Scene:
             data.pop("contact", None)
     data = apply_overrides(data, over)
     keep = None if any(k.startswith("channel.") or k == "channel" for k in over) else scene.channel
-    return _scene_from_data(data, "", scene.name, None, channel=keep)
+    return scene_from_data(data, "", scene.name, None, channel=keep)
 
 
 def scene_for_channel(channel, cable: str = "flexitron", **overrides) -> Scene:
@@ -154,5 +166,4 @@ def scene_for_channel(channel, cable: str = "flexitron", **overrides) -> Scene:
         else:
             flat[key.replace("__", ".")] = val
     data = apply_overrides(data, flat)
-    scene = _scene_from_data(data, "", f"{channel.name}-{cable}", None, channel=channel)
-    return scene
+    return scene_from_data(data, "", f"{channel.name}-{cable}", None, channel=channel)

@@ -78,7 +78,7 @@ def apply_overrides(data: Mapping, overrides: Mapping[str, Any] | None, origin: 
     return out
 
 
-def _resolve_scene_path(ref: str | Path) -> Path:
+def resolve_scene_path(ref: str | Path) -> Path:
     p = Path(ref)
     if p.is_file() or p.suffix == ".toml" or "/" in str(ref):
         return p

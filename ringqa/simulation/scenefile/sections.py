@@ -1,8 +1,9 @@
-"""Build a scene's instrument, effects, contact, motion and solver settings from their tables.
+"""Build a scene's instrument, effects, contact, motion, solver and outputs from their tables.
 
-One builder a section (``[instrument]`` with ``[discretisation]``, ``[effects]``, ``[contact]``,
-``[motion]``, ``[solver]``), each reading its keys through the checker and converting them to SI,
-and :func:`default_advances_mm`, the dwell advances of a scene that lists none.
+One builder a section, each reading its keys through the :class:`~.check.Checker` and converting
+them to SI with the keys' own conversions (:mod:`ringqa.simulation.scene_keys`); the dataclasses
+validate the result once more (:mod:`ringqa.simulation.scene`). :func:`default_advances_mm` gives
+the dwell advances of a scene that lists none.
 """
 
 from __future__ import annotations
@@ -12,16 +13,23 @@ from dataclasses import replace
 
 import numpy as np
 
-from ringqa.simulation.instruments import CABLE_PRESETS, CONTACT_PRESETS, cable_preset
+from ringqa.simulation.instruments import (
+    CABLE_PRESETS,
+    CONTACT_PRESETS,
+    INPUT_SPEED_M_S,
+    cable_preset,
+)
 from ringqa.simulation.scene import (
     CableSection,
     ContactParams,
     Effects,
     Instrument,
     Motion,
+    Outputs,
     SolverSettings,
 )
-from ringqa.simulation.scenefile.check import _NUM, EXTRA_FIELDS, SCHEMA, SECTION_KEYS, _Checker
+from ringqa.simulation.scene_keys import NUM, section_keys
+from ringqa.simulation.scenefile.check import Checker
 from ringqa.units import m_to_mm, mm_to_m
 
 STANDARD_GRAVITY_M_S2 = 9.80665
@@ -29,34 +37,27 @@ DEFAULT_STEP_MM = 1.0  # dwell spacing when the channel has no measured path (pa
 DEFAULT_SPAN_MM = 60.0  # length covered by default dwells without a measured path (ring: 60 mm)
 
 
-def _extra_in(ck: _Checker, section: str, obj):
-    """Apply the EXTRA_FIELDS keys given in ``section`` to the dataclass ``obj``."""
-    sec = ck.section(section)
-    changes = {}
-    for key, (fname, unit) in EXTRA_FIELDS[section].items():
-        if key not in sec:
-            continue
-        if not hasattr(obj, fname):
-            raise ck.fail(f"{section}.{key}", "not supported by this engine", "remove the key")
-        if unit == "bool":
-            changes[fname] = bool(ck.value(section, key, sec=sec))
-            continue
-        val = float(ck.value(section, key, sec=sec))
-        changes[fname] = mm_to_m(val) if unit == "mm" else val
-    return replace(obj, **changes) if changes else obj
+def given_fields(ck: Checker, section: str, sec: dict) -> dict:
+    """The SI values of the keys of ``section`` given in its table that set a dataclass field."""
+    out = {}
+    for k in section_keys(section):
+        if k.field and k.name in sec:
+            out[k.field] = k.to_si(ck.value(section, k.name, sec=sec))
+    return out
 
 
-def _instrument(ck: _Checker, max_advance_m: float, preset: str) -> Instrument:
+def read_instrument(ck: Checker, preset: str) -> Instrument:
+    """``[instrument]`` and ``[discretisation]``: a preset or custom instrument, re-discretised and
+    lengthened as asked."""
     sec = ck.section("instrument")
     disc = ck.section("discretisation")
     elem = ck.value("discretisation", "element_length_mm", sec=disc)
     sections_in = ck.value("instrument", "sections", sec=sec)
     if sections_in is not None:
-        inst = _custom_instrument(ck, sec, sections_in)
+        inst = read_custom_instrument(ck, sec, sections_in)
     else:
         inst = cable_preset(preset, real_mass=ck.value("instrument", "real_mass", sec=sec))
-        if "centre_from_tip_mm" in sec:
-            inst = replace(inst, centre_from_tip_m=mm_to_m(sec["centre_from_tip_mm"]))
+        inst = replace(inst, **given_fields(ck, "instrument", sec))
     names = [s.name for s in inst.sections]
     if elem is not None:
         if isinstance(elem, dict):
@@ -68,7 +69,7 @@ def _instrument(ck: _Checker, max_advance_m: float, preset: str) -> Instrument:
                     f"the instrument's sections are {', '.join(names)}",
                 )
             for k, v in elem.items():
-                ck.check(f"discretisation.element_length_mm.{k}", v, _NUM, "positive")
+                ck.check(f"discretisation.element_length_mm.{k}", v, NUM, "positive")
             per = {k: mm_to_m(v) for k, v in elem.items()}
         else:
             per = {s.name: mm_to_m(elem) for s in inst.sections if not s.rigid}
@@ -96,90 +97,66 @@ def _instrument(ck: _Checker, max_advance_m: float, preset: str) -> Instrument:
     return inst
 
 
-def _custom_instrument(ck: _Checker, sec: dict, sections_in: list) -> Instrument:
+def read_custom_instrument(ck: Checker, sec: dict, sections_in: list) -> Instrument:
+    """``[[instrument.sections]]`` tables, tip first, into an :class:`Instrument`."""
     secs = []
+    names = [k.name for k in section_keys("section")]
     for i, raw in enumerate(sections_in):
         where = f"instrument.sections[{i}]"
         if not isinstance(raw, dict):
             raise ck.fail(where, "must be a table", "write [[instrument.sections]] tables")
-        unknown = sorted(set(raw) - set(SECTION_KEYS))
+        unknown = sorted(set(raw) - set(names))
         if unknown:
-            raise ck.fail(f"{where}.{unknown[0]}", "unknown key", f"use {', '.join(SECTION_KEYS)}")
-        for key in SECTION_KEYS:
-            if key not in raw and key != "rigid":
-                raise ck.fail(f"{where}.{key}", "missing", "every section needs it")
-        vals = {
-            k: ck.check(f"{where}.{k}", raw[k], t, None if k in ("name", "rigid") else "positive")
-            for k, t in SECTION_KEYS.items()
-            if k in raw
-        }
-        secs.append(
-            CableSection(
-                name=vals["name"],
-                length_m=mm_to_m(vals["length_mm"]),
-                r_o_m=mm_to_m(vals["r_o_mm"]),
-                ei_nm2=float(vals["ei_nm2"]),
-                gj_nm2=float(vals["gj_nm2"]),
-                mass_per_length_kg_m=float(vals["mass_per_length_kg_m"]),
-                element_length_m=mm_to_m(vals["element_length_mm"]),
-                rigid=bool(vals.get("rigid", False)),
-            )
-        )
+            raise ck.fail(f"{where}.{unknown[0]}", "unknown key", f"use {', '.join(names)}")
+        vals = {}
+        for k in section_keys("section"):
+            if k.name not in raw:
+                if k.default is None:
+                    raise ck.fail(f"{where}.{k.name}", "missing", "every section needs it")
+                continue
+            vals[k.field] = k.to_si(ck.check(f"{where}.{k.name}", raw[k.name], k.types, k.check))
+        secs.append(CableSection(**vals))
     if not secs:
         raise ck.fail("instrument.sections", "empty", "give at least one section")
     preset = sec.get("preset")
+    cft = ck.value("instrument", "centre_from_tip_mm", sec=sec)
     return Instrument(
         name=str(preset) if preset else "custom",
         sections=tuple(secs),
-        centre_from_tip_m=mm_to_m(sec.get("centre_from_tip_mm", 0.0)),
+        centre_from_tip_m=mm_to_m(cft if cft is not None else 0.0),
         afterloader=CABLE_PRESETS[preset].afterloader if preset in CABLE_PRESETS else "",
     )
 
 
-def _effects(ck: _Checker) -> Effects:
+def read_effects(ck: Checker) -> Effects:
+    """``[effects]``."""
     sec = ck.section("effects")
-    v = {k: ck.value("effects", k, sec=sec) for k in SCHEMA["effects"]}
+    fields = given_fields(ck, "effects", sec)
+    fields.pop("gravity_m_s2", None)
     gravity = None
-    if v["gravity"]:
-        g = (
-            v["gravity_m_s2"]
-            if v["gravity_m_s2"] is not None
-            else [0.0, 0.0, -STANDARD_GRAVITY_M_S2]
-        )
+    if ck.value("effects", "gravity", sec=sec):
+        g = ck.value("effects", "gravity_m_s2", sec=sec)
+        g = [0.0, 0.0, -STANDARD_GRAVITY_M_S2] if g is None else g
         gravity = tuple(float(x) for x in ck.numbers("effects.gravity_m_s2", g))
         if len(gravity) != 3:
             raise ck.fail("effects.gravity_m_s2", "needs 3 components", "write [gx, gy, gz]")
-    return Effects(
-        torsion=v["torsion"],
-        contact=v["contact"],
-        friction=v["friction"],
-        wall_damping=v["wall_damping"],
-        inertia=v["inertia"],
-        gravity_m_s2=gravity,
-    )
+    return Effects(**fields, gravity_m_s2=gravity)
 
 
-def _contact(ck: _Checker, preset: str) -> ContactParams:
+def read_contact(ck: Checker, preset: str) -> ContactParams:
+    """``[contact]`` over the preset's contact parameters (the paper's Table 1)."""
     sec = ck.section("contact")
     base = CONTACT_PRESETS.get(preset, ContactParams())
-    v = {k: ck.value("contact", k, sec=sec) for k in SCHEMA["contact"]}
-    out = replace(
-        base,
-        stiffness_n_m=float(v["stiffness_n_m"] or base.stiffness_n_m),
-        damping_ns_m=float(base.damping_ns_m if v["damping_ns_m"] is None else v["damping_ns_m"]),
-        mu_s=float(base.mu_s if v["mu_s"] is None else v["mu_s"]),
-        mu_k=float(base.mu_k if v["mu_k"] is None else v["mu_k"]),
-        v_brk_m_s=base.v_brk_m_s if v["v_brk_mm_s"] is None else mm_to_m(v["v_brk_mm_s"]),
-        transition_m=None if v["transition_mm"] is None else mm_to_m(v["transition_mm"]),
-    )
-    out = _extra_in(ck, "contact", out)
-    if out.mu_k > out.mu_s:
+    fields = given_fields(ck, "contact", sec)
+    mu_s = fields.get("mu_s", base.mu_s)
+    mu_k = fields.get("mu_k", base.mu_k)
+    if mu_k > mu_s:
         raise ck.fail(
             "contact.mu_k",
-            f"{out.mu_k} exceeds mu_s = {out.mu_s}",
+            f"{mu_k} exceeds mu_s = {mu_s}",
             "the kinetic coefficient must not exceed the static (Stribeck peak) one",
         )
-    return out
+    return replace(base, **fields)
 
 
 def default_advances_mm(channel, step_mm: float | None = None, span_mm: float | None = None):
@@ -205,9 +182,10 @@ def default_advances_mm(channel, step_mm: float | None = None, span_mm: float | 
     return np.sort(adv[adv >= 0.0])
 
 
-def _motion(ck: _Checker, channel, preset: str) -> tuple[Motion, np.ndarray]:
+def read_motion(ck: Checker, channel, preset: str) -> Motion:
+    """``[motion]``: the advances (given, or every step back from s_ref) and the input."""
     sec = ck.section("motion")
-    v = {k: ck.value("motion", k, sec=sec) for k in SCHEMA["motion"]}
+    v = {k.name: ck.value("motion", k.name, sec=sec) for k in section_keys("motion")}
     length_mm = m_to_mm(channel.centreline.length_m)
     if v["advances_mm"] is not None:
         adv = ck.numbers("motion.advances_mm", v["advances_mm"])  # wins over step_mm/span_mm
@@ -227,33 +205,33 @@ def _motion(ck: _Checker, channel, preset: str) -> tuple[Motion, np.ndarray]:
             "not ascending",
             "list forward advances in increasing order (or set motion.backward = true)",
         )
-    speed = v["speed_mm_s"]
-    from ringqa.simulation.instruments import INPUT_SPEED_M_S
-
-    speed_m_s = mm_to_m(speed) if speed is not None else INPUT_SPEED_M_S.get(preset, 0.5)
-    motion = Motion(
-        kind=v["kind"],
-        advances_m=tuple(float(a) for a in mm_to_m(adv)),
-        speed_m_s=float(speed_m_s),
-        start_m=None if v["start_mm"] is None else mm_to_m(v["start_mm"]),
-        dwell_s=float(v["dwell_s"]),
-        backward=bool(v["backward"]),
-    )
-    return motion, adv
+    fields = given_fields(ck, "motion", sec)
+    fields["advances_m"] = tuple(float(a) for a in mm_to_m(adv))
+    fields.setdefault("speed_m_s", INPUT_SPEED_M_S.get(preset, 0.5))
+    return Motion(**fields)
 
 
-def _solver(ck: _Checker) -> SolverSettings:
-    sec = ck.section("solver")
-    v = {k: ck.value("solver", k, sec=sec) for k in SCHEMA["solver"]}
-    settings = SolverSettings(
-        kind=v["kind"],
-        integrator=v["integrator"],
-        increment_m=mm_to_m(v["increment_mm"]),
-        time_step_s=float(v["time_step_s"]),
-        tol=float(v["tol"]),
-        max_iter=int(v["max_iter"]),
-        stabilisation=float(v["stabilisation"]),
-        jam_force_n=float(v["jam_force_n"]),
-        jam_length_m=mm_to_m(v["jam_length_mm"]),
-    )
-    return _extra_in(ck, "solver", settings)
+def read_solver(ck: Checker) -> SolverSettings:
+    """``[solver]``."""
+    return SolverSettings(**given_fields(ck, "solver", ck.section("solver")))
+
+
+def read_outputs(ck: Checker) -> Outputs:
+    """``[outputs]``."""
+    return Outputs(**given_fields(ck, "outputs", ck.section("outputs")))
+
+
+__all__ = [
+    "DEFAULT_SPAN_MM",
+    "DEFAULT_STEP_MM",
+    "STANDARD_GRAVITY_M_S2",
+    "default_advances_mm",
+    "given_fields",
+    "read_contact",
+    "read_custom_instrument",
+    "read_effects",
+    "read_instrument",
+    "read_motion",
+    "read_outputs",
+    "read_solver",
+]

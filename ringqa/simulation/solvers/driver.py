@@ -102,16 +102,15 @@ def warm_kernels(model: Model) -> None:
 def run(scene, advances_m: np.ndarray, progress: bool = False) -> SimResult:
     """Simulate ``scene`` and report at ``advances_m`` (see module docstring)."""
     model = Model(scene, advances_m)
-    dynamic = model.dynamic
     history_free = (
         not any(u.name in ("friction", "wall_damping") for u in model.units)
         and model.stab == 0
-        and not dynamic
+        and not model.dynamic
     )
     integrator = integrator_for(model)
     schedule = Schedule(model, advances_m, history_free)
     monitor = Monitor(model, history_free)
-    recorder = Recorder(model, advances_m.size, bool(scene.outputs.trajectory))
+    recorder = Recorder(model, advances_m, bool(scene.outputs.trajectory))
     stepper = Stepper(model, integrator, monitor)
     warm_kernels(model)
 
@@ -120,7 +119,7 @@ def run(scene, advances_m: np.ndarray, progress: bool = False) -> SimResult:
     q = model.initial_state(u)
     model.prescribe(q, u)
     v = np.zeros(model.n_all)
-    st, it = initial_equilibrium(model, q, v, model.time_step if dynamic else 1.0)
+    st, it = initial_equilibrium(model, q, v, model.time_step if model.dynamic else 1.0)
     model.d_prev[:] = model.samples.d
     status = STATUS_SUCCESS if st == 0 else STATUS_FAILED
     message = "" if st == 0 else f"initial state did not converge at advance {u * 1e3:.2f} mm"
@@ -145,9 +144,8 @@ def run(scene, advances_m: np.ndarray, progress: bool = False) -> SimResult:
                 break
             monitor.accepted(out, du)
             q = out.q
-            if dynamic:
-                v = out.v
-                hist = out.hist
+            if model.dynamic:
+                v, hist = out.v, out.hist
             u = u + du
             time_s += dt
             if du == 0.0:
@@ -165,21 +163,28 @@ def run(scene, advances_m: np.ndarray, progress: bool = False) -> SimResult:
     if bar is not None:
         bar.close()
     solve_time = time.perf_counter() - t0
-    n_req = advances_m.size
+    return _result(scene, model, integrator, monitor, recorder, status, message, v, time_s,
+                   solve_time)  # fmt: skip
+
+
+def _result(scene, model, integrator, monitor, recorder, status, message, v, time_s, solve_time):
+    """The :class:`SimResult` of a finished run (messages, warnings, work, settings, counters)."""
+    n_req = recorder.push_force_n.size
     if status == STATUS_SUCCESS:
         message = f"reached all {n_req} requested advances"
     else:
         message += f"; {recorder.n_missing} of {n_req} requested advances not reached (NaN rows)"
     max_pen = monitor.max_penetration_m
-    work = monitor.work(v, dynamic)
+    work = monitor.work(v, model.dynamic)
+    warnings = list(model.warnings)
     if max_pen > 0.1 * model.clearance:
-        model.warnings.append(
+        warnings.append(
             f"the instrument sank up to {max_pen * 1e3:.3f} mm into the wall "
             f"({100 * max_pen / model.clearance:.0f} % of the clearance): raise "
             "contact.stiffness_n_m for a tight lumen"
         )
     if monitor.n_stabilised:
-        model.warnings.append(
+        warnings.append(
             f"{monitor.n_stabilised} load step(s) needed the fallback stabilisation (snap-through "
             f"or stall); its work is {work['stabilisation']:.3g} J of {work['input']:.3g} J input "
             "(work['stabilisation'])"
@@ -206,7 +211,7 @@ def run(scene, advances_m: np.ndarray, progress: bool = False) -> SimResult:
         "model_length_m": float(model.chain.cum[-1]),
         "dof_per_node": model.nd,
         "clearance_m": model.clearance,
-        "time_step_s": model.time_step if dynamic else None,
+        "time_step_s": model.time_step if model.dynamic else None,
         "total_newton_iters": int(monitor.total_iters),
         "simulated_time_s": time_s,
         "max_penetration_m": max_pen,
@@ -215,7 +220,7 @@ def run(scene, advances_m: np.ndarray, progress: bool = False) -> SimResult:
     return SimResult(
         status=status,
         message=message,
-        advances_mm=m_to_mm(np.asarray(advances_m, dtype=float)),
+        advances_mm=m_to_mm(np.asarray(recorder.advances_m, dtype=float)),
         source_pos_m=recorder.source_pos_m,
         source_dir=recorder.source_dir,
         tip_pos_m=recorder.tip_pos_m,
@@ -227,7 +232,7 @@ def run(scene, advances_m: np.ndarray, progress: bool = False) -> SimResult:
         n_elements=model.chain.n_links,
         solve_time_s=solve_time,
         settings=settings,
-        warnings=tuple(model.warnings),
+        warnings=tuple(warnings),
         work=work,
         nodes_m=recorder.nodes_m,
         trajectory=recorder.trajectory(),

@@ -12,15 +12,17 @@ class Recorder:
     Parameters
     ----------
     model : ringqa.simulation.model.Model
-    n_requested : int
+    advances_m : (n,) float
+        The requested advances (m).
     keep_trajectory : bool
         Keep the chain and push force after every accepted step.
     """
 
-    def __init__(self, model, n_requested: int, keep_trajectory: bool) -> None:
+    def __init__(self, model, advances_m: np.ndarray, keep_trajectory: bool) -> None:
         self.model = model
+        self.advances_m = np.asarray(advances_m, dtype=float)
         nn = model.n_nodes
-        n = n_requested
+        n = self.advances_m.size
         self.source_pos_m = np.full((n, 3), np.nan)
         self.source_dir = np.full((n, 3), np.nan)
         self.tip_pos_m = np.full((n, 3), np.nan)

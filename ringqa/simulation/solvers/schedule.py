@@ -14,8 +14,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ringqa.errors import SceneError
-
 #: a frictionless, undamped run may grow its load step up to this many increments ("jump")
 JUMP_FACTOR = 8
 #: dynamic runs: the input accelerates from rest to motion.speed over this time and decelerates
@@ -139,8 +137,6 @@ def waypoints(scene, advances_m: np.ndarray, u_start: float) -> list[tuple[float
     for i in order:
         uniq.setdefault(float(advances_m[i]), []).append(int(i))
     asc = sorted(uniq)
-    if kind not in ("constant", "stepwise", "retract"):
-        raise SceneError(f"motion.kind: {kind!r} is not constant, stepwise or retract")
     backward = kind == "retract" or (kind == "stepwise" and scene.motion.backward)
     if not backward:
         return [(u, uniq[u]) for u in asc]

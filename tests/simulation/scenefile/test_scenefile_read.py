@@ -18,13 +18,12 @@ from ringqa.simulation.scenefile import (
     load_scene,
     parse_set_args,
     parse_value,
+    scene_for_channel,
+    scene_to_dict,
+    scene_with_overrides,
 )
 
-geometry = pytest.importorskip("ringqa.geometry")
-needs_channel = pytest.mark.skipif(
-    not hasattr(geometry, "Channel"), reason="ringqa.geometry.Channel not landed yet"
-)
-SCENES = Path(__file__).resolve().parents[2] / "data" / "scenes"
+SCENES = Path(__file__).resolve().parents[3] / "data" / "scenes"
 
 ARC = {
     "channel": {"kind": "arc", "straight_mm": 20.0, "radius_mm": 13.0, "angle_deg": 180.0,
@@ -89,7 +88,6 @@ def test_overrides_create_nested_keys_and_refuse_values_as_tables():
 
 
 # ---- whole scenes (need the geometry layer)
-@needs_channel
 def test_units_are_converted_once_to_si():
     """increment 0.5 mm -> 5e-4 m; speed 500 mm/s -> 0.5 m/s; v_brk 2 mm/s -> 2e-3 m/s;
     element lengths 1.5 / 5 mm -> 1.5e-3 / 5e-3 m; jam length 20 mm -> 0.02 m."""
@@ -109,7 +107,6 @@ def test_units_are_converted_once_to_si():
     assert cap.element_length_m == pytest.approx(4.6e-3)  # rigid capsule untouched
 
 
-@needs_channel
 def test_default_advances_follow_s_ref_back():
     """Arc channel length 20 + 13 pi = 60.84 mm, s_ref = length - 5 = 55.84 mm; step 5 over
     30 mm -> 7 advances 25.84 ... 55.84 mm, ascending."""
@@ -119,7 +116,6 @@ def test_default_advances_follow_s_ref_back():
     assert adv == pytest.approx(s_ref - 5.0 * np.arange(7)[::-1], abs=1e-3)
 
 
-@needs_channel
 def test_default_advances_use_the_measured_path():
     """A channel with 5 measured points 2 mm apart: advances s_ref - 8, -6, -4, -2, 0."""
     s = load_scene(ARC)
@@ -130,16 +126,13 @@ def test_default_advances_use_the_measured_path():
     assert default_advances_mm(ch) == pytest.approx([42.0, 44.0, 46.0, 48.0, 50.0])
 
 
-@needs_channel
 @pytest.mark.parametrize("path", sorted(SCENES.glob("*.toml")), ids=lambda p: p.stem)
 def test_shipped_scenes_load_and_round_trip(path):
     """Every shipped scene loads, and its user-unit dict reloads to the same scene."""
-    if "applicator" in path.read_text():
-        pytest.importorskip("ringqa.io.applicator_file")
     s = load_scene(path)
     assert s.name == path.stem
-    again = load_scene(s.to_dict())
-    assert again.to_dict() == s.to_dict()  # exact in user units (12 significant digits)
+    again = load_scene(scene_to_dict(s))
+    assert scene_to_dict(again) == scene_to_dict(s)  # exact in user units (12 significant digits)
     assert again.instrument.afterloader == s.instrument.afterloader
     assert again.solver == s.solver and again.contact == s.contact
     assert again.motion.advances_m == pytest.approx(s.motion.advances_m, rel=1e-11)
@@ -147,7 +140,6 @@ def test_shipped_scenes_load_and_round_trip(path):
         assert a.length_m == pytest.approx(b.length_m, rel=1e-11) and a.name == b.name
 
 
-@needs_channel
 @given(
     inc=st.floats(0.05, 5.0),
     tol=st.floats(1e-12, 1e-3),
@@ -157,27 +149,25 @@ def test_shipped_scenes_load_and_round_trip(path):
 )
 def test_round_trip_with_overrides(inc, tol, thin, thick, friction):
     """load(to_dict(scene)) reproduces the scene for any settings (to 12 significant digits)."""
-    s = load_scene(ARC).with_overrides(
+    s = scene_with_overrides(
+        load_scene(ARC),
         {"solver.increment_mm": inc, "solver.tol": tol, "effects.friction": friction,
          "discretisation.element_length_mm": {"thin": thin, "thick": thick}}
     )  # fmt: skip
     assert s.solver.increment_m == pytest.approx(inc * 1e-3, rel=1e-11)
     assert s.instrument.sections[1].element_length_m == pytest.approx(thin * 1e-3, rel=1e-11)
-    again = load_scene(s.to_dict())
-    assert again.to_dict() == s.to_dict()
+    again = load_scene(scene_to_dict(s))
+    assert scene_to_dict(again) == scene_to_dict(s)
 
 
-@needs_channel
 def test_for_channel_keeps_the_channel_object():
-    from ringqa.simulation import Scene
-
     base = load_scene(ARC)
-    s = Scene.for_channel(base.channel, cable="flexitron", solver={"increment_mm": 0.5})
+    s = scene_for_channel(base.channel, cable="flexitron", solver={"increment_mm": 0.5})
     assert s.channel is base.channel
     assert s.solver.increment_m == pytest.approx(5e-4)
-    assert s.with_overrides({"solver.tol": 1e-6}).channel is base.channel
+    assert scene_with_overrides(s, {"solver.tol": 1e-6}).channel is base.channel
     with pytest.raises(SceneError, match="unknown preset"):
-        Scene.for_channel(base.channel, cable="nope")
+        scene_for_channel(base.channel, cable="nope")
 
 
 # ---- errors
@@ -213,7 +203,6 @@ def test_missing_file_is_an_input_error(tmp_path):
         load_scene(tmp_path / "nope.toml")
 
 
-@needs_channel
 @pytest.mark.parametrize(
     ("over", "words"),
     [
@@ -238,18 +227,15 @@ def test_bad_settings_name_the_key(over, words):
         load_scene(data, over)
 
 
-@needs_channel
 def test_unknown_applicator_names_the_key():
-    pytest.importorskip("ringqa.io.applicator_file")
     with pytest.raises(SceneError, match=r"channel.applicator: cannot load 'ring99x99'"):
         load_scene({"channel": {"applicator": "ring99x99"}})
 
 
-@needs_channel
 @pytest.mark.parametrize("part", ["solver", "contact", "effects", "motion"])
 def test_every_engine_setting_survives_the_round_trip(part):
     """Each field of SolverSettings / ContactParams / Effects / Motion changed in the SI scene
-    comes back from scene.to_dict() -> load_scene unchanged (so no setting the engine adds is
+    comes back from scene_to_dict(scene) -> load_scene unchanged (so no setting the engine adds is
     silently dropped by scene files, --set or the accuracy study)."""
     import dataclasses
 
@@ -276,7 +262,7 @@ def test_every_engine_setting_survives_the_round_trip(part):
         else:  # None-valued optional settings
             new = {"transition_m": 0.05e-3, "start_m": 0.01, "friction_v_reg_m_s": 2e-4}[f.name]
         changed = base.replace(**{part: dataclasses.replace(obj, **{f.name: new})})
-        again = getattr(load_scene(changed.to_dict()), part)
+        again = getattr(load_scene(scene_to_dict(changed)), part)
         got = getattr(again, f.name)
         if isinstance(new, float):
             assert got == pytest.approx(new, rel=1e-11), f.name
