@@ -33,8 +33,9 @@ _GY_PER_CGY = 1e-2
 #: With ``parallel=True``, grids of at least this many point-dwell pairs are split over numba's
 #: threads; smaller ones run on one thread (no faster on two: thread start-up and imbalance).
 PARALLEL_MIN_PAIRS = 20_000
-#: Point-dwell pairs per block handed to a thread.
-_CHUNK_PAIRS = 8192
+#: Point-dwell pairs per block handed to a thread (~25 us of work: fine enough to balance the
+#: threads at the threshold, coarse enough that the per-block set-up is ~1 %).
+_CHUNK_PAIRS = 2048
 
 
 # --------------------------------------------------------------------------------------------
@@ -129,11 +130,25 @@ def _evaluate(
         import numba
 
         if numba.get_num_threads() > 1:
-            chunk = max(1, _CHUNK_PAIRS // max(n_d, 1))
-            n_bad = _kernels.rows_parallel(chunk, *args)
+            n_bad = _rows_parallel(max(1, _CHUNK_PAIRS // max(n_d, 1)), *args)
             return n_bad, rates if matrix else sums
     n_bad = _kernels.rows(0, n_p, *args)
     return n_bad, rates if matrix else sums
+
+
+def _rows_parallel(chunk: int, *args) -> int:
+    """``_kernels.rows_parallel`` with blocks of ``chunk`` points handed to the threads one at
+    a time as they free up (numba's default splits the blocks evenly up front, which leaves a
+    thread idle when another process slows its partner)."""
+    import numba
+
+    from tg43 import _kernels
+
+    before = numba.set_parallel_chunksize(1)
+    try:
+        return _kernels.rows_parallel(chunk, *args)
+    finally:
+        numba.set_parallel_chunksize(before)
 
 
 def _inside_error(source: Source, pts_mm: np.ndarray, pos_mm: np.ndarray, dirs: np.ndarray):
