@@ -30,9 +30,12 @@ import math
 import numpy as np
 from numba import njit, prange
 
-# FDLIBM s_atan.c / e_atan2.c (Sun Microsystems 1993: "Permission to use, copy, modify, and
-# distribute this software is freely granted, provided that this notice is preserved."):
-# atan(x) = x - x (s1 + s2) for |x| < 7/16, and the hi + lo parts of pi/4, pi/2, pi.
+# Coefficients and constants from FDLIBM s_atan.c and e_atan2.c: atan(x) = x - x (s1 + s2) for
+# |x| < 7/16, and the hi + lo parts of pi/4, pi/2 and pi. Their notice:
+#   Copyright (C) 1993 by Sun Microsystems, Inc. All rights reserved.
+#   Developed at SunPro, a Sun Microsystems, Inc. business.
+#   Permission to use, copy, modify, and distribute this software is freely granted, provided
+#   that this notice is preserved.
 _AT0 = 3.33333333333329318027e-01
 _AT1 = -1.99999999998764832476e-01
 _AT2 = 1.42857142725034663711e-01
@@ -70,8 +73,8 @@ def build_lookup(grid: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
     lut : ndarray of int64, shape (n_bins,)
         ``lut[k]`` = the largest i <= n - 2 with ``grid[i] <= grid[0] + k * h``.
     split : ndarray, shape (n_bins,)
-        ``grid[lut[k] + 1]``, the only node that can lie inside bin k (x at or beyond it is in
-        cell ``lut[k] + 1``); ``inf`` where ``lut[k]`` is already the last cell.
+        ``grid[lut[k] + 1]``, the only node that can lie inside bin k: x in bin k at or beyond
+        it is in cell ``lut[k] + 1``; ``inf`` where ``lut[k]`` is already the last cell.
     inv_h : float
         1 / h, the inverse bin width (h = half the smallest grid spacing).
     """
@@ -327,7 +330,19 @@ def rows_parallel(
 
     Every output element is computed by the same :func:`rows` arithmetic (each point's sum runs
     over its dwells in order), so the numbers are the same bit for bit whatever the thread
-    count. Returns the number of (point, dwell) pairs inside the source.
+    count and whatever the order in which the threads take the blocks.
+
+    Parameters
+    ----------
+    chunk : int
+        Points per block (>= 1); each block is one :func:`rows` call.
+    points ... matrix
+        As for :func:`rows`.
+
+    Returns
+    -------
+    int
+        Number of (point, dwell) pairs inside the source.
     """
     n_p = points.shape[0]
     n_chunks = (n_p + chunk - 1) // chunk

@@ -107,7 +107,12 @@ def _tables(source: Source) -> tuple:
 
 
 def _evaluate(
-    source: Source, pts_mm: np.ndarray, pos_mm: np.ndarray, dirs: np.ndarray, weights, parallel
+    source: Source,
+    pts_mm: np.ndarray,
+    pos_mm: np.ndarray,
+    dirs: np.ndarray,
+    weights: np.ndarray | None,
+    parallel: bool,
 ) -> tuple[int, np.ndarray]:
     """Run the kernel on checked inputs.
 
