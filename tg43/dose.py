@@ -30,6 +30,12 @@ _M_PER_MM = 1e-3
 _M_PER_CM = 1e-2
 _S_PER_H = 3600.0
 _GY_PER_CGY = 1e-2
+#: With ``parallel=True``, grids of at least this many point-dwell pairs are split over numba's
+#: threads; smaller ones run on one thread (no faster on two: thread start-up and imbalance).
+PARALLEL_MIN_PAIRS = 20_000
+#: Point-dwell pairs per block handed to a thread (~25 us of work: fine enough to balance the
+#: threads at the threshold, coarse enough that the per-block set-up is ~1 %).
+_CHUNK_PAIRS = 2048
 
 
 # --------------------------------------------------------------------------------------------
@@ -76,34 +82,78 @@ def _check_dwells(positions_mm, directions) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _tables(source: Source) -> tuple:
-    """Kernel arguments after (points, positions, directions[, weights]) (SI, cached)."""
+    """Kernel arguments after (points, dwells, weights) (SI, built once per source)."""
     cached = source._cache.get("kernel_tables")
     if cached is not None:
         return cached
-    from tg43._kernels import build_lookup
+    from tg43._kernels import build_tables
 
     length_m = source.active_length_cm * _M_PER_CM
     half = 0.5 * length_m
     r0 = source.r0_cm * _M_PER_CM
     g_l0 = 2.0 * math.atan(half / r0) / (length_m * r0)  # G_L(r0, 90 deg) in m^-2
-    scale = source.dose_rate_constant / g_l0
-    g_r = np.ascontiguousarray(source.gl_r_cm * _M_PER_CM)
-    g_v = np.ascontiguousarray(source.gl, dtype=float)
-    f_r = np.ascontiguousarray(source.f_r_cm * _M_PER_CM)
-    f_t = np.ascontiguousarray(np.deg2rad(source.f_theta_deg))
-    f_v = np.ascontiguousarray(source.f, dtype=float)
-    g_lut, g_inv, g_idx = build_lookup(g_r)
-    fr_lut, fr_inv, fr_idx = build_lookup(f_r)
-    ft_lut, ft_inv, ft_idx = build_lookup(f_t)
-    tables = (
+    tables = build_tables(
         half,
         source.r_min_cm * _M_PER_CM,
-        scale,
-        g_r, g_v, g_lut, g_inv, g_idx,
-        f_r, f_t, f_v, fr_lut, fr_inv, fr_idx, ft_lut, ft_inv, ft_idx,
-    )  # fmt: skip
+        source.dose_rate_constant / g_l0,
+        source.gl_r_cm * _M_PER_CM,
+        source.gl,
+        source.f_r_cm * _M_PER_CM,
+        np.deg2rad(source.f_theta_deg),
+        source.f,
+    )
     source._cache["kernel_tables"] = tables
     return tables
+
+
+def _evaluate(
+    source: Source,
+    pts_mm: np.ndarray,
+    pos_mm: np.ndarray,
+    dirs: np.ndarray,
+    weights: np.ndarray | None,
+    parallel: bool,
+) -> tuple[int, np.ndarray]:
+    """Run the kernel on checked inputs.
+
+    Returns the number of (point, dwell) pairs inside the source and either the (n_points,
+    n_dwells) dose-rate matrix per S_K (``weights`` None) or the (n_points,) weighted sums.
+    Threads are used only when asked (``parallel``) and the grid has at least
+    :data:`PARALLEL_MIN_PAIRS` pairs; the numbers are the same bit for bit either way.
+    """
+    from tg43 import _kernels
+
+    points = pts_mm * _M_PER_MM
+    dwells = _kernels.dwell_rows(pos_mm * _M_PER_MM, dirs)
+    n_p, n_d = points.shape[0], dwells.shape[1]
+    matrix = weights is None
+    rates = np.empty((n_p, n_d) if matrix else (0, 0))
+    sums = np.empty(0 if matrix else n_p)
+    w = np.empty(0) if matrix else weights
+    args = (points, dwells, w, *_tables(source), rates, sums, matrix)
+    if parallel and n_p > 1 and n_p * n_d >= PARALLEL_MIN_PAIRS:
+        import numba
+
+        if numba.get_num_threads() > 1:
+            n_bad = _rows_parallel(max(1, _CHUNK_PAIRS // max(n_d, 1)), *args)
+            return n_bad, rates if matrix else sums
+    n_bad = _kernels.rows(0, n_p, *args)
+    return n_bad, rates if matrix else sums
+
+
+def _rows_parallel(chunk: int, *args) -> int:
+    """``_kernels.rows_parallel`` with blocks of ``chunk`` points handed to the threads one at
+    a time as they free up (numba's default splits the blocks evenly up front, which leaves a
+    thread idle when another process slows its partner)."""
+    import numba
+
+    from tg43 import _kernels
+
+    before = numba.set_parallel_chunksize(1)
+    try:
+        return _kernels.rows_parallel(chunk, *args)
+    finally:
+        numba.set_parallel_chunksize(before)
 
 
 def _inside_error(source: Source, pts_mm: np.ndarray, pos_mm: np.ndarray, dirs: np.ndarray):
@@ -131,20 +181,6 @@ def _inside_error(source: Source, pts_mm: np.ndarray, pos_mm: np.ndarray, dirs: 
 # public API
 
 
-def _run_threads(kernel, parallel: bool, *args):
-    """Call a threaded kernel on one thread (default) or on all of numba's threads."""
-    import numba
-
-    if parallel:
-        return kernel(*args)
-    before = numba.get_num_threads()
-    numba.set_num_threads(1)
-    try:
-        return kernel(*args)
-    finally:
-        numba.set_num_threads(before)
-
-
 def dose_rate_per_sk(
     source: Source, positions_mm, directions, points_mm, *, parallel: bool = False
 ) -> np.ndarray:
@@ -162,7 +198,9 @@ def dose_rate_per_sk(
     points_mm : array_like, shape (n_points, 3)
         Calculation points, mm.
     parallel : bool
-        Split the points over all numba threads (same numbers bit for bit; default one thread).
+        Split the points over all numba threads when the grid has at least
+        :data:`PARALLEL_MIN_PAIRS` point-dwell pairs (the same numbers bit for bit; default one
+        thread).
 
     Returns
     -------
@@ -178,12 +216,7 @@ def dose_rate_per_sk(
     _check_source(source)
     pos, dirs = _check_dwells(positions_mm, directions)
     pts = _as_xyz(points_mm, "points_mm", allow_single=True)
-    from tg43._kernels import rate_matrix
-
-    out = np.empty((pts.shape[0], pos.shape[0]))
-    n_bad = _run_threads(
-        rate_matrix, parallel, pts * _M_PER_MM, pos * _M_PER_MM, dirs, *_tables(source), out
-    )
+    n_bad, out = _evaluate(source, pts, pos, dirs, None, parallel)
     if n_bad:
         raise _inside_error(source, pts, pos, dirs)
     return out
@@ -222,7 +255,8 @@ def plan_dose_gy(
         Give both to decay-correct S_K from the reference date to the treatment date with the
         Ir-192 half-life (73.83 d). Neither: no decay correction.
     parallel : bool
-        Split the points over all numba threads (the same numbers bit for bit; default one
+        Split the points over all numba threads when the grid has at least
+        :data:`PARALLEL_MIN_PAIRS` point-dwell pairs (the same numbers bit for bit; default one
         thread).
 
     Returns
@@ -242,13 +276,7 @@ def plan_dose_gy(
     times = _check_times(times_s, pos.shape[0])
     sk = _check_sk(sk_U) * decay_factor(treatment_date, reference_date)
     weights = times * (sk / _S_PER_H * _GY_PER_CGY)  # Gy per (cGy h^-1 U^-1)
-    from tg43 import _kernels
-
-    out = np.empty(pts.shape[0])
-    n_bad = _run_threads(
-        _kernels.weighted_sum, parallel,
-        pts * _M_PER_MM, pos * _M_PER_MM, dirs, weights, *_tables(source), out,
-    )  # fmt: skip
+    n_bad, out = _evaluate(source, pts, pos, dirs, weights, parallel)
     if n_bad:
         raise _inside_error(source, pts, pos, dirs)
     return out
@@ -359,10 +387,5 @@ def along_away_table(source: Source, z_cm, y_cm) -> np.ndarray:
     z = np.asarray(z_cm, dtype=float)
     y = np.asarray(y_cm, dtype=float)
     pts = along_away_points_mm(z, y)
-    from tg43._kernels import rate_matrix
-
-    out = np.empty((pts.shape[0], 1))
-    rate_matrix(
-        pts * _M_PER_MM, np.zeros((1, 3)), np.array([[0.0, 0.0, 1.0]]), *_tables(source), out
-    )
+    _, out = _evaluate(source, pts, np.zeros((1, 3)), np.array([[0.0, 0.0, 1.0]]), None, False)
     return out[:, 0].reshape(z.size, y.size)

@@ -26,15 +26,23 @@ def test_plan_dose_is_sk_times_rate_times_time(flexisource):
 
 
 def test_parallel_kernel_gives_the_same_numbers(flexisource):
+    """parallel=True on a grid above PARALLEL_MIN_PAIRS (points split over the threads) and on a
+    small one (one thread) equals the one-thread results bit for bit."""
+    from tg43.dose import PARALLEL_MIN_PAIRS
+
     rng = np.random.default_rng(1)
     pos = rng.uniform(-20, 20, (7, 3))
     dirs = rng.normal(size=(7, 3))
     dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
-    pts = rng.uniform(-60, 60, (50, 3)) + np.array([100.0, 0, 0])
     t = rng.uniform(1, 20, 7)
-    a = tg43.plan_dose_gy(flexisource, pos, dirs, t, 30000.0, pts)
-    b = tg43.plan_dose_gy(flexisource, pos, dirs, t, 30000.0, pts, parallel=True)
-    np.testing.assert_allclose(a, b, rtol=1e-13)
+    for n_p in (50, PARALLEL_MIN_PAIRS // 7 + 100):
+        pts = rng.uniform(-60, 60, (n_p, 3)) + np.array([100.0, 0, 0])
+        a = tg43.plan_dose_gy(flexisource, pos, dirs, t, 30000.0, pts)
+        b = tg43.plan_dose_gy(flexisource, pos, dirs, t, 30000.0, pts, parallel=True)
+        np.testing.assert_array_equal(a, b)
+        a = tg43.dose_rate_per_sk(flexisource, pos, dirs, pts)
+        b = tg43.dose_rate_per_sk(flexisource, pos, dirs, pts, parallel=True)
+        np.testing.assert_array_equal(a, b)
 
 
 def test_decay_halves_dose_after_one_half_life(flexisource):
