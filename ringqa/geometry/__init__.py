@@ -4,6 +4,7 @@ from ringqa.geometry.applicator import Applicator, Channel
 from ringqa.geometry.centreline import Centreline, CentrelineTable, GeometryError
 from ringqa.geometry.lumen import Lumen
 from ringqa.geometry.parametric import fit_circle, ring_applicator, ring_channel, tandem_channel
+from ringqa.geometry.s_channel import SChannelLayout, s_channel, s_channel_layout
 
 __all__ = [
     "Applicator",
@@ -12,8 +13,11 @@ __all__ = [
     "Channel",
     "GeometryError",
     "Lumen",
+    "SChannelLayout",
     "fit_circle",
     "ring_applicator",
     "ring_channel",
+    "s_channel",
+    "s_channel_layout",
     "tandem_channel",
 ]
