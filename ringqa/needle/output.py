@@ -14,7 +14,7 @@ One channel (``ringqa needle``), in DIR:
 
 The sweep (``ringqa needle --sweep``), in DIR: ``peaks.csv`` (one row per study point,
 :data:`ringqa.needle.sweep.PEAK_COLUMNS`), ``force_depth.csv`` (``family, radius_mm,
-torsion_rad, diameter_mm, nominal_diameter_mm, depth_mm, force_n, force_raw_n``),
+torsion_rad, diameter_mm, depth_mm, force_n, force_raw_n, nominal_diameter_mm``),
 ``figure8_force_depth.png`` (with the radius family), ``figure9_peaks.png`` and ``run.json``.
 """
 

@@ -197,8 +197,8 @@ class SweepResult:
         return pd.DataFrame(rows, columns=list(PEAK_COLUMNS))
 
     def force_table(self):
-        """Long table: ``family, radius_mm, torsion_rad, diameter_mm, nominal_diameter_mm,
-        depth_mm, force_n, force_raw_n`` (force_n filtered), one row per depth per study row."""
+        """Long table: ``family, radius_mm, torsion_rad, diameter_mm, depth_mm, force_n,
+        force_raw_n, nominal_diameter_mm`` (force_n filtered), one row per depth per study row."""
         import pandas as pd
 
         parts = []
@@ -212,10 +212,10 @@ class SweepResult:
                         "radius_mm": p.radius_mm,
                         "torsion_rad": p.torsion_rad,
                         "diameter_mm": p.diameter_mm,
-                        "nominal_diameter_mm": p.nominal_diameter_mm,
                         "depth_mm": r.depth_mm,
                         "force_n": r.force_n,
                         "force_raw_n": r.force_raw_n,
+                        "nominal_diameter_mm": p.nominal_diameter_mm,
                     }
                 )
             )
