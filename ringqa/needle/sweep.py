@@ -11,9 +11,11 @@ printing tolerance's +0.2 mm):
 2.8 mm one again as the diameter family's +0.2 mm of 2.6 mm, so 28 distinct channels are
 simulated (each once) and the rows reuse them.
 
-The runs are independent: they go to a :class:`concurrent.futures.ProcessPoolExecutor` (spawned
-workers; each loads the numba kernels from the on-disk cache and runs a tiny warm-up scene in its
-initializer, so no run's solve time includes compilation). ``workers=1`` runs in this process.
+The runs are independent: they go to a :class:`concurrent.futures.ProcessPoolExecutor` (forked
+workers on Linux, spawned elsewhere: :func:`start_method`). The kernels are warm in every worker
+before its first run: a forked worker inherits them from the parent, which warms them first; a
+spawned one loads them from numba's on-disk cache; either way the initializer runs a tiny
+warm-up scene, so no run's solve time includes compilation. ``workers=1`` runs in this process.
 """
 
 from __future__ import annotations
@@ -21,6 +23,7 @@ from __future__ import annotations
 import math
 import multiprocessing
 import os
+import sys
 import time
 from collections.abc import Iterable, Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
@@ -244,6 +247,15 @@ def _run_spec(spec: ChannelSpec) -> NeedleRun:
     )
 
 
+def start_method() -> str:
+    """How the pool starts its workers: ``fork`` on Linux (a worker is ready in milliseconds and
+    inherits the parent's compiled kernels and imports), ``spawn`` elsewhere (macOS and Windows,
+    where forking is unsafe or absent; each worker then imports ringqa and loads the kernels from
+    numba's on-disk cache, ~2-4 s, and a script calling :func:`run_sweep` needs the
+    ``if __name__ == "__main__":`` guard)."""
+    return "fork" if sys.platform.startswith("linux") else "spawn"
+
+
 def default_workers() -> int:
     """Two processes (the development machine's cores), fewer when the machine has fewer."""
     return max(1, min(2, os.cpu_count() or 1))
@@ -301,22 +313,30 @@ def run_sweep(
 
     t0 = time.perf_counter()
     runs: dict[tuple[float, float, float], NeedleRun] = {}
-    bar = tqdm(total=len(order), unit="channel", desc="needle sweep", disable=not progress)
-    try:
-        if n_workers == 1:
-            _init_worker(settings, depth_mm, window_mm)
+    if n_workers == 1:
+        _init_worker(settings, depth_mm, window_mm)
+        with tqdm(
+            total=len(order), unit="channel", desc="needle sweep", disable=not progress
+        ) as bar:
             for key in order:
                 runs[key] = _run_spec(specs[key])
                 bar.update(1)
-        else:
-            ctx = multiprocessing.get_context("spawn")
-            with ProcessPoolExecutor(
-                max_workers=n_workers,
-                mp_context=ctx,
-                initializer=_init_worker,
-                initargs=(settings, depth_mm, window_mm),
-            ) as pool:
-                futures = {pool.submit(_run_spec, specs[k]): k for k in order}
+    else:
+        method = start_method()
+        if method == "fork":
+            warm_up(settings)  # the forked workers inherit the compiled kernels
+        with ProcessPoolExecutor(
+            max_workers=n_workers,
+            mp_context=multiprocessing.get_context(method),
+            initializer=_init_worker,
+            initargs=(settings, depth_mm, window_mm),
+        ) as pool:
+            # submit before the progress bar exists: the workers start here, before tqdm's
+            # monitor thread (a forked process should not inherit running threads)
+            futures = {pool.submit(_run_spec, specs[k]): k for k in order}
+            with tqdm(
+                total=len(order), unit="channel", desc="needle sweep", disable=not progress
+            ) as bar:
                 try:
                     for fut in as_completed(futures):
                         runs[futures[fut]] = fut.result()
@@ -324,8 +344,6 @@ def run_sweep(
                 except BaseException:
                     pool.shutdown(wait=False, cancel_futures=True)
                     raise
-    finally:
-        bar.close()
     return SweepResult(
         points=points,
         runs=runs,

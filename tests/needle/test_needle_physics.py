@@ -111,8 +111,8 @@ def test_straight_channel_needs_no_force_without_gravity():
     so no force is needed (|F| < 1e-6 N at every depth; observed 7e-10 N, Newton's residual).
     With gravity along the channel, pointing back at the driver (pushing up a vertical channel),
     the driver carries the modelled catheter's weight and nothing else (no wall contact, so no
-    friction): F = (m/l) g (120 mm + one clamped link of 120/73 mm) = 1 x 9.80665 x 0.121644 =
-    1.1929 N at every depth (0.1 %): the same set-up does measure a force when there is one."""
+    friction): F = (m/l) g (120 mm + one clamped link of 120/146 mm) = 1 x 9.80665 x 0.120822
+    = 1.1848 N at every depth (0.1 %): the same set-up does measure a force when there is one."""
     pts = np.c_[np.linspace(0.0, 130.0, 131), np.zeros(131), np.zeros(131)]
     channel = _channel(pts, "straight")
     run = run_channel(channel, load_settings())
@@ -122,5 +122,5 @@ def test_straight_channel_needs_no_force_without_gravity():
         overrides={"effects.gravity": True, "effects.gravity_m_s2": [-G, 0.0, 0.0]}
     )
     run = run_channel(channel, heavy)
-    expected = MASS * G * mm_to_m(120.0 + 120.0 / 73.0)
+    expected = MASS * G * mm_to_m(120.0 + 120.0 / 146.0)
     assert run.force_raw_n == pytest.approx(np.full(run.force_raw_n.shape, expected), rel=1e-3)

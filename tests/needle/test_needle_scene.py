@@ -26,7 +26,7 @@ from ringqa.units import m_to_mm
 def test_shipped_scene_holds_the_paper_channel(repo_root, needle_settings):
     """data/scenes/needle-paper.toml carries the points s_channel(35, 0, 2.6) interpolates
     (every 0.25 mm, to 1e-6 mm) and the 2.6 mm lumen (r_b 1.3, r_a 1.2 mm); its settings are the
-    catheter preset at 5 mm/s, 1.65 mm links (cut to 120/73 = 1.644 mm), 0.25 mm increments."""
+    catheter preset at 5 mm/s, 0.825 mm links (cut to 120/146 = 0.822 mm), 0.25 mm increments."""
     data = read_scene_dict(repo_root / "data" / "scenes" / "needle-paper.toml")
     pts = np.asarray(data["channel"]["centreline_mm"])
     expected = s_centreline_mm(s_channel_layout(35.0, 0.0, 2.6), 0.25)
@@ -37,18 +37,18 @@ def test_shipped_scene_holds_the_paper_channel(repo_root, needle_settings):
     assert s.instrument.name == "catheter"
     assert m_to_mm(s.motion.speed_m_s) == pytest.approx(5.0)
     assert m_to_mm(s.solver.increment_m) == pytest.approx(0.25)
-    assert m_to_mm(s.instrument.sections[0].element_length_m) == pytest.approx(1.65)
+    assert m_to_mm(s.instrument.sections[0].element_length_m) == pytest.approx(0.825)
 
 
 def test_free_length_and_clamped_link(needle_settings):
-    """The scene cuts the 120 mm free length into ceil(120 / 1.65) = 73 equal links of
-    120/73 = 1.6438 mm and adds one clamped link behind it: 121.644 mm modelled; the tip is the
+    """The scene cuts the 120 mm free length into ceil(120 / 0.825) = 146 equal links of
+    120/146 = 0.8219 mm and adds one clamped link behind it: 120.822 mm modelled; the tip is the
     reported point (centre_from_tip 0), the run starts at advance 0 and reports every 0.25 mm
     from 0 to 120 mm (481 depths)."""
     scene = needle_scene(s_channel(35.0), needle_settings)
     (sec,) = scene.instrument.sections
-    assert m_to_mm(sec.element_length_m) == pytest.approx(120.0 / 73.0)
-    assert m_to_mm(sec.length_m) == pytest.approx(120.0 + 120.0 / 73.0)
+    assert m_to_mm(sec.element_length_m) == pytest.approx(120.0 / 146.0)
+    assert m_to_mm(sec.length_m) == pytest.approx(120.0 + 120.0 / 146.0)
     assert scene.instrument.centre_from_tip_m == 0.0
     assert scene.motion.start_m == 0.0
     depth = m_to_mm(np.asarray(scene.motion.advances_m))
