@@ -110,8 +110,10 @@ def plot_figure8(sweep: SweepResult, path: str | Path) -> None:
         ax.grid(alpha=0.3)
     for ax in axs[len(radii) :]:
         ax.set_visible(False)
-    top = max(float(np.nanmax(sweep.run(p).force_n)) for p in pts)
-    axs[0].set_ylim(bottom=min(0.0, axs[0].get_ylim()[0]), top=1.15 * top)
+    forces = np.concatenate([sweep.run(p).force_n for p in pts])
+    forces = forces[np.isfinite(forces)]
+    if forces.size:  # room above the highest peak for its label (runs that failed are empty)
+        axs[0].set_ylim(bottom=min(0.0, float(forces.min())), top=1.15 * float(forces.max()))
     axs[0].legend(fontsize=8, loc="upper right")
     for ax in axs[(nrow - 1) * ncol :]:
         ax.set_xlabel("insertion depth (mm)")

@@ -17,7 +17,7 @@ from ringqa.needle.peaks import (
     force_peaks,
     moving_average,
 )
-from ringqa.needle.scene import needle_scene
+from ringqa.needle.scene import depth_grid_mm, n_links, needle_scene
 from ringqa.simulation import Scene, simulate
 from ringqa.units import m_to_mm
 
@@ -120,7 +120,24 @@ def run_channel(
         warnings=tuple(res.warnings),
         solve_time_s=float(res.solve_time_s),
         wall_time_s=time.perf_counter() - t0,
-        n_elements=int(res.settings.get("n_nodes", 1)) - 1,
+        n_elements=n_links(scene),
         settings={**dict(res.settings), "work": dict(res.work)},
         filter_window_mm=float(window_mm),
+    )
+
+
+def failed_run(channel: Channel, settings: Scene, message: str, depth_mm: float | None = None):
+    """A :class:`NeedleRun` for a channel whose simulation could not even be set up (status -1,
+    NaN forces, ``message`` saying why): a sweep reports it instead of stopping."""
+    depth = depth_grid_mm(settings, channel, depth_mm)
+    nan = np.full(depth.shape, np.nan)
+    return NeedleRun(
+        name=f"{settings.name}:{channel.name}",
+        depth_mm=depth,
+        force_raw_n=nan,
+        force_n=nan.copy(),
+        peaks=Peaks(),
+        bends_mm=tuple(bend_windows_mm(channel)),
+        status=-1,
+        message=message,
     )

@@ -28,7 +28,7 @@ from __future__ import annotations
 import copy
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -37,7 +37,7 @@ from ringqa.errors import RingQAError
 from ringqa.geometry import Channel, GeometryError, s_channel
 from ringqa.geometry.s_channel import NOMINAL_DIAMETER_MM, max_radius_mm
 from ringqa.simulation import Scene, load_scene
-from ringqa.simulation.scenefile import scene_for_channel, scene_to_dict
+from ringqa.simulation.scenefile import scene_for_channel, scene_to_dict, scene_with_overrides
 from ringqa.units import m_to_mm
 
 #: The shipped scene with the needle study's settings (data/scenes/needle-paper.toml).
@@ -77,8 +77,6 @@ def load_settings(scene: str | Scene | None = None, overrides: Mapping[str, Any]
     -------
     Scene
     """
-    from ringqa.simulation.scenefile import scene_with_overrides
-
     if isinstance(scene, Scene):
         return scene_with_overrides(scene, overrides) if overrides else scene
     return load_scene(DEFAULT_SCENE if scene is None else scene, overrides)
@@ -86,6 +84,15 @@ def load_settings(scene: str | Scene | None = None, overrides: Mapping[str, Any]
 
 def _free_length_mm(settings: Scene) -> float:
     return m_to_mm(sum(s.length_m for s in settings.instrument.sections))
+
+
+def n_links(scene: Scene) -> int:
+    """Links of the scene's whole instrument (each section in equal links no longer than its
+    element length, a rigid section one link), as the engine cuts it when it models it all."""
+    return sum(
+        1 if s.rigid else max(1, math.ceil(s.length_m / s.element_length_m - 1e-9))
+        for s in scene.instrument.sections
+    )
 
 
 def _catheter(settings: Scene) -> tuple[float, float]:
@@ -240,6 +247,4 @@ def needle_scene(
         motion=motion,
         **tables,
     )
-    from dataclasses import replace
-
     return replace(scene, name=name or f"{settings.name}:{channel.name}")

@@ -16,6 +16,8 @@ workers on Linux, spawned elsewhere: :func:`start_method`). The kernels are warm
 before its first run: a forked worker inherits them from the parent, which warms them first; a
 spawned one loads them from numba's on-disk cache; either way the initializer runs a tiny
 warm-up scene, so no run's solve time includes compilation. ``workers=1`` runs in this process.
+A run the engine refuses to set up (a :class:`~ringqa.errors.RingQAError`) becomes a row with
+status -1 and the reason; the channels are checked before any run (:func:`check_spec`).
 """
 
 from __future__ import annotations
@@ -31,9 +33,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ringqa.errors import RingQAError
 from ringqa.geometry.s_channel import DIAMETER_TOLERANCE_MM, NOMINAL_DIAMETER_MM
 from ringqa.needle.peaks import FILTER_WINDOW_MM
-from ringqa.needle.run import NeedleRun, run_channel
+from ringqa.needle.run import NeedleRun, failed_run, run_channel
 from ringqa.needle.scene import ChannelSpec, NeedleError, check_spec, paper_channel
 from ringqa.simulation import Scene
 
@@ -242,9 +245,11 @@ def warm_up(settings: Scene) -> None:
 
 def _run_spec(spec: ChannelSpec) -> NeedleRun:
     s = _WORKER
-    return run_channel(
-        paper_channel(spec, s["settings"]), s["settings"], s["depth_mm"], s["window_mm"]
-    )
+    channel = paper_channel(spec, s["settings"])
+    try:
+        return run_channel(channel, s["settings"], s["depth_mm"], s["window_mm"])
+    except RingQAError as exc:  # the engine refused this channel: a result, not a crash
+        return failed_run(channel, s["settings"], str(exc), s["depth_mm"])
 
 
 def start_method() -> str:

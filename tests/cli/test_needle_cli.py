@@ -112,3 +112,29 @@ def test_bad_input_exits_2_with_one_line_and_writes_nothing(tmp_path, capsys, ar
     assert words in err[0]
     assert not out.exists()
     assert list(tmp_path.iterdir()) == []
+
+
+def test_sweep_reports_a_run_the_engine_refuses(tmp_path, monkeypatch):
+    """A channel the engine refuses to set up (here: a SimulationError forced for r = 20 mm)
+    becomes two rows with status -1, the reason and no forces; the other rows are simulated, the
+    files are written, and the exit status is 3 (a run failed)."""
+    from ringqa.errors import SimulationError
+
+    real = sweep_module.run_channel
+
+    def refuse_r20(channel, settings, *args, **kwargs):
+        if channel.name.startswith("s-r20-"):
+            raise SimulationError("forced for the test")
+        return real(channel, settings, *args, **kwargs)
+
+    monkeypatch.setattr(sweep_module, "run_channel", refuse_r20)
+    monkeypatch.setattr(sweep_module, "PAPER_RADII_MM", (20.0, 60.0))
+    out = tmp_path / "sweep"
+    rc = main(["needle", "--sweep", "radius", "--workers", "1", "--out", str(out), "--quiet"])
+    assert rc == 3
+    peaks = pd.read_csv(out / "peaks.csv")
+    bad = peaks[peaks["radius_mm"] == 20.0]
+    assert (bad["status"] == -1).all() and (bad["message"] == "forced for the test").all()
+    assert bad["peak1_n"].isna().all()
+    assert (peaks.loc[peaks["radius_mm"] == 60.0, "status"] == 0).all()
+    assert json.loads((out / "run.json").read_text())["status"] == -1

@@ -4,6 +4,7 @@ checks on a channel before it runs (Must-show 5's physics side)."""
 from __future__ import annotations
 
 import math
+import tomllib
 
 import numpy as np
 import pytest
@@ -19,7 +20,6 @@ from ringqa.needle.scene import (
     needle_scene,
 )
 from ringqa.simulation import simulate
-from ringqa.simulation.scenefile import read_scene_dict
 from ringqa.units import m_to_mm
 
 
@@ -27,7 +27,7 @@ def test_shipped_scene_holds_the_paper_channel(repo_root, needle_settings):
     """data/scenes/needle-paper.toml carries the points s_channel(35, 0, 2.6) interpolates
     (every 0.25 mm, to 1e-6 mm) and the 2.6 mm lumen (r_b 1.3, r_a 1.2 mm); its settings are the
     catheter preset at 5 mm/s, 0.825 mm links (cut to 120/146 = 0.822 mm), 0.25 mm increments."""
-    data = read_scene_dict(repo_root / "data" / "scenes" / "needle-paper.toml")
+    data = tomllib.loads((repo_root / "data" / "scenes" / "needle-paper.toml").read_text())
     pts = np.asarray(data["channel"]["centreline_mm"])
     expected = s_centreline_mm(s_channel_layout(35.0, 0.0, 2.6), 0.25)
     assert pts.shape == expected.shape
