@@ -4,10 +4,12 @@ Every ``import`` in the package sources is read with ``ast`` (no code is run) an
 against the layer order written in DEVELOPERS.md:
 
     foundations (units, errors, paths, provenance, outdir, jsonio)
-      -> geometry -> io -> simulation -> plan -> accuracy -> pipeline -> report -> cli
+      -> geometry -> io -> simulation -> plan -> accuracy -> pipeline -> report -> needle -> cli
 
 A module may import its own layer and layers to its left, never to its right; ``tg43`` never
-imports ``ringqa``. The test fails with the offending file and import.
+imports ``ringqa``. ``needle`` (the needle-insertion study) sits beside the pipeline: it uses
+only the foundations, geometry, simulation and report, and only the cli imports it. The test
+fails with the offending file and import.
 
 Private names (the rule of :func:`test_no_private_imports`): a leading underscore means "this
 module only" for a name and "this package only" for a module.
@@ -34,7 +36,9 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 LAYERS = ["foundations", "geometry", "io", "simulation", "plan", "accuracy", "pipeline", "report",
-          "cli"]  # fmt: skip
+          "needle", "cli"]  # fmt: skip
+#: what ringqa.needle may import (besides itself): it sits beside the pipeline
+NEEDLE_USES = {"foundations", "geometry", "simulation", "report", "needle"}
 #: (source file or folder, imported name) -> why it is still allowed. Delete entries as they go.
 PRIVATE_IMPORT_EXCEPTIONS: dict[tuple[str, str], str] = {}
 
@@ -101,6 +105,24 @@ def test_ringqa_imports_only_leftwards():
                 where = f"{path.relative_to(ROOT)}:{line}"
                 bad.append(f"{where} ({LAYERS[own]}) imports {mod} ({LAYERS[other]})")
     assert not bad, "imports against the data flow:\n" + "\n".join(bad)
+
+
+def test_needle_sits_beside_the_pipeline():
+    """ringqa.needle imports only foundations, geometry, simulation and report (not io, plan,
+    accuracy or pipeline), and nothing but the cli imports it."""
+    bad = []
+    for path in _sources("ringqa"):
+        own = _module_name(path)
+        for line, mod in _imports(path):
+            layer = _layer(mod)
+            if layer is None:
+                continue
+            where = f"{path.relative_to(ROOT)}:{line}"
+            if own.startswith("ringqa.needle") and LAYERS[layer] not in NEEDLE_USES:
+                bad.append(f"{where} imports {mod} ({LAYERS[layer]})")
+            if LAYERS[layer] == "needle" and not own.startswith(("ringqa.needle", "ringqa.cli")):
+                bad.append(f"{where} imports {mod}: only the cli may use ringqa.needle")
+    assert not bad, "ringqa.needle out of place:\n" + "\n".join(bad)
 
 
 def _is_private(name: str) -> bool:

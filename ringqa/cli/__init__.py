@@ -22,6 +22,7 @@ COMMANDS: dict[str, str] = {
     "simulate": "ringqa.cli.simulate",
     "accuracy": "ringqa.cli.accuracy",
     "commission": "ringqa.cli.commission",
+    "needle": "ringqa.cli.needle",
 }
 
 

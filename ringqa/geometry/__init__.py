@@ -5,6 +5,7 @@ from ringqa.geometry.centreline import Centreline, CentrelineTable, GeometryErro
 from ringqa.geometry.lumen import Lumen
 from ringqa.geometry.parametric import ring_applicator, ring_channel, tandem_channel
 from ringqa.geometry.ring_frame import RingFrame, fit_circle, fit_ring_frame
+from ringqa.geometry.s_channel import SChannelLayout, s_channel, s_channel_layout
 
 __all__ = [
     "Applicator",
@@ -14,9 +15,12 @@ __all__ = [
     "GeometryError",
     "Lumen",
     "RingFrame",
+    "SChannelLayout",
     "fit_circle",
     "fit_ring_frame",
     "ring_applicator",
     "ring_channel",
+    "s_channel",
+    "s_channel_layout",
     "tandem_channel",
 ]

@@ -103,17 +103,18 @@ FLEXITRON = Instrument(
 )
 
 # ---- ProGuide 6F catheter with obturator (Table 1, "Needle insertion") -------------------------
+# Every value checked against Table 1's needle column (Straathof et al. 2024) for issue 14.
 CATHETER = Instrument(
     name="catheter",
     sections=(
         CableSection(
             name="catheter",
-            length_m=0.12,  # free catheter length in the paper's insertion setup
-            r_o_m=0.99e-3,
-            ei_nm2=1.2e-2,
-            gj_nm2=9.6e-3,
-            mass_per_length_kg_m=1.0,  # Table 1 (scaled)
-            element_length_m=3.3e-3,
+            length_m=0.12,  # Table 1 L = 0.12 m: the free length between clamp and tip (sec. 2.4)
+            r_o_m=0.99e-3,  # Table 1 r_o = 0.99 mm
+            ei_nm2=1.2e-2,  # Table 1 EI = 1.2e-2 N m^2
+            gj_nm2=9.6e-3,  # Table 1 GJ = 9.6e-3 N m^2
+            mass_per_length_kg_m=1.0,  # Table 1 m/l = 1 kg/m (scaled up, as for the cable)
+            element_length_m=3.3e-3,  # Table 1 l_rig = 3.3 mm
         ),
     ),
     centre_from_tip_m=0.0,  # no source: the reported "source" point is the tip
@@ -128,6 +129,8 @@ CONTACT_PRESETS: dict[str, ContactParams] = {
     "flexitron": ContactParams(
         stiffness_n_m=1.0e5, damping_ns_m=10.0, mu_s=0.25, mu_k=0.20, v_brk_m_s=1.0e-3
     ),
+    # Table 1 needle column: k = 1e6 N/m, c_w = 10 N s/m, mu_s = 0.094, mu_k = 0.074,
+    # v_brk = 0.001 m/s (r_a, r_b belong to the channel: ringqa.geometry.s_channel)
     "catheter": ContactParams(
         stiffness_n_m=1.0e6, damping_ns_m=10.0, mu_s=0.094, mu_k=0.074, v_brk_m_s=1.0e-3
     ),
