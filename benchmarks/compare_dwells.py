@@ -111,6 +111,9 @@ def main() -> int:
                 f"{int(got['n_stabilised_steps'])}"
             )
             continue
+        if not f.is_file():
+            print(f"{name:28s} no reference saved in {d}: skipped")
+            continue
         ref = np.load(f)
         dp = float(np.nanmax(np.abs(got["source_pos_m"] - ref["source_pos_m"]), initial=0.0))
         dt = float(np.nanmax(np.abs(got["tip_pos_m"] - ref["tip_pos_m"]), initial=0.0))
