@@ -109,6 +109,7 @@ class Model:
         self.effects = tuple(u.args() for u in units)
         #: Newton for these effects (disk-cached unless an effect comes from outside ringqa)
         self.newton = newton if is_cacheable(self.effects) else newton_uncached
+        self._newton_call = self.newton
         self.static_effects = tuple(
             u.with_coef(0.0) if isinstance(u, Tether) else u.suspended_args() for u in units
         )
@@ -239,10 +240,28 @@ class Model:
 
     def solve(self, effects, q: np.ndarray, st: Step) -> tuple[int, int, float]:
         """Newton in place on ``q``; returns (status, iterations, residual (N))."""
-        return self.newton(
+        return self._newton_call(
             effects, q, st, self.samples, self.n_free, self.tol_abs, self.max_iter,
             self.max_step, self.r, self.B, self.energies, self.counters,
         )  # fmt: skip
+
+    def bind_compiled_newton(self, q: np.ndarray) -> None:
+        """Call Newton's compiled entry point for this model's argument types directly.
+
+        numba's dispatcher finds the specialisation from the argument types on every call, which
+        for the named tuples of effects, step and samples costs ~6 us, more than a cheap load step
+        (the entry point itself ~1 us). The types do not change during a run (the effects' args
+        only change values), so the specialisation is looked up once, after compiling it.
+        """
+        st = self.step(q.copy(), np.zeros_like(q), 1.0)
+        args = (self.effects, q, st, self.samples, self.n_free, self.tol_abs, 0, self.max_step,
+                self.r, self.B, self.energies, self.counters)  # fmt: skip
+        try:
+            types = tuple(self.newton.typeof_pyval(a) for a in args)
+            entry = self.newton.overloads[types].entry_point
+        except (KeyError, AttributeError):  # pragma: no cover - other numba versions
+            return
+        self._newton_call = entry
 
     # -- states --------------------------------------------------------------------------
     def initial_state(self, u: float) -> np.ndarray:

@@ -89,6 +89,7 @@ def warm_kernels(model: Model) -> None:
         np.zeros_like(model.r), np.zeros_like(model.B), np.zeros_like(model.energies),
         np.zeros_like(model.counters),
     )  # fmt: skip
+    model.bind_compiled_newton(q)
     predict(
         q.copy(), True, 0.0, model.u_start, model.nd, model.n_nodes, model.chain.link_len,
         model.table.args(), sw.s.copy(), model._cum, model.cft, model._node_sample,

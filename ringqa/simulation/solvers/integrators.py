@@ -16,8 +16,7 @@ is predicted, solved by Newton and turned into a velocity.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Any, ClassVar
+from typing import Any, ClassVar, NamedTuple
 
 import numpy as np
 from numba import njit
@@ -28,9 +27,8 @@ from numba import njit
 BDF2_MAX_RATIO = 2.0
 
 
-@dataclass(frozen=True)
-class SubstepResult:
-    """One solved (sub-)step.
+class SubstepResult(NamedTuple):
+    """One solved (sub-)step (a named tuple: one is made per sub-step).
 
     Attributes
     ----------

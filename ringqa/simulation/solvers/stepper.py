@@ -10,8 +10,7 @@ accounted for.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -24,9 +23,8 @@ FALLBACK_AFTER = 1
 FALLBACK_STIFFNESS_FRACTION = 1e-3
 
 
-@dataclass(frozen=True)
-class StepOutcome:
-    """What one step (all its attempts) came to.
+class StepOutcome(NamedTuple):
+    """What one step (all its attempts) came to (a named tuple: one is made per step).
 
     Attributes
     ----------
