@@ -1,11 +1,17 @@
 """Channel cross-sections (lumens), piecewise constant along the arc length.
 
 A lumen is a circle of radius ``r_b`` (the wall) with a contact-transition radius ``r_a < r_b``
-(used by the contact laws), optionally cut by a flat side at distance ``flat`` from the centreline
-on the OUTSIDE of the bend (along ``-normal``): the U-shaped lumen of the ring applicator. The
-cross-section is constant on segments ``[seg_s[k], seg_s[k+1])`` of the arc length (m); the first
-and last bounds are ``-inf`` / ``+inf`` so every arc length (also beyond the channel ends) has a
-cross-section.
+(used by the contact laws), optionally with a flat side at distance ``flat`` from the centreline:
+the U-shaped lumen of the ring applicator. A flat at or beyond the circle (``flat >= r_b``) does
+not cut the circle: the cross-section the cable meets is then the circle (the paper's U, whose
+flat lets the source reach about 1.1 mm off the centreline of a 3 mm lumen, is such a lumen).
+Which way the flat faces is the :class:`FlatSide`: fixed in the applicator's frame (towards the
+outside of the ring, cranially, caudally) or following the bend (along ``-normal``, the outside of
+the bend, the earlier default, which turns with the Frenet normal through an S-shaped stem
+transition). The cross-section is constant on segments ``[seg_s[k], seg_s[k+1])`` of the arc
+length (m); the first and last bounds are ``-inf`` / ``+inf`` so every arc length (also beyond the
+channel ends) has a cross-section. ``source`` says where the dimensions come from (a citation, a
+measurement, or ``"assumed"``): reports print it.
 
 The signed wall distance (positive inside) and the outward wall normal come from the numba kernel
 :func:`ringqa.geometry._kernels.wall_distance`; :meth:`Lumen.wall_distance` wraps it for tests and
@@ -14,7 +20,7 @@ plots.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -36,6 +42,104 @@ def _positive(name: str, value) -> float:
     return v
 
 
+#: which way a flat side can face
+FLAT_TOWARDS = ("bend_outside", "ring_outside", "cranial", "caudal")
+
+
+@dataclass(frozen=True, eq=False)
+class FlatSide:
+    """Which way a U-shaped lumen's flat side faces.
+
+    Attributes
+    ----------
+    towards : str
+        ``"bend_outside"``: on the outside of the bend (along ``-normal`` of the centreline; the
+        direction turns with the Frenet normal, and the flat fades out where the centreline is
+        nearly straight); ``"ring_outside"``: away from the ring's axis (the line through
+        ``ring_centre_m`` along ``ring_normal``), fixed in the applicator's frame;
+        ``"cranial"`` / ``"caudal"``: along ``+ring_normal`` / ``-ring_normal``.
+    ring_centre_m : (3,) ndarray or None
+        The ring's centre (m): needed by ``"ring_outside"``.
+    ring_normal : (3,) ndarray or None
+        The ring's unit normal (cranial): needed by every fixed orientation.
+    """
+
+    towards: str = "bend_outside"
+    ring_centre_m: np.ndarray | None = None
+    ring_normal: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        if self.towards not in FLAT_TOWARDS:
+            raise GeometryError(
+                f"flat_towards: {self.towards!r} is not one of {', '.join(FLAT_TOWARDS)}"
+            )
+        if self.towards != "bend_outside":
+            if self.ring_normal is None or (
+                self.towards == "ring_outside" and self.ring_centre_m is None
+            ):
+                raise GeometryError(
+                    f"flat_towards = {self.towards!r} is fixed in the applicator's frame: it needs "
+                    "the ring's centre and normal (give the channel a ring frame, or use "
+                    "'bend_outside')"
+                )
+            n = np.asarray(self.ring_normal, dtype=float)
+            if n.shape != (3,) or not np.isfinite(n).all() or np.linalg.norm(n) == 0:
+                raise GeometryError("FlatSide.ring_normal: expected a non-zero 3-vector")
+            object.__setattr__(self, "ring_normal", n / np.linalg.norm(n))
+        if self.ring_centre_m is not None:
+            c = np.asarray(self.ring_centre_m, dtype=float)
+            if c.shape != (3,) or not np.isfinite(c).all():
+                raise GeometryError("FlatSide.ring_centre_m: expected a finite 3-vector (m)")
+            object.__setattr__(self, "ring_centre_m", c)
+
+    @property
+    def fixed(self) -> bool:
+        """True when the flat faces a direction fixed in the applicator's frame."""
+        return self.towards != "bend_outside"
+
+    def describe(self) -> str:
+        """Where the flat faces, in words."""
+        return {
+            "bend_outside": "on the outside of the bend (turning with the centreline's normal)",
+            "ring_outside": "towards the outside of the ring (fixed in the applicator's frame)",
+            "cranial": "cranially (fixed in the applicator's frame)",
+            "caudal": "caudally (fixed in the applicator's frame)",
+        }[self.towards]
+
+    def away(self, positions_m, tangents, normals) -> np.ndarray:
+        """Unit vectors pointing AWAY from the flat (the flat lies along ``-away``), in each
+        cross-section's plane (perpendicular to the tangent).
+
+        Parameters
+        ----------
+        positions_m, tangents, normals : (m, 3) array_like
+            Centreline points (m), unit tangents and unit normals.
+
+        Returns
+        -------
+        (m, 3) ndarray
+            Unit vectors; NaN rows where a fixed direction runs along the centreline (no
+            cross-section direction), which a caller must not use.
+        """
+        pos = np.asarray(positions_m, dtype=float).reshape(-1, 3)
+        tan = np.asarray(tangents, dtype=float).reshape(-1, 3)
+        nor = np.asarray(normals, dtype=float).reshape(-1, 3)
+        if self.towards == "bend_outside":
+            return nor.copy()
+        n = self.ring_normal
+        if self.towards == "ring_outside":
+            rad = pos - self.ring_centre_m
+            toward_flat = rad - np.outer(rad @ n, n)
+        else:
+            toward_flat = np.tile(n if self.towards == "cranial" else -n, (pos.shape[0], 1))
+        v = -(toward_flat - np.sum(toward_flat * tan, axis=1)[:, None] * tan)
+        norm = np.linalg.norm(v, axis=1)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            out = v / norm[:, None]
+        out[norm < 1e-9] = np.nan
+        return out
+
+
 @dataclass(frozen=True, eq=False)
 class Lumen:
     """Piecewise-constant lumen cross-section (SI).
@@ -49,14 +153,20 @@ class Lumen:
     seg_ra : (k,) ndarray
         Contact-transition radius r_a per segment (m), ``0 < r_a < r_b``.
     seg_flat : (k,) ndarray
-        Distance from the centreline to the flat side on the outside of the bend (m); ``+inf``
-        where the lumen is circular.
+        Distance from the centreline to the flat side (m); ``+inf`` where the lumen is circular;
+        ``>= r_b``: at or beyond the circle, where it does not cut it.
+    flat_side : FlatSide
+        Which way the flat faces.
+    source : str
+        Where the dimensions come from (a citation or measurement), or ``"assumed"``.
     """
 
     seg_s: np.ndarray
     seg_rb: np.ndarray
     seg_ra: np.ndarray
     seg_flat: np.ndarray
+    flat_side: FlatSide = field(default_factory=FlatSide)
+    source: str = ""
 
     def __post_init__(self) -> None:
         seg_s = np.ascontiguousarray(self.seg_s, dtype=float)
@@ -83,7 +193,10 @@ class Lumen:
                     f"Lumen segment {i}: flat distance must be > 0 m (or inf for a circle), "
                     f"got {flat[i]!r}"
                 )
-        flat = np.where(flat >= rb, np.inf, flat)
+        if not isinstance(self.flat_side, FlatSide):
+            raise GeometryError("Lumen.flat_side: expected a FlatSide")
+        if not isinstance(self.source, str):
+            raise GeometryError("Lumen.source: expected a string (a citation or 'assumed')")
         object.__setattr__(self, "seg_s", seg_s)
         object.__setattr__(self, "seg_rb", rb)
         object.__setattr__(self, "seg_ra", ra)
@@ -129,18 +242,17 @@ class Lumen:
         flat_m: float,
         s_start_m: float = -np.inf,
         s_end_m: float = np.inf,
+        flat_side: FlatSide | None = None,
+        source: str = "",
     ) -> Lumen:
-        """A U-shaped lumen: a circle of radius ``r_b_m`` cut by a flat side at ``flat_m`` (m)
-        from the centreline on the outside of the bend (along ``-normal``), for arc lengths in
-        ``[s_start_m, s_end_m)``; circular elsewhere (e.g. along a straight stem).
+        """A U-shaped lumen: a circle of radius ``r_b_m`` with a flat side at ``flat_m`` (m)
+        from the centreline (facing as ``flat_side`` says; default the outside of the bend), for
+        arc lengths in ``[s_start_m, s_end_m)``; circular elsewhere (e.g. along a straight stem).
+        A flat at or beyond the circle (``flat_m >= r_b_m``) does not cut it.
         """
         rb = _positive("r_b_m", r_b_m)
         ra = _positive("r_a_m", r_a_m)
         flat = _positive("flat_m", flat_m)
-        if not flat < rb:
-            raise GeometryError(
-                f"flat_m: the flat side ({flat:g} m) must lie inside the circle r_b_m = {rb:g} m"
-            )
         a = float(s_start_m)
         b = float(s_end_m)
         if not a < b:
@@ -156,7 +268,10 @@ class Lumen:
             flats.append(np.inf)
         bounds.append(np.inf)
         k = len(flats)
-        return cls(np.array(bounds), np.full(k, rb), np.full(k, ra), np.array(flats))
+        return cls(
+            np.array(bounds), np.full(k, rb), np.full(k, ra), np.array(flats),
+            flat_side if flat_side is not None else FlatSide(), source,
+        )  # fmt: skip
 
     # -- access ---------------------------------------------------------------------------
     def kernel_arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -169,6 +284,34 @@ class Lumen:
             np.clip(np.searchsorted(self.seg_s, s_m, side="right") - 1, 0, self.seg_rb.size - 1)
         )
         return float(self.seg_rb[k]), float(self.seg_ra[k]), float(self.seg_flat[k])
+
+    @property
+    def cuts_circle(self) -> np.ndarray:
+        """Per segment: True where a flat side cuts the circle (``flat < r_b``)."""
+        return self.seg_flat < self.seg_rb
+
+    def describe(self) -> str:
+        """The cross-section in words (mm), with its source, for reports."""
+        from ringqa.units import m_to_mm
+
+        parts = []
+        for i in range(self.seg_rb.size):
+            d = f"{2 * m_to_mm(self.seg_rb[i]):.2f} mm"
+            f = self.seg_flat[i]
+            if np.isfinite(f):
+                where = "cuts the circle" if f < self.seg_rb[i] else "at or beyond the circle"
+                shape = (f"U-shaped, {d}, flat side {m_to_mm(f):.2f} mm from the centreline "
+                         f"{self.flat_side.describe()} ({where})")  # fmt: skip
+            else:
+                shape = f"circular, {d}"
+            lo, hi = self.seg_s[i], self.seg_s[i + 1]
+            if self.seg_rb.size > 1:
+                rng = "from the entry" if not np.isfinite(lo) else f"from s = {m_to_mm(lo):.1f} mm"
+                rng += "" if not np.isfinite(hi) else f" to s = {m_to_mm(hi):.1f} mm"
+                shape = f"{shape} {rng}"
+            parts.append(shape)
+        text = "; ".join(parts)
+        return f"{text} (source: {self.source})" if self.source else text
 
     @property
     def max_radius_m(self) -> float:

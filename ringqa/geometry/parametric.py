@@ -32,8 +32,13 @@ proper starts at +1.5 deg. The stem passes 7-11 mm from the distal ring (the nea
 the closest-point search).
 
 Lumen: 3.0 mm (r_b 1.5 mm, paper's r_a 1.4 mm), U-shaped from the start of the transition to the
-tip with the flat side ASSUMED 1.2 mm from the centreline on the outside of the bend (the paper
-does not give the dimension); circular along the straight stem. ``s_ref`` = lumen tip minus 5.0 mm
+tip, its flat side facing the outside of the ring (fixed in the applicator's frame, as a moulded
+groove is) and lying at the 1.5 mm circle (:data:`FLAT_MM`): the paper reports the source about
+1.1 mm off the centreline against the flat, 1.5 mm in theory (section 3.1), i.e. a flat at or beyond
+the circle, which then does not cut the circular cross-section (the source centre reaches
+1.5 - 0.425 = 1.075 mm); circular along the straight stem. :data:`LUMEN_SOURCE` is printed with
+it. (Until issue 13 the flat was ASSUMED 1.2 mm and followed the Frenet normal:
+docs/commissioning.md shows what the choice moves.) ``s_ref`` = lumen tip minus 5.0 mm
 (the "1st marker" offset of the Oncentra library, domain.md).
 
 Tandem: straight, along the ring normal through the ring centre (lumen 2.5 mm, r_a = r_b - 0.1
@@ -47,7 +52,7 @@ import numpy as np
 
 from ringqa.geometry.applicator import Applicator, Channel
 from ringqa.geometry.centreline import Centreline, GeometryError
-from ringqa.geometry.lumen import Lumen
+from ringqa.geometry.lumen import FlatSide, Lumen
 from ringqa.units import deg_to_rad, mm_to_m
 
 #: Defaults (mm / deg) and their sources.
@@ -61,7 +66,15 @@ JOIN_AZIMUTH_DEG = 1.5
 TRANSITION_OFFSETS_MM = (11.0, 20.0, 12.0)
 RING_LUMEN_DIAMETER_MM = 3.0
 RING_R_A_MM = 1.4
-FLAT_MM = 1.2
+#: the U-shaped ring lumen's flat side from the centreline (mm): at the 1.5 mm circle (the paper)
+FLAT_MM = 1.5
+#: where the ring lumen's dimensions come from (printed in reports)
+LUMEN_SOURCE = (
+    "3.0 mm, r_a 1.4 mm and the U shape: Straathof et al., Med Phys 2024 (Table 1, section 3.1: "
+    "the source reaches about 1.1 mm off the centreline against the flat side, 1.5 mm in theory, "
+    "so the flat lies at or beyond the 1.5 mm circle: modelled at the circle, facing the outside "
+    "of the ring); circular along the 60 mm stem insert"
+)
 TIP_TO_FIRST_DWELL_MM = 5.0
 TANDEM_LUMEN_DIAMETER_MM = 2.5
 TANDEM_LENGTH_MM = 60.0
@@ -79,8 +92,9 @@ SOURCES = (
 )
 
 ASSUMPTIONS = (
-    "Flat side of the U-shaped lumen 1.2 mm from the centreline on the outside of the bend (not "
-    "given in the paper); circular along the straight stem.",
+    "Flat side of the U-shaped lumen at the 1.5 mm circle, facing the outside of the ring (the "
+    "paper: about 1.1 mm reached, 1.5 mm in theory; the exact distance beyond the circle is not "
+    "given and does not change what the source can reach); circular along the straight stem.",
     "Same angular run (264 deg) from the same join azimuth (+1.5 deg) for every ring size; "
     "transition 28 mm with the Oncentra 26/60 start offsets (11, 20, 12) mm for every size.",
     "Stem distal direction (0, cos a, sin a): comes from caudal/anterior in a sagittal plane "
@@ -245,7 +259,9 @@ def tandem_channel(
     pts = np.asarray(centre_m, dtype=float) + mm_to_m(z)[:, None] * n
     cl = Centreline.from_points(pts)
     rb = lumen_diameter_mm / 2.0
-    lumen = Lumen.circular(mm_to_m(rb), mm_to_m(rb - 0.1))
+    circ = Lumen.circular(mm_to_m(rb), mm_to_m(rb - 0.1))
+    lumen = Lumen(circ.seg_s, circ.seg_rb, circ.seg_ra, circ.seg_flat,
+                  source="2.5 mm: Oncentra library; r_a = r_b - 0.1 mm assumed")  # fmt: skip
     return Channel(name, cl, lumen, cl.length_m - mm_to_m(tip_to_first_dwell_mm))
 
 
@@ -266,7 +282,9 @@ def ring_channel(
     )
     cl = Centreline.from_points(mm_to_m(pts_mm))
     rb = RING_LUMEN_DIAMETER_MM / 2.0
-    lumen = Lumen.u_shaped(mm_to_m(rb), mm_to_m(RING_R_A_MM), mm_to_m(flat_mm), mm_to_m(stem_mm))
+    side = FlatSide("ring_outside", np.zeros(3), np.array([0.0, 0.0, 1.0]))
+    lumen = Lumen.u_shaped(mm_to_m(rb), mm_to_m(RING_R_A_MM), mm_to_m(flat_mm), mm_to_m(stem_mm),
+                           flat_side=side, source=LUMEN_SOURCE)  # fmt: skip
     ch = Channel(name, cl, lumen, cl.length_m - mm_to_m(tip_to_first_dwell_mm))
     return ch, info
 

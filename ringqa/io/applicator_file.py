@@ -10,19 +10,19 @@ Format (``format_version`` 1; full description in ``data/applicators/README.md``
       "channels": [
         {"name": "ring",
          "centreline_mm": [[x, y, z], ...],          # PROXIMAL -> DISTAL (or "centreline_file")
-         "lumen": {"kind": "u_shaped", "r_b_mm": 1.5, "r_a_mm": 1.4, "flat_mm": 1.2,
-                   "s_start_mm": 60.0},
+         "lumen": {"kind": "u", "r_b_mm": 1.5, "r_a_mm": 1.4, "flat_mm": 1.5,
+                   "flat_towards": "ring_outside", "u_start_mm": 60.0,
+                   "source": "Straathof et al. 2024 ..."},
          "s_ref_mm": 142.9,                          # arc length of relative position 0
          "measured_path_mm": [[x, y, z], ...],       # optional, MOST DISTAL FIRST
          "measured_step_mm": 2.5}, ...]
     }
 
-Lumen kinds: ``circular`` (r_b_mm, r_a_mm), ``stepped`` (s_breaks_mm, r_b_mm [..], r_a_mm [..]),
-``u_shaped`` (r_b_mm, r_a_mm, flat_mm, optional s_start_mm / s_end_mm), ``segments`` (the exact
-form :func:`save_applicator` writes: s_bounds_mm with null for -inf/+inf, r_b_mm, r_a_mm, flat_mm
-with null for "no flat"). Instead of ``s_ref_mm`` a channel may give ``tip_to_first_dwell_mm``
-(s_ref = length - that) or, with a measured path, neither (s_ref = arc length closest to the
-path's first point).
+The lumen is a spec in the one vocabulary of :mod:`ringqa.geometry.lumen_spec` (shared with scene
+files): ``circular``, ``u`` or ``stepped``, with ``flat_towards`` and ``source``; older files'
+``u_shaped`` and ``segments`` are read too. Instead of ``s_ref_mm`` a channel may give
+``tip_to_first_dwell_mm`` (s_ref = length - that) or, with a measured path, neither (s_ref = arc
+length closest to the path's first point).
 
 A FOLDER is accepted too: ``applicator.json`` (as above, where ``centreline_file`` /
 ``measured_path_file`` name CSV files in the folder), or an ``applicator.json`` without
@@ -54,6 +54,7 @@ from ringqa.geometry import (
     RingFrame,
     fit_ring_frame,
 )
+from ringqa.geometry.lumen_spec import lumen_from_spec, lumen_to_spec
 from ringqa.io.points import read_points
 from ringqa.jsonio import json_text, to_jsonable
 from ringqa.outdir import atomic_write_text
@@ -131,17 +132,10 @@ def applicator_to_dict(app: Applicator, decimals: int | None = None) -> dict[str
 
     channels = []
     for ch in app.channels:
-        seg_s, seg_rb, seg_ra, seg_flat = ch.lumen.kernel_arrays()
         entry: dict[str, Any] = {
             "name": ch.name,
             "centreline_mm": pts(ch.centreline.points_m),
-            "lumen": {
-                "kind": "segments",
-                "s_bounds_mm": [num(v) for v in m_to_mm(seg_s)],
-                "r_b_mm": [num(v) for v in m_to_mm(seg_rb)],
-                "r_a_mm": [num(v) for v in m_to_mm(seg_ra)],
-                "flat_mm": [num(v) for v in m_to_mm(seg_flat)],
-            },
+            "lumen": lumen_to_spec(ch.lumen),
             "s_ref_mm": float(m_to_mm(ch.s_ref_m)),
             "length_mm": float(m_to_mm(ch.length_m)),
         }
@@ -160,8 +154,10 @@ def applicator_to_dict(app: Applicator, decimals: int | None = None) -> dict[str
             "s_ref_mm": "arc length from the proximal end to the source centre at relative "
             "position 0 (most distal dwell); relative position p sits at s_ref_mm - p",
             "measured_path_mm": "source-centre positions, most distal first (p = 0, step, ...)",
-            "lumen": "flat side at flat_mm from the centreline on the outside of the bend; null "
-            "= no flat; s_bounds_mm null = -inf / +inf",
+            "lumen": "kind circular | u | stepped (ringqa.geometry.lumen_spec); flat_mm from the "
+            "centreline, facing flat_towards (bend_outside, or fixed in the ring frame: "
+            "ring_outside, cranial, caudal); at or beyond r_b_mm the flat does not cut the "
+            "circle; source = where the dimensions come from, or 'assumed'",
             "frame": "ring plane normal points cranially, lateral to the patient's left",
         },
         "metadata": to_jsonable(app.metadata),
@@ -344,15 +340,20 @@ def _from_dict(doc, rd: _Reader) -> Applicator:
     raw_channels = rd.get(doc, "channels", "")
     if not isinstance(raw_channels, list) or not raw_channels:
         raise rd.fail("channels", "expected a non-empty list of channel objects")
-    channels = tuple(_channel(c, f"channels[{i}]", rd) for i, c in enumerate(raw_channels))
     metadata = doc.get("metadata", {})
     if not isinstance(metadata, dict):
         raise rd.fail("metadata", "expected a JSON object")
     frame = doc.get("ring_frame")
     if frame is None:
-        frame = _fit_frame(channels, rd)
-        centre, normal, lateral, radius = (frame.centre_m, frame.normal, frame.lateral,
-                                           frame.radius_m)  # fmt: skip
+        # a lumen fixed in the ring frame is read once the frame is fitted to the channels
+        plain = [_without_fixed_flat(c) for c in raw_channels]
+        channels = tuple(_channel(c, f"channels[{i}]", rd) for i, c in enumerate(plain))
+        fit = _fit_frame(channels, rd)
+        centre, normal, lateral, radius = fit.centre_m, fit.normal, fit.lateral, fit.radius_m
+        channels = tuple(
+            ch if c is p else _channel(c, f"channels[{i}]", rd, (centre, normal))
+            for i, (c, p, ch) in enumerate(zip(raw_channels, plain, channels, strict=True))
+        )
     else:
         centre = mm_to_m(rd.vector(frame, "centre_mm", "ring_frame"))
         normal = rd.vector(frame, "normal", "ring_frame")
@@ -364,6 +365,9 @@ def _from_dict(doc, rd: _Reader) -> Applicator:
                 raise rd.fail(f"ring_frame.{key}", "zero vector", "give a unit vector")
         normal = normal / np.linalg.norm(normal)
         lateral = lateral / np.linalg.norm(lateral)
+        channels = tuple(
+            _channel(c, f"channels[{i}]", rd, (centre, normal)) for i, c in enumerate(raw_channels)
+        )
     try:
         return Applicator(
             name=name,
@@ -376,6 +380,15 @@ def _from_dict(doc, rd: _Reader) -> Applicator:
         )
     except GeometryError as exc:
         raise rd.fail("ring_frame/channels", str(exc)) from None
+
+
+def _without_fixed_flat(c):
+    """``c`` with a flat fixed in the ring frame read as following the bend (for fitting the
+    frame first); ``c`` itself when it has none."""
+    lum = c.get("lumen") if isinstance(c, dict) else None
+    if not isinstance(lum, dict) or lum.get("flat_towards", "bend_outside") == "bend_outside":
+        return c
+    return {**c, "lumen": {**lum, "flat_towards": "bend_outside"}}
 
 
 def _fit_frame(channels, rd: _Reader) -> RingFrame:
@@ -401,7 +414,7 @@ def _read_csv_points(rd: _Reader, field: str, name, kind: str) -> np.ndarray:
     return read_points(p, kind=kind)  # raises PointsFileError naming the file
 
 
-def _channel(c, where: str, rd: _Reader) -> Channel:
+def _channel(c, where: str, rd: _Reader, ring_frame=None) -> Channel:
     if not isinstance(c, dict):
         raise rd.fail(where, "expected a channel object")
     name = rd.get(c, "name", where)
@@ -420,7 +433,7 @@ def _channel(c, where: str, rd: _Reader) -> Channel:
         cl = Centreline.from_points(pts_m)
     except GeometryError as exc:
         raise rd.fail(f"{where}.centreline_mm", str(exc)) from None
-    lumen = _lumen(rd.get(c, "lumen", where), f"{where}.lumen", rd)
+    lumen = _lumen(rd.get(c, "lumen", where), f"{where}.lumen", rd, ring_frame)
     path_m = None
     if c.get("measured_path_mm") is not None:
         path_m = mm_to_m(rd.points(c["measured_path_mm"], f"{where}.measured_path_mm"))
@@ -458,47 +471,12 @@ def _channel(c, where: str, rd: _Reader) -> Channel:
         raise rd.fail(where, str(exc)) from None
 
 
-def _lumen(d, where: str, rd: _Reader) -> Lumen:
-    kind = rd.get(d, "kind", where)
+def _lumen(d, where: str, rd: _Reader, ring_frame=None) -> Lumen:
+    """The channel's lumen from its spec (:mod:`ringqa.geometry.lumen_spec`: one vocabulary for
+    applicator and scene files); a flat fixed in the applicator's frame needs ``ring_frame``."""
+    if not isinstance(d, dict):
+        raise rd.fail(where, "expected a JSON object", "see data/applicators/README.md")
     try:
-        if kind == "circular":
-            return Lumen.circular(
-                mm_to_m(rd.number(d, "r_b_mm", where, positive=True)),
-                mm_to_m(rd.number(d, "r_a_mm", where, positive=True)),
-            )
-        if kind == "u_shaped":
-            s0 = rd.number(d, "s_start_mm", where, default=None)
-            s1 = rd.number(d, "s_end_mm", where, default=None)
-            return Lumen.u_shaped(
-                mm_to_m(rd.number(d, "r_b_mm", where, positive=True)),
-                mm_to_m(rd.number(d, "r_a_mm", where, positive=True)),
-                mm_to_m(rd.number(d, "flat_mm", where, positive=True)),
-                -np.inf if s0 is None else mm_to_m(s0),
-                np.inf if s1 is None else mm_to_m(s1),
-            )
-        if kind == "stepped":
-            return Lumen.stepped(
-                mm_to_m(rd.numbers(rd.get(d, "s_breaks_mm", where), f"{where}.s_breaks_mm")),
-                mm_to_m(rd.numbers(rd.get(d, "r_b_mm", where), f"{where}.r_b_mm")),
-                mm_to_m(rd.numbers(rd.get(d, "r_a_mm", where), f"{where}.r_a_mm")),
-            )
-        if kind == "segments":
-            bounds = rd.numbers(rd.get(d, "s_bounds_mm", where), f"{where}.s_bounds_mm", True)
-            if np.isnan(bounds[1:-1]).any():
-                raise rd.fail(f"{where}.s_bounds_mm", "only the first and last may be null")
-            bounds[0] = -np.inf if np.isnan(bounds[0]) else bounds[0]
-            bounds[-1] = np.inf if np.isnan(bounds[-1]) else bounds[-1]
-            flat = rd.numbers(rd.get(d, "flat_mm", where), f"{where}.flat_mm", True)
-            flat = np.where(np.isnan(flat), np.inf, flat)
-            return Lumen(
-                mm_to_m(bounds),
-                mm_to_m(rd.numbers(rd.get(d, "r_b_mm", where), f"{where}.r_b_mm")),
-                mm_to_m(rd.numbers(rd.get(d, "r_a_mm", where), f"{where}.r_a_mm")),
-                mm_to_m(flat),
-            )
+        return lumen_from_spec(d, where, ring_frame)
     except GeometryError as exc:
-        raise rd.fail(where, str(exc)) from None
-    raise rd.fail(
-        f"{where}.kind", f"unknown lumen kind {kind!r}",
-        "use circular, stepped, u_shaped or segments",
-    )  # fmt: skip
+        raise ApplicatorFileError(rd.path, str(exc)) from None

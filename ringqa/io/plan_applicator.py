@@ -6,9 +6,10 @@ Conventions (interfaces.md):
   proximal -> distal in metres, DICOM patient coordinates;
 - lumen: ``r_b`` = library lumen diameter / 2, contact-transition radius ``r_a = r_b - 0.1 mm``
   (the paper's 1.5 / 1.4 mm ring). The library gives only the diameter; as in the parametric
-  rings (:mod:`ringqa.geometry.parametric`) the RING lumen is U-shaped (flat side ASSUMED
-  ``FLAT_MM`` = 1.2 mm from the centreline on the outside of the bend) from the end of the
-  straight stem to the tip, circular along the stem; other channels are circular;
+  rings (:mod:`ringqa.geometry.parametric`) the RING lumen is the paper's U (flat side at the
+  circle, ``FLAT_MM``, facing the outside of the ring in the applicator's frame) from the end of
+  the straight stem to the tip, circular along the stem; other channels are circular; each lumen
+  carries its source (library diameter; the paper's shape);
 - ``s_ref_m``: arc length of the library's first marker (``marker1``), where the plan's relative
   position 0 lies (checked on the Oncentra 26/60 plan: the tandem's relative-position-0 dwell is
   the marker to < 0.05 mm, and the marker's arc length on the centreline equals
@@ -30,7 +31,8 @@ import numpy as np
 
 from ringqa.errors import InputFileError
 from ringqa.geometry import Applicator, Centreline, Channel, Lumen, fit_ring_frame
-from ringqa.geometry.parametric import FLAT_MM
+from ringqa.geometry.lumen import FlatSide
+from ringqa.geometry.parametric import FLAT_MM, LUMEN_SOURCE
 from ringqa.units import m_to_mm, mm_to_m
 
 #: Contact-transition radius below the wall radius (paper: r_b 1.5 mm, r_a 1.4 mm).
@@ -161,8 +163,20 @@ def applicator_from_rtplan(plan):
         )
     notes: list[str] = []
     channels = []
-    ring_cl_mm = tandem_tip = None
     info = {}
+    roles: dict = {}
+    for _, lc in sorted(plan.library.items()):
+        roles.setdefault(lc.role, lc)
+    if "ring" not in roles:
+        raise InputFileError(
+            plan.path,
+            "the applicator library has no ring channel "
+            f"(parts: {', '.join(lc.description or lc.name for lc in plan.library.values())})",
+            "ringqa commissions ring applicators; give a ring applicator plan",
+        )
+    ring_cl_mm = roles["ring"].centreline_mm
+    tandem_tip = roles["tandem"].centreline_mm[-1] if "tandem" in roles else None
+    circle = fit_ring_circle(ring_cl_mm, tandem_tip_mm=tandem_tip)
     for number, lc in sorted(plan.library.items()):
         name = lc.role if lc.role in ("ring", "tandem") else lc.name or f"channel {number}"
         if any(c.name == name for c in channels):
@@ -177,15 +191,22 @@ def applicator_from_rtplan(plan):
         r_b = 0.5 * diam
         r_a = r_b - RA_BELOW_RB_MM
         lumen_note = "circular"
-        if name == "ring" and FLAT_MM < r_a:
+        source = f"{diam:g} mm: the Oncentra library; r_a = r_b - {RA_BELOW_RB_MM:g} mm assumed"
+        if name == "ring":
             s0 = stem_end_mm(cl_mm)
-            lumen = Lumen.u_shaped(mm_to_m(r_b), mm_to_m(r_a), mm_to_m(FLAT_MM), mm_to_m(s0))
+            side = FlatSide("ring_outside", mm_to_m(circle.centre_mm), circle.normal)
+            lumen = Lumen.u_shaped(
+                mm_to_m(r_b), mm_to_m(r_a), mm_to_m(max(FLAT_MM, r_b)), mm_to_m(s0), flat_side=side,
+                source=f"{source}; U shape: {LUMEN_SOURCE}",
+            )  # fmt: skip
             lumen_note = (
                 f"U-shaped from the end of the straight stem (s = {s0:.1f} mm) to the tip, flat "
-                f"side {FLAT_MM} mm from the centreline (ASSUMED, as the parametric rings)"
+                f"side at the circle ({max(FLAT_MM, r_b):g} mm), facing the outside of the ring "
+                "(the paper's U, as the parametric rings)"
             )
         else:
-            lumen = Lumen.circular(mm_to_m(r_b), mm_to_m(r_a))
+            circ = Lumen.circular(mm_to_m(r_b), mm_to_m(r_a))
+            lumen = Lumen(circ.seg_s, circ.seg_rb, circ.seg_ra, circ.seg_flat, source=source)
         ch = plan.channel(number)
         if lc.marker_mm is not None:
             s_m, _ = centreline.closest(mm_to_m(np.asarray(lc.marker_mm)[None, :]))
@@ -222,18 +243,6 @@ def applicator_from_rtplan(plan):
             "s_ref_from": how,
             "measured_path": lc.measured_path_name,
         }
-        if name == "ring":
-            ring_cl_mm = cl_mm
-        elif name == "tandem":
-            tandem_tip = cl_mm[-1]
-    if ring_cl_mm is None:
-        raise InputFileError(
-            plan.path,
-            "the applicator library has no ring channel "
-            f"(parts: {', '.join(lc.description or lc.name for lc in plan.library.values())})",
-            "ringqa commissions ring applicators; give a ring applicator plan",
-        )
-    circle = fit_ring_circle(ring_cl_mm, tandem_tip_mm=tandem_tip)
     normal = circle.normal
     stem = ring_cl_mm[min(20, len(ring_cl_mm) - 1)] - ring_cl_mm[0]
     stem = stem / np.linalg.norm(stem)

@@ -35,10 +35,11 @@ class ChannelArgs(NamedTuple):
     ----------
     h : float
         Arc-length spacing of the table (m).
-    pos, tan, nor : (m, 3) float64
-        Centreline positions (m), unit tangents and unit normals at ``s = k h``.
+    pos, tan, flat_normal : (m, 3) float64
+        Centreline positions (m), unit tangents and the unit directions pointing away from a
+        flat side (:attr:`ChannelTable.flat_normal`) at ``s = k h``.
     kappa_min_flat : float
-        Curvature (1/m) below which a flat side fades out (:data:`KAPPA_MIN_FLAT`).
+        Curvature (1/m) below which a flat side fades out (:data:`KAPPA_MIN_FLAT`; 0: never).
     seg_s : (k+1,) float64
         Lumen segment breaks (m).
     seg_rb, seg_ra, seg_flat : (k,) float64
@@ -48,7 +49,7 @@ class ChannelArgs(NamedTuple):
     h: float
     pos: np.ndarray
     tan: np.ndarray
-    nor: np.ndarray
+    flat_normal: np.ndarray
     kappa_min_flat: float
     seg_s: np.ndarray
     seg_rb: np.ndarray
@@ -73,6 +74,13 @@ class ChannelTable:
     seg_s, seg_rb, seg_ra, seg_flat : float64 arrays
         Lumen segments: breaks (k+1,), wall radius r_b (k,), transition radius r_a (k,), flat-side
         distance (k,) (+inf: circular).
+    flat_normal : (m, 3) float64
+        Unit direction pointing AWAY from a flat side at ``s = k h`` (the flat lies along
+        ``-flat_normal``): the centreline normal for a flat on the outside of the bend, else the
+        lumen's fixed orientation (:class:`ringqa.geometry.lumen.FlatSide`).
+    kappa_min_flat : float
+        Curvature (1/m) below which a flat on the outside of the bend fades out
+        (:data:`KAPPA_MIN_FLAT`); 0 for a fixed orientation (no fade: it does not flip).
     """
 
     h: float
@@ -85,6 +93,8 @@ class ChannelTable:
     seg_rb: np.ndarray
     seg_ra: np.ndarray
     seg_flat: np.ndarray
+    flat_normal: np.ndarray
+    kappa_min_flat: float
 
     @classmethod
     def from_channel(cls, channel, spacing_m: float = TABLE_SPACING_M) -> ChannelTable:
@@ -104,6 +114,7 @@ class ChannelTable:
         tan = np.ascontiguousarray(tan / np.linalg.norm(tan, axis=1)[:, None])
         nor = np.ascontiguousarray(cl.normal(s), dtype=np.float64)
         kappa = np.ascontiguousarray(cl.curvature(s), dtype=np.float64)
+        flat_normal, kappa_min_flat = _flat_normals(lumen, s, pos, tan, nor)
         seg_s, seg_rb, seg_ra, seg_flat = (
             np.ascontiguousarray(a, dtype=np.float64) for a in lumen.kernel_arrays()
         )
@@ -111,13 +122,14 @@ class ChannelTable:
             raise SimulationError("scene.channel: centreline has non-finite samples")
         if np.any(seg_rb <= 0) or np.any(seg_ra > seg_rb):
             raise SimulationError("scene.channel.lumen: need 0 < r_a <= r_b in every segment")
-        return cls(h, pos, tan, nor, kappa, length, seg_s, seg_rb, seg_ra, seg_flat)
+        return cls(h, pos, tan, nor, kappa, length, seg_s, seg_rb, seg_ra, seg_flat,
+                   flat_normal, kappa_min_flat)  # fmt: skip
 
     def args(self) -> ChannelArgs:
         """The table as the kernels take it."""
         return ChannelArgs(
-            self.h, self.pos, self.tan, self.nor, KAPPA_MIN_FLAT, self.seg_s, self.seg_rb,
-            self.seg_ra, self.seg_flat,
+            self.h, self.pos, self.tan, self.flat_normal, self.kappa_min_flat, self.seg_s,
+            self.seg_rb, self.seg_ra, self.seg_flat,
         )  # fmt: skip
 
     # -- Python conveniences (tests, outputs) --------------------------------------------
@@ -159,3 +171,28 @@ class ChannelTable:
             np.clip(np.searchsorted(self.seg_s, s_m, side="right") - 1, 0, self.seg_rb.size - 1)
         )
         return float(self.seg_rb[g])
+
+
+def _flat_normals(lumen, s: np.ndarray, pos, tan, nor) -> tuple[np.ndarray, float]:
+    """The table of directions pointing away from a flat side, and the fade curvature.
+
+    A flat fixed in the applicator's frame needs a cross-section direction wherever the lumen
+    has a flat that cuts the circle; a fixed direction running along the centreline there has
+    none (refused, naming where).
+    """
+    side = getattr(lumen, "flat_side", None)
+    if side is None or not side.fixed:
+        return nor, KAPPA_MIN_FLAT
+    away = side.away(pos, tan, nor)
+    seg_s, seg_rb, _seg_ra, seg_flat = lumen.kernel_arrays()
+    g = np.clip(np.searchsorted(seg_s, s, side="right") - 1, 0, seg_rb.size - 1)
+    flat_here = seg_flat[g] < seg_rb[g]
+    bad = flat_here & np.isnan(away).any(axis=1)
+    if bad.any():
+        raise SimulationError(
+            f"scene.channel.lumen: the flat side faces {side.towards!r}, which runs along the "
+            f"centreline at s = {s[np.argmax(bad)] * 1e3:.1f} mm (no cross-section direction): "
+            "use flat_towards = 'bend_outside' there"
+        )
+    away = np.where(np.isnan(away), nor, away)
+    return np.ascontiguousarray(away, dtype=np.float64), 0.0

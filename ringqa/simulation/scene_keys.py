@@ -28,6 +28,7 @@ NUM = (int, float)
 
 CHANNEL_KINDS = ("applicator", "straight", "arc", "helix", "s-curve", "points")
 LUMEN_KINDS = ("circular", "u", "stepped")
+FLAT_TOWARDS = ("bend_outside", "ring_outside", "cranial", "caudal")
 FRICTION_LAWS = ("none", "coulomb", "stribeck")
 SOLVER_KINDS = ("quasistatic", "dynamic")
 INTEGRATORS = ("backward_euler", "bdf2")
@@ -161,8 +162,13 @@ KEYS: tuple[Key, ...] = (
     _k("channel", "r_a_mm", None, "mm", (*NUM, list), None, "positive",
        "start of the contact transition zone (default r_b - 0.1)"),
     _k("channel", "flat_mm", None, "mm", (*NUM, list), None, "nonneg",
-       "u: the flat side's distance from the centreline on the outside of the bend "
-       "(stepped: one per segment, 0 = no flat)"),
+       "u: the flat side's distance from the centreline; at or beyond r_b it does not cut the "
+       "circle (stepped: one per segment, 0 = no flat)"),
+    _k("channel", "flat_towards", None, "", (str,), "bend_outside", FLAT_TOWARDS,
+       "u, stepped: which way the flat faces: the outside of the bend, or fixed in the "
+       "applicator's frame (needs its ring frame: an applicator channel or an arc)"),
+    _k("channel", "lumen_source", None, "", (str,), None, None,
+       "where the lumen's dimensions come from (a citation, a measurement) or 'assumed'"),
     _k("channel", "u_start_mm", None, "mm", NUM, None, None, "u: where the flat side starts"),
     _k("channel", "u_end_mm", None, "mm", NUM, None, None, "u: where the flat side ends"),
     _k("channel", "s_breaks_mm", None, "mm", (list,), None, None,

@@ -83,8 +83,8 @@ def test_curvature_is_continuous(rings, diameter, angle):
 def test_ring_conventions(rings):
     """26/60: the circle runs 264 deg (59.9 mm) to the tip, s_ref = tip - 5 mm, the tip at 265.5
     deg azimuth (x = 13 cos 265.5 = -1.020 mm, y = 13 sin 265.5 = -12.960 mm), the stem starts
-    caudally/anteriorly (z < 0, y < 0), the lumen is U-shaped after the stem (flat 1.2 mm) and
-    circular on it."""
+    caudally/anteriorly (z < 0, y < 0), the lumen is the paper's U after the stem (flat at the
+    1.5 mm circle, facing the ring's outside) and circular on it."""
     app = rings[(26, 60)]
     ring = app.channel("ring")
     cl = ring.centreline
@@ -95,7 +95,8 @@ def test_ring_conventions(rings):
     start = cl.position(0.0)
     assert start[2] < -0.05 and start[1] < -0.04
     assert ring.lumen.radii_at(0.03) == pytest.approx((1.5e-3, 1.4e-3, np.inf))
-    assert ring.lumen.radii_at(0.1) == pytest.approx((1.5e-3, 1.4e-3, 1.2e-3))
+    assert ring.lumen.radii_at(0.1) == pytest.approx((1.5e-3, 1.4e-3, 1.5e-3))
+    assert ring.lumen.flat_side.towards == "ring_outside" and "Straathof" in ring.lumen.source
     assert app.channel_names == ("ring", "tandem")
 
 

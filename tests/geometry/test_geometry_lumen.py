@@ -8,6 +8,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from ringqa.geometry import GeometryError, Lumen
+from ringqa.geometry.lumen import FlatSide
 
 MM = 1e-3
 NOR = np.array([1.0, 0.0, 0.0])  # centreline normal (towards the centre of the bend)
@@ -130,7 +131,9 @@ def test_u_shaped_only_in_its_range():
         (lambda: Lumen.circular(1.5, 1.4), "metres"),
         (lambda: Lumen.circular(1.4e-3, 1.5e-3), "smaller than r_b"),
         (lambda: Lumen.circular(-1e-3, 0.5e-3), "r_b_m"),
-        (lambda: Lumen.u_shaped(1.5e-3, 1.4e-3, 1.6e-3), "flat_m"),
+        (lambda: Lumen.u_shaped(1.5e-3, 1.4e-3, -1.6e-3), "flat_m"),
+        (lambda: FlatSide("outward"), "flat_towards"),
+        (lambda: FlatSide("ring_outside"), "ring's centre and normal"),
         (lambda: Lumen.stepped([0.01], [1e-3], [0.9e-3]), "2 radii"),
         (lambda: Lumen.stepped([0.02, 0.01], [1e-3] * 3, [0.9e-3] * 3), "increase"),
     ],
@@ -139,3 +142,31 @@ def test_bad_lumens_are_refused(call, fragment):
     """Each invalid lumen raises GeometryError naming the argument."""
     with pytest.raises(GeometryError, match=fragment):
         call()
+
+
+def test_a_flat_at_or_beyond_the_circle_does_not_cut_it():
+    """The paper's U: a flat at (1.5 mm) or beyond (2.0 mm) the 1.5 mm circle leaves the circular
+    cross-section: a point 1.3 mm towards the flat is 0.2 mm inside, as in the circle."""
+    for flat_mm in (1.5, 2.0):
+        lum = Lumen.u_shaped(1.5 * MM, 1.4 * MM, flat_mm * MM)
+        assert not lum.cuts_circle.any()
+        d, _ = lum.wall_distance(0.0, -1.3 * MM * NOR, NOR)
+        assert d == pytest.approx(0.2 * MM, abs=1e-12)
+        assert "at or beyond the circle" in lum.describe()
+
+
+def test_flat_side_directions_are_fixed_in_the_ring_frame():
+    """On a ring of centre 0 and normal +z: at the point (13, 0, 2) mm with tangent +y the
+    ring's outside is +x (flat along +x: 'away' = -x); cranial is +z ('away' = -z); following the
+    bend, 'away' is the centreline normal itself. A fixed direction along the tangent has no
+    cross-section direction (NaN)."""
+    pos = np.array([[13e-3, 0.0, 2e-3]])
+    tan = np.array([[0.0, 1.0, 0.0]])
+    nor = np.array([[-1.0, 0.0, 0.0]])
+    ring = dict(ring_centre_m=np.zeros(3), ring_normal=np.array([0.0, 0.0, 2.0]))
+    assert FlatSide("ring_outside", **ring).away(pos, tan, nor)[0] == pytest.approx([-1, 0, 0])
+    assert FlatSide("cranial", **ring).away(pos, tan, nor)[0] == pytest.approx([0, 0, -1])
+    assert FlatSide("caudal", **ring).away(pos, tan, nor)[0] == pytest.approx([0, 0, 1])
+    assert FlatSide().away(pos, tan, nor)[0] == pytest.approx(nor[0])
+    along = FlatSide("cranial", **ring).away(pos, np.array([[0.0, 0.0, 1.0]]), nor)
+    assert np.isnan(along).all()

@@ -143,13 +143,14 @@ def _valid_doc():
         (lambda d: d.update(units="m"), "millimetres"),
         (lambda d: d.update(format_version=7), "format_version"),
         (lambda d: d["channels"][0].pop("lumen"), "channels[0] (ring).lumen: missing"),
-        (lambda d: d["channels"][0]["lumen"].update(kind="oval"), "unknown lumen kind"),
+        (lambda d: d["channels"][0]["lumen"].update(kind="oval"), "lumen.kind: got 'oval'"),
+        (lambda d: d["channels"][0]["lumen"].update(lumen_diameter_mm=3.0), "unknown lumen key"),
         (lambda d: d["channels"][0].update(s_ref_mm=900.0), "s_ref_m"),
         (lambda d: d["channels"][0]["centreline_mm"].__setitem__(3, [1, 2]), "centreline_mm[3]"),
         (lambda d: d["channels"][0]["centreline_mm"].__setitem__(4, "x"), "centreline_mm[4]"),
         (lambda d: d["channels"][1].update(name="ring"), "duplicated"),
         (lambda d: d["ring_frame"].update(normal=[0, 0, 0]), "ring_frame.normal"),
-        (lambda d: d["channels"][0]["lumen"]["r_b_mm"].__setitem__(0, -1), "r_b"),
+        (lambda d: d["channels"][0]["lumen"].update(r_b_mm=-1), "r_b_mm: must be > 0"),
     ],
 )
 def test_malformed_files_name_the_field(tmp_path, mutate, fragment):

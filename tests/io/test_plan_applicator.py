@@ -89,14 +89,17 @@ def test_applicator_s_ref_and_measured_path(example_app):
 
 
 def test_ring_lumen_is_u_shaped_after_the_stem(example_app):
-    """Ring: r_b 1.5 mm, r_a 1.4 mm; circular on the stem, flat side 1.2 mm beyond it (the
-    stem ends about 282.5 - 60 (circle) - 28 (transition) = 194 mm from the entry)."""
+    """Ring: r_b 1.5 mm, r_a 1.4 mm; circular on the stem, the paper's U beyond it (flat at the
+    1.5 mm circle, facing the outside of the ring; the stem ends about 282.5 - 60 (circle) - 28
+    (transition) = 194 mm from the entry); every lumen says where its dimensions come from."""
     _, app = example_app
     seg_s, rb, ra, flat = app.channel("ring").lumen.kernel_arrays()
     np.testing.assert_allclose(rb * 1e3, 1.5)
     np.testing.assert_allclose(ra * 1e3, 1.4)
     assert seg_s[1] * 1e3 == pytest.approx(194.0, abs=1.5)
-    assert np.isinf(flat[0]) and flat[-1] * 1e3 == pytest.approx(1.2)
+    assert np.isinf(flat[0]) and flat[-1] * 1e3 == pytest.approx(1.5)
+    ring = app.channel("ring").lumen
+    assert ring.flat_side.towards == "ring_outside" and "Oncentra library" in ring.source
     seg_s, rb, ra, flat = app.channel("tandem").lumen.kernel_arrays()
     assert np.all(np.isinf(flat)) and rb[0] * 1e3 == pytest.approx(1.25)
 

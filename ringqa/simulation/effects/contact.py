@@ -88,7 +88,7 @@ def prepare_contact(p, q, st, sw):
     """The effect's uniform signature: call :func:`contact_geometry` on the samples."""
     ch = p.chan
     return contact_geometry(
-        q, st.nd, sw.link, sw.alpha, sw.ro, sw.wt, ch.h, ch.pos, ch.tan, ch.nor,
+        q, st.nd, sw.link, sw.alpha, sw.ro, sw.wt, ch.h, ch.pos, ch.tan, ch.flat_normal,
         ch.kappa_min_flat, ch.seg_s, ch.seg_rb, ch.seg_ra, ch.seg_flat, p.transition, p.max_frac,
         p.k_wall, sw.s, sw.p, sw.d, sw.n, sw.H, sw.z, sw.w, sw.F, sw.dF,
     )  # fmt: skip

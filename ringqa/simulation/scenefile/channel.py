@@ -98,79 +98,37 @@ def analytic_centreline_mm(spec: Mapping[str, Any]) -> np.ndarray:
     return np.vstack(parts)
 
 
-def read_lumen(ck: Checker, sec: dict, required: bool):
-    try:
-        return _lumen_from_table(ck, sec, required)
-    except SceneError:
-        raise
-    except RingQAError as exc:
-        raise ck.fail("channel.lumen", str(exc), "check r_b_mm, r_a_mm, flat_mm") from None
+#: the [channel] keys that describe the lumen (the spec's ``kind`` is ``lumen``, its ``source``
+#: ``lumen_source``)
+LUMEN_TABLE_KEYS = ("r_b_mm", "r_a_mm", "flat_mm", "flat_towards", "u_start_mm", "u_end_mm",
+                    "s_breaks_mm", "lumen_source")  # fmt: skip
 
 
-def _lumen_from_table(ck: Checker, sec: dict, required: bool):
-    from ringqa.geometry import Lumen
+def read_lumen(ck: Checker, sec: dict, required: bool, ring_frame=None):
+    """The lumen the ``[channel]`` table describes (None: none given and none ``required``), read
+    with the one lumen vocabulary (:mod:`ringqa.geometry.lumen_spec`) that applicator files use.
+
+    ``ring_frame`` (centre (3,) m, normal (3,)) orients a flat fixed in the applicator's frame.
+    """
+    from ringqa.geometry.lumen_spec import lumen_from_spec
 
     kind = ck.value("channel", "lumen", sec=sec)
     if kind is None:
-        if not required and not any(k in sec for k in ("r_b_mm", "r_a_mm", "flat_mm")):
+        if not required and not any(k in sec for k in LUMEN_TABLE_KEYS):
             return None
         kind = "circular"
-    r_b = ck.value("channel", "r_b_mm", sec=sec)
-    r_a = ck.value("channel", "r_a_mm", sec=sec)
-    if r_b is None:
+    if "r_b_mm" not in sec:
         raise ck.fail("channel.r_b_mm", "missing", "give the lumen radius, e.g. r_b_mm = 1.5")
-    if kind == "stepped":
-        breaks = ck.value("channel", "s_breaks_mm", sec=sec)
-        if breaks is None:
-            raise ck.fail(
-                "channel.s_breaks_mm",
-                "missing for lumen = 'stepped'",
-                "give the arc lengths (mm) where the radius changes",
-            )
-        s_b = ck.numbers("channel.s_breaks_mm", breaks)
-        rb = ck.numbers("channel.r_b_mm", r_b if isinstance(r_b, list) else [r_b], positive=True)
-        ra_in = r_a if r_a is not None else [x - 0.1 for x in np.atleast_1d(rb)]
-        ra = ck.numbers("channel.r_a_mm", ra_in if isinstance(ra_in, list) else [ra_in])
-        if rb.size != s_b.size + 1 or ra.size != rb.size:
-            raise ck.fail(
-                "channel.r_b_mm",
-                f"{rb.size} radii for {s_b.size} breaks",
-                "a stepped lumen needs one more radius (r_b_mm and r_a_mm) than s_breaks_mm",
-            )
-        flat_in = ck.value("channel", "flat_mm", sec=sec)
-        if flat_in is None:
-            return Lumen.stepped(mm_to_m(s_b), mm_to_m(rb), mm_to_m(ra))
-        flat = ck.numbers("channel.flat_mm", flat_in if isinstance(flat_in, list) else [flat_in])
-        if flat.size != rb.size:
-            raise ck.fail("channel.flat_mm", "wrong length", "one value per segment (0 = no flat)")
-        seg_s = np.concatenate([[-np.inf], mm_to_m(s_b), [np.inf]])
-        seg_flat = np.where(flat > 0, mm_to_m(flat), np.inf)
-        return Lumen(seg_s, mm_to_m(rb), mm_to_m(ra), seg_flat)
-    if isinstance(r_b, list) or isinstance(r_a, list):
-        raise ck.fail("channel.r_b_mm", "a list", "lists of radii need lumen = 'stepped'")
-    r_a = r_b - 0.1 if r_a is None else r_a
-    if not 0 < r_a <= r_b:
-        raise ck.fail("channel.r_a_mm", f"got {r_a}", f"must be in (0, r_b_mm = {r_b}]")
-    if kind == "u":
-        flat = ck.value("channel", "flat_mm", sec=sec)
-        if flat is None:
-            raise ck.fail(
-                "channel.flat_mm",
-                "missing for lumen = 'u'",
-                "give the flat side's distance from the centreline (mm), e.g. flat_mm = 1.2",
-            )
-        if isinstance(flat, list) or not flat > 0:
-            raise ck.fail("channel.flat_mm", f"got {flat!r}", "give one positive distance (mm)")
-        start = ck.value("channel", "u_start_mm", sec=sec)
-        end = ck.value("channel", "u_end_mm", sec=sec)
-        return Lumen.u_shaped(
-            mm_to_m(r_b),
-            mm_to_m(r_a),
-            mm_to_m(flat),
-            -np.inf if start is None else mm_to_m(start),
-            np.inf if end is None else mm_to_m(end),
-        )
-    return Lumen.circular(mm_to_m(r_b), mm_to_m(r_a))
+    spec = {"kind": kind}
+    for key in LUMEN_TABLE_KEYS:
+        if key in sec:
+            spec["source" if key == "lumen_source" else key] = sec[key]
+    try:
+        return lumen_from_spec(spec, "channel", ring_frame)
+    except RingQAError as exc:
+        msg = str(exc).replace("channel.kind", "channel.lumen")
+        msg = msg.replace("channel.source", "channel.lumen_source")
+        raise SceneError(ck.origin + msg) from None
 
 
 def build_channel(ck: Checker):
@@ -212,7 +170,7 @@ def build_channel(ck: Checker):
         raise ck.fail(
             "channel", f"cannot build the centreline: {exc}", "check its parameters"
         ) from None
-    lumen = read_lumen(ck, sec, required=True)
+    lumen = read_lumen(ck, sec, required=True, ring_frame=_analytic_ring_frame(sec))
     length_mm = m_to_mm(cl.length_m)
     s_ref_mm = sec.get("s_ref_mm", max(length_mm - ANALYTIC_TIP_GAP_MM, 0.5 * length_mm))
     if not 0 <= s_ref_mm <= length_mm:
@@ -234,6 +192,14 @@ def build_channel(ck: Checker):
         measured_path_m=measured,
         measured_step_m=None if measured is None else mm_to_m(sec["measured_step_mm"]),
     )
+
+
+def _analytic_ring_frame(sec: dict):
+    """The ring frame of an analytic ``arc`` (its circle's centre and normal, m), else None."""
+    if sec.get("kind") != "arc" or "radius_mm" not in sec:
+        return None
+    centre = mm_to_m(np.array([float(sec.get("straight_mm", 0.0)), float(sec["radius_mm"]), 0.0]))
+    return centre, np.array([0.0, 0.0, 1.0])
 
 
 def applicator_channel(ck: Checker, sec: dict):
@@ -265,7 +231,12 @@ def applicator_channel(ck: Checker, sec: dict):
         raise ck.fail(
             "channel.channel", f"{name!r} has no channel {chan_name!r}", f"choose one of {names}"
         ) from None
-    lumen = read_lumen(ck, sec, required=False)
+    lumen = read_lumen(
+        ck,
+        sec,
+        required=False,
+        ring_frame=(np.asarray(app.ring_centre_m), np.asarray(app.ring_normal)),
+    )
     if lumen is not None:
         channel = replace(channel, lumen=lumen)
     if "s_ref_mm" in sec:

@@ -43,30 +43,19 @@ def channel_spec(scene: Scene) -> dict:
 
 
 def lumen_spec(lumen) -> dict:
-    """A lumen as ``[channel]`` lumen keys (circular, u or stepped)."""
-    seg_s, seg_rb, seg_ra, seg_flat = (np.asarray(a, dtype=float) for a in lumen.kernel_arrays())
-    radii = {"r_b_mm": m_to_mm(float(seg_rb[0])), "r_a_mm": m_to_mm(float(seg_ra[0]))}
-    same_r = np.all(seg_rb == seg_rb[0]) and np.all(seg_ra == seg_ra[0])
-    finite = np.isfinite(seg_flat)
-    if same_r and not finite.any():
-        return {"lumen": "circular", **radii}
-    if same_r and finite.sum() == 1 and len(seg_flat) <= 3:
-        i = int(np.flatnonzero(finite)[0])
-        spec = {"lumen": "u", **radii, "flat_mm": m_to_mm(float(seg_flat[i]))}
-        if np.isfinite(seg_s[i]):
-            spec["u_start_mm"] = m_to_mm(float(seg_s[i]))
-        if np.isfinite(seg_s[i + 1]):
-            spec["u_end_mm"] = m_to_mm(float(seg_s[i + 1]))
-        return spec
-    spec = {
-        "lumen": "stepped",
-        "s_breaks_mm": m_to_mm(seg_s[1:-1]).tolist(),
-        "r_b_mm": m_to_mm(seg_rb).tolist(),
-        "r_a_mm": m_to_mm(seg_ra).tolist(),
-    }
-    if finite.any():
-        spec["flat_mm"] = np.where(finite, m_to_mm(np.where(finite, seg_flat, 0.0)), 0.0).tolist()
-    return spec
+    """A lumen as ``[channel]`` lumen keys (the one lumen vocabulary of
+    :mod:`ringqa.geometry.lumen_spec`; its ``kind`` is the key ``lumen``, its ``source``
+    ``lumen_source``)."""
+    from ringqa.geometry.lumen_spec import lumen_to_spec
+
+    spec = lumen_to_spec(lumen)
+    out = {"lumen": spec.pop("kind")}
+    if "source" in spec:
+        spec["lumen_source"] = spec.pop("source")
+    if spec.get("flat_towards") == "bend_outside":
+        del spec["flat_towards"]
+    out.update(spec)
+    return out
 
 
 def section_dict(section: str, obj) -> dict:

@@ -209,7 +209,12 @@ def test_missing_file_is_an_input_error(tmp_path):
         ({"channel.kind": "spiral"}, r"channel.kind: .*choose one of"),
         ({"channel.radius_mm": None}, r"channel.radius_mm"),
         ({"channel.lumen": "u"}, r"channel.flat_mm: missing"),
-        ({"channel.flat_mm": 2.0, "channel.lumen": "u"}, r"channel.lumen: .*flat"),
+        ({"channel.flat_mm": -2.0, "channel.lumen": "u"}, r"channel.flat_mm: got -2"),
+        (
+            {"channel.flat_towards": "sideways", "channel.lumen": "u", "channel.flat_mm": 1.2},
+            r"channel.flat_towards: .*choose one of bend_outside",
+        ),
+        ({"channel.lumen_diameter_mm": 3.0}, r"channel.lumen_diameter_mm: unknown key"),
         ({"channel.r_a_mm": 2.0}, r"channel.r_a_mm: .*\(0, r_b_mm"),
         ({"motion.advances_mm": [10.0, 500.0]}, r"motion.advances_mm: values outside"),
         ({"motion.advances_mm": [30.0, 10.0]}, r"motion.advances_mm: not ascending"),
