@@ -1,8 +1,11 @@
-"""Instrument presets: the Flexitron source cable and the paper's catheter with obturator.
+"""Instrument presets: the Flexitron and microSelectron source cables, the paper's catheter.
 
-Every number comes from Straathof et al., Med Phys 2024, Table 1 (the paper's SPACAR parameters),
-with the source-capsule geometry from the egs_brachy Flexisource model (``shared/reference/
-domain.md``). SI units throughout.
+The Flexitron cable and the catheter come from Straathof et al., Med Phys 2024, Table 1 (the
+paper's SPACAR parameters), with the source-capsule geometry from the egs_brachy Flexisource model
+(``shared/reference/domain.md``). The microSelectron mHDR-v2 cable has the mHDR-v2 capsule and
+cable geometry of the egs_brachy model, but its bending and torsional stiffness and its wall
+contact are NOT published: they are borrowed from the Flexitron's thick section and contact
+measurements and said so (:data:`PRESET_SOURCES`). SI units throughout.
 
 ``CABLE_PRESETS[name]`` is an :class:`~ringqa.simulation.scene.Instrument` (sections from the tip
 back); ``CONTACT_PRESETS[name]`` the wall/friction parameters measured for that instrument;
@@ -38,6 +41,13 @@ FLEXITRON_THIN_LENGTH_M = 0.105  # thin section next to the source (Table 1, L t
 FLEXITRON_THICK_LENGTH_M = 0.616  # thick section (Table 1); the engine models what it needs
 PAPER_MASS_RIGID_LINK_KG_M = 0.04  # Table 1 m/l for the rigid-link model (scaled up)
 
+# ---- microSelectron mHDR-v2 source cable (egs_brachy geometry; domain.md) ---------------------
+MHDR_V2_CAPSULE_LENGTH_M = 4.5e-3  # capsule length (egs_brachy mHDR-v2)
+MHDR_V2_CENTRE_FROM_TIP_M = 2.0e-3  # tip to centre of activity
+MHDR_V2_CAPSULE_R_M = 0.45e-3  # capsule outer diameter 0.90 mm
+MHDR_V2_CABLE_R_M = 0.35e-3  # cable diameter 0.70 mm
+MHDR_V2_CABLE_LENGTH_M = 0.721  # as the Flexitron thin + thick; the engine models what it needs
+
 _STEEL_KG_M3 = 7900.0
 _IRIDIUM_KG_M3 = 22560.0
 
@@ -46,11 +56,16 @@ def _rod_mass_per_length(radius_m: float, density: float) -> float:
     return density * math.pi * radius_m**2
 
 
-def _capsule_mass_per_length() -> float:
-    outer = math.pi * 0.425e-3**2 * FLEXITRON_CAPSULE_LENGTH_M
-    core = math.pi * 0.30e-3**2 * 3.5e-3
+def _capsule_mass_per_length(
+    r_o_m: float = 0.425e-3,
+    length_m: float = FLEXITRON_CAPSULE_LENGTH_M,
+    core_r_m: float = 0.30e-3,
+    core_length_m: float = 3.5e-3,
+) -> float:
+    outer = math.pi * r_o_m**2 * length_m
+    core = math.pi * core_r_m**2 * core_length_m
     mass = _STEEL_KG_M3 * (outer - core) + _IRIDIUM_KG_M3 * core
-    return mass / FLEXITRON_CAPSULE_LENGTH_M
+    return mass / length_m
 
 
 #: Real (unscaled) mass per length, kg/m, per preset and section name (estimates, see module doc).
@@ -59,6 +74,12 @@ REAL_MASS_PER_LENGTH_KG_M: dict[str, dict[str, float]] = {
         "capsule": _capsule_mass_per_length(),  # ~7.6e-3
         "thin": _rod_mass_per_length(0.25e-3, _STEEL_KG_M3),  # ~1.55e-3
         "thick": _rod_mass_per_length(0.425e-3, _STEEL_KG_M3),  # ~4.48e-3
+    },
+    "microselectron": {
+        "capsule": _capsule_mass_per_length(
+            MHDR_V2_CAPSULE_R_M, MHDR_V2_CAPSULE_LENGTH_M, 0.325e-3, 3.6e-3
+        ),  # ~9.3e-3
+        "cable": _rod_mass_per_length(MHDR_V2_CABLE_R_M, _STEEL_KG_M3),  # ~3.0e-3
     },
     # ProGuide 6F: polymer tube (PEEK-like, ~1.3 g/cm^3) around a steel obturator (~0.8 mm):
     "catheter": {
@@ -102,6 +123,34 @@ FLEXITRON = Instrument(
     afterloader="flexitron",
 )
 
+# ---- microSelectron mHDR-v2 cable: geometry published, mechanics borrowed ----------------------
+MICROSELECTRON = Instrument(
+    name="microselectron",
+    sections=(
+        CableSection(
+            name="capsule",
+            length_m=MHDR_V2_CAPSULE_LENGTH_M,
+            r_o_m=MHDR_V2_CAPSULE_R_M,
+            ei_nm2=1.8e-4,  # rigid: one link; stiffness only used at its joint to the cable
+            gj_nm2=1.4e-4,
+            mass_per_length_kg_m=PAPER_MASS_RIGID_LINK_KG_M,
+            element_length_m=MHDR_V2_CAPSULE_LENGTH_M,
+            rigid=True,
+        ),
+        CableSection(
+            name="cable",
+            length_m=MHDR_V2_CABLE_LENGTH_M,
+            r_o_m=MHDR_V2_CABLE_R_M,
+            ei_nm2=1.8e-4,  # ASSUMED: the Flexitron thick section's (Table 1); not published
+            gj_nm2=1.4e-4,  # ASSUMED: likewise
+            mass_per_length_kg_m=PAPER_MASS_RIGID_LINK_KG_M,
+            element_length_m=3.0e-3,
+        ),
+    ),
+    centre_from_tip_m=MHDR_V2_CENTRE_FROM_TIP_M,
+    afterloader="microselectron",
+)
+
 # ---- ProGuide 6F catheter with obturator (Table 1, "Needle insertion") -------------------------
 # Every value checked against Table 1's needle column (Straathof et al. 2024) for issue 14.
 CATHETER = Instrument(
@@ -122,11 +171,38 @@ CATHETER = Instrument(
 )
 
 #: Instrument presets by name.
-CABLE_PRESETS: dict[str, Instrument] = {"flexitron": FLEXITRON, "catheter": CATHETER}
+CABLE_PRESETS: dict[str, Instrument] = {
+    "flexitron": FLEXITRON,
+    "microselectron": MICROSELECTRON,
+    "catheter": CATHETER,
+}
+
+#: Where each preset's numbers come from, in words for reports (``"assumed"`` where borrowed).
+PRESET_SOURCES: dict[str, str] = {
+    "flexitron": (
+        "Flexitron source cable: stiffness, friction and wall contact from Straathof et al. 2024, "
+        "Table 1; capsule geometry from the egs_brachy Flexisource model"
+    ),
+    "microselectron": (
+        "microSelectron mHDR-v2 source cable: capsule (0.90 x 4.5 mm, centre 2.0 mm from the "
+        "tip) and cable diameter (0.70 mm) from the egs_brachy mHDR-v2 model; bending and "
+        "torsional stiffness, friction and wall contact ASSUMED (borrowed from the Flexitron "
+        "cable's thick section and contact measurements, Straathof et al. 2024, Table 1: no "
+        "published values for this cable)"
+    ),
+    "catheter": "ProGuide 6F catheter with obturator: Straathof et al. 2024, Table 1",
+}
+
+#: Presets whose mechanics are borrowed from another cable (the report says so).
+BORROWED_MECHANICS: frozenset[str] = frozenset({"microselectron"})
 
 #: Contact and friction parameters measured with each instrument (Table 1).
 CONTACT_PRESETS: dict[str, ContactParams] = {
     "flexitron": ContactParams(
+        stiffness_n_m=1.0e5, damping_ns_m=10.0, mu_s=0.25, mu_k=0.20, v_brk_m_s=1.0e-3
+    ),
+    # ASSUMED: the Flexitron cable's measurements (no published values for the microSelectron)
+    "microselectron": ContactParams(
         stiffness_n_m=1.0e5, damping_ns_m=10.0, mu_s=0.25, mu_k=0.20, v_brk_m_s=1.0e-3
     ),
     # Table 1 needle column: k = 1e6 N/m, c_w = 10 N s/m, mu_s = 0.094, mu_k = 0.074,
@@ -137,7 +213,7 @@ CONTACT_PRESETS: dict[str, ContactParams] = {
 }
 
 #: The paper's input speed per preset (m/s): 0.5 m/s for the source cable, 0.1 m/s for the catheter.
-INPUT_SPEED_M_S: dict[str, float] = {"flexitron": 0.5, "catheter": 0.1}
+INPUT_SPEED_M_S: dict[str, float] = {"flexitron": 0.5, "microselectron": 0.5, "catheter": 0.1}
 
 
 def cable_preset(

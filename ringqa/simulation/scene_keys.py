@@ -33,7 +33,7 @@ FRICTION_LAWS = ("none", "coulomb", "stribeck")
 SOLVER_KINDS = ("quasistatic", "dynamic")
 INTEGRATORS = ("backward_euler", "bdf2")
 MOTION_KINDS = ("constant", "stepwise", "retract")
-PRESETS = ("flexitron", "catheter")
+PRESETS = ("flexitron", "microselectron", "catheter")
 
 #: SI value = user value x this factor, by unit
 _SCALE = {"mm": M_PER_MM, "mm/s": M_PER_MM}
@@ -179,9 +179,11 @@ KEYS: tuple[Key, ...] = (
        "points: spacing of the measured path"),
     # ---- instrument
     _k("instrument", "preset", None, "", (str,), "flexitron", PRESETS,
-       "instrument preset (the paper's Table 1)"),
+       "instrument preset (Flexitron and catheter: the paper's Table 1; microselectron: "
+       "mHDR-v2 geometry, Flexitron mechanics assumed)"),
     _k("instrument", "length_mm", None, "mm", NUM, None, "positive",
-       "instrument length (default the preset's: 725.6 mm Flexitron, 120 mm catheter)"),
+       "instrument length (default the preset's: 725.6 mm Flexitron, 725.5 mm microselectron, "
+       "120 mm catheter)"),
     _k("instrument", "real_mass", None, "", (bool,), False, None,
        "real masses instead of the paper's scaled ones"),
     _k("instrument", "centre_from_tip_mm", "centre_from_tip_m", "mm", NUM, None, "nonneg",
@@ -211,7 +213,8 @@ KEYS: tuple[Key, ...] = (
        "inertia (the dynamic solver switches it on)"),
     _k("effects", "gravity", None, "", (bool,), False, None, "gravity"),
     _k("effects", "gravity_m_s2", "gravity_m_s2", "m/s^2", (list,), None, None,
-       "gravity vector in the channel's frame (default [0, 0, -9.80665])"),
+       "gravity vector in the channel's frame (default [0, 9.80665, 0]: posterior in DICOM "
+       "patient coordinates, supine patient)"),
     # ---- contact (defaults: the preset's, the paper's Table 1)
     _k("contact", "stiffness_n_m", "stiffness_n_m", "N/m", NUM, 1.0e5, "positive",
        "wall stiffness k per contact point"),
@@ -241,7 +244,7 @@ KEYS: tuple[Key, ...] = (
     _k("motion", "span_mm", None, "mm", NUM, None, "nonneg",
        "extent of the default advances back from s_ref (default: the measured path's, else 60)"),
     _k("motion", "speed_mm_s", "speed_m_s", "mm/s", NUM, None, "positive",
-       "input speed (default the preset's: 500 Flexitron, 100 catheter)"),
+       "input speed (default the preset's: 500 source cables, 100 catheter)"),
     _k("motion", "start_mm", "start_m", "mm", NUM, None, None,
        "advance at which the run starts (default: the tip at the channel entry)"),
     _k("motion", "dwell_s", "dwell_s", "s", NUM, 0.0, "nonneg", "pause per dwell (stepwise)"),

@@ -10,6 +10,8 @@ from ringqa.errors import SceneError
 from ringqa.simulation.instruments import (
     CABLE_PRESETS,
     CONTACT_PRESETS,
+    BORROWED_MECHANICS,
+    PRESET_SOURCES,
     REAL_MASS_PER_LENGTH_KG_M,
     cable_preset,
 )
@@ -35,6 +37,27 @@ def test_flexitron_matches_table_1():
     assert (c.mu_s, c.mu_k, c.stiffness_n_m, c.damping_ns_m, c.v_brk_m_s) == pytest.approx(
         (0.25, 0.20, 1e5, 10.0, 1e-3)
     )
+
+
+def test_microselectron_has_the_mhdr_v2_geometry_and_says_its_mechanics_are_borrowed():
+    """domain.md (egs_brachy mHDR-v2): capsule 0.90 mm diameter (r_o 0.45 mm), 4.5 mm long,
+    centre of activity 2.0 mm from the tip; cable 0.70 mm diameter (r_o 0.35 mm). EI, GJ and the
+    wall contact are the Flexitron thick section's and contact (1.8e-4, 1.4e-4 N m^2; mu_s 0.25,
+    mu_k 0.20), and the preset's source text says ASSUMED."""
+    inst = CABLE_PRESETS["microselectron"]
+    cap, cable = inst.sections
+    assert cap.rigid and not cable.rigid
+    assert (cap.length_m, cap.r_o_m, inst.centre_from_tip_m) == pytest.approx(
+        (4.5e-3, 0.45e-3, 2.0e-3)
+    )
+    assert cable.r_o_m == pytest.approx(0.35e-3)
+    thick = CABLE_PRESETS["flexitron"].sections[2]
+    assert (cable.ei_nm2, cable.gj_nm2) == (thick.ei_nm2, thick.gj_nm2)
+    assert CONTACT_PRESETS["microselectron"] == CONTACT_PRESETS["flexitron"]
+    assert inst.afterloader == "microselectron"
+    assert "microselectron" in BORROWED_MECHANICS and "flexitron" not in BORROWED_MECHANICS
+    assert "ASSUMED" in PRESET_SOURCES["microselectron"]
+    assert set(PRESET_SOURCES) == set(CABLE_PRESETS)
 
 
 def test_catheter_matches_table_1():

@@ -55,6 +55,7 @@ from ringqa.simulation.scenefile.read import (
     shipped_scenes,
 )
 from ringqa.simulation.scenefile.sections import (
+    DEFAULT_GRAVITY_M_S2,
     DEFAULT_SPAN_MM,
     DEFAULT_STEP_MM,
     STANDARD_GRAVITY_M_S2,
@@ -65,6 +66,7 @@ from ringqa.simulation.scenefile.write import lumen_spec, scene_to_dict
 __all__ = [
     "ANALYTIC_TIP_GAP_MM",
     "CHANNEL_KINDS",
+    "DEFAULT_GRAVITY_M_S2",
     "DEFAULT_SPAN_MM",
     "DEFAULT_STEP_MM",
     "KEYS",

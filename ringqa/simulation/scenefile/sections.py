@@ -33,6 +33,10 @@ from ringqa.simulation.scenefile.check import Checker
 from ringqa.units import m_to_mm, mm_to_m
 
 STANDARD_GRAVITY_M_S2 = 9.80665
+#: Default gravity (m/s^2): ringqa's applicator frames are DICOM patient coordinates (x to the
+#: patient's left, y posterior, z cranial) and the patient lies supine, so gravity points
+#: posterior (+y).
+DEFAULT_GRAVITY_M_S2 = (0.0, STANDARD_GRAVITY_M_S2, 0.0)
 DEFAULT_STEP_MM = 1.0  # dwell spacing when the channel has no measured path (paper: 1 mm)
 DEFAULT_SPAN_MM = 60.0  # length covered by default dwells without a measured path (ring: 60 mm)
 
@@ -136,7 +140,7 @@ def read_effects(ck: Checker) -> Effects:
     gravity = None
     if ck.value("effects", "gravity", sec=sec):
         g = ck.value("effects", "gravity_m_s2", sec=sec)
-        g = [0.0, 0.0, -STANDARD_GRAVITY_M_S2] if g is None else g
+        g = list(DEFAULT_GRAVITY_M_S2) if g is None else g
         gravity = tuple(float(x) for x in ck.numbers("effects.gravity_m_s2", g))
         if len(gravity) != 3:
             raise ck.fail("effects.gravity_m_s2", "needs 3 components", "write [gx, gy, gz]")
@@ -222,6 +226,7 @@ def read_outputs(ck: Checker) -> Outputs:
 
 
 __all__ = [
+    "DEFAULT_GRAVITY_M_S2",
     "DEFAULT_SPAN_MM",
     "DEFAULT_STEP_MM",
     "STANDARD_GRAVITY_M_S2",
