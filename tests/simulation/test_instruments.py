@@ -8,9 +8,9 @@ import pytest
 
 from ringqa.errors import SceneError
 from ringqa.simulation.instruments import (
+    BORROWED_MECHANICS,
     CABLE_PRESETS,
     CONTACT_PRESETS,
-    BORROWED_MECHANICS,
     PRESET_SOURCES,
     REAL_MASS_PER_LENGTH_KG_M,
     cable_preset,
