@@ -6,6 +6,13 @@ from ringqa.geometry.lumen import Lumen
 from ringqa.geometry.parametric import ring_applicator, ring_channel, tandem_channel
 from ringqa.geometry.ring_frame import RingFrame, fit_circle, fit_ring_frame
 from ringqa.geometry.s_channel import SChannelLayout, s_channel, s_channel_layout
+from ringqa.geometry.splice import (
+    SplicedCentreline,
+    SpliceError,
+    splice_applicator,
+    splice_centreline,
+    splice_channel,
+)
 
 __all__ = [
     "Applicator",
@@ -16,11 +23,16 @@ __all__ = [
     "Lumen",
     "RingFrame",
     "SChannelLayout",
+    "SpliceError",
+    "SplicedCentreline",
     "fit_circle",
     "fit_ring_frame",
     "ring_applicator",
     "ring_channel",
     "s_channel",
     "s_channel_layout",
+    "splice_applicator",
+    "splice_centreline",
+    "splice_channel",
     "tandem_channel",
 ]
