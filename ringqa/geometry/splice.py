@@ -40,34 +40,49 @@ The splice
     centreline and which meets it tangentially (``dP = dT = 0``) moves the library outside
     ``[s_a, s_b]`` by at most ``0.0173 b**2 |dK|`` (11 um for the 0.5 mm bulge of the tests).
 
-Defaults
-    ``max_gap_m = 1.0 mm``: a correction's ends are meant to lie where CT/film and library AGREE
-    (the joins are on the library centreline). 1 mm is the recommended source-position tolerance
-    of the commissioning (so a larger gap is itself a deviation the correction would hide) and is
+Blend length (``blend_m``)
+    The blend must absorb the digitisation error of the ends (CT voxels and film pixels
+    ~0.2-0.5 mm) without bending the path much, and stay local. Default (``blend_m=None``):
+    AUTOMATIC, per join: 5 mm (:data:`BLEND_M`), lengthened in 0.5 mm steps (at most to 15 mm,
+    :data:`MAX_AUTO_BLEND_M`, and to the channel left beyond the join) until, wherever the
+    library bends (curvature > 10 1/m), the blended curve keeps at least a quarter of the
+    library's curvature along its normal and its normal turns about the tangent by at most
+    20 deg. Why: the flat side of the ring's U-shaped lumen lies along ``-normal``; a blend that
+    adds more curvature than the ring has reverses the bend over a few mm and turns the flat
+    side to the inside (for an in-plane gap ``g`` on a ring of radius ``R`` this happens when
+    ``5.77 g / b**2 > 1 / R``: ``b < 6.1 mm`` for ``g = 0.5 mm`` on the 26 mm ring); 20 deg
+    moves the flat side outwards by at most 0.08 mm (1.2 mm / cos 20 deg). With ``g <= 0.2 mm``
+    in the ring plane the blend stays 5 mm: it turns the direction by <= 4.3 deg and adds <=
+    0.046 1/mm of curvature, below the 26 mm ring's own 0.077 1/mm (0.5 mm: 7 mm; 1 mm: 10 mm;
+    0.2 mm out of the ring plane: 6.5 mm). 5 mm is local (one step of
+    the 5 mm standard plan, 6 % of the 26 mm ring's circle); 2 mm would turn the direction by
+    10.6 deg and add 0.29 1/mm (a 3.5 mm bend radius) for a 0.2 mm gap. The lengths used are
+    reported (``blend_start_m``, ``blend_end_m``). A number for ``blend_m`` uses exactly that
+    length at both joins (no lengthening).
+
+Gap (``max_gap_m``, default 1.0 mm)
+    A correction's ends are meant to lie where CT/film and library AGREE (the joins are on the
+    library centreline). 1 mm is the recommended source-position tolerance of the
+    commissioning (so a larger gap is itself a deviation the correction would hide) and is
     well inside the 1.5 mm lumen radius (the end is certainly in the same channel, and the
     nearest other branch of a ring, 7-11 mm away, cannot be mistaken for it).
-    ``blend_m = 5.0 mm``: the blend must absorb the digitisation error of the ends (CT voxels and
-    film pixels ~0.2-0.5 mm). With ``g = 0.2 mm`` a 5 mm blend turns the direction by 4.3 deg
-    and adds at most 0.046 1/mm of curvature, below the 26 mm ring's own 0.077 1/mm; a 2 mm blend
-    would turn it by 10.6 deg and add 0.29 1/mm (a 3.5 mm bend radius that the cable would feel
-    as a bump). 5 mm is still local: one step of the 5 mm standard plan, 6 % of the 26 mm ring's
-    circle; the correction changes nothing more than ``blend_m`` beyond its ends.
 
 Arc lengths (:meth:`SplicedCentreline.map_arc_length`)
-    Proximal of the change (``s <= s_a - b``) arc lengths are unchanged; distal of it (``s >=
-    s_b + b``) they shift by the length difference ``length_m - old_length_m`` (the same physical
-    point: the new centreline runs through the library's points there); in between they are
-    mapped linearly between the four join points (``s_a - b, s_a, s_b, s_b + b`` and their
-    arc lengths on the new centreline). :func:`splice_channel` maps the lumen segment bounds and
-    ``s_ref_m`` this way, so ``s_ref`` stays at the same physical point whenever it lies outside
-    the changed range (the usual case: the correction is proximal, ``s_ref`` near the tip).
+    Proximal of the change (``s <= s_a - b``, ``b`` the blend at that join) arc lengths are
+    unchanged; distal of it (``s >= s_b + b``) they shift by the length difference
+    ``length_m - old_length_m`` (the same physical point: the new centreline runs through the
+    library's points there); in between they are mapped linearly between the four join points
+    (``s_a - b, s_a, s_b, s_b + b`` and their arc lengths on the new centreline).
+    :func:`splice_channel` maps the lumen segment bounds and ``s_ref_m`` this way, so ``s_ref``
+    stays at the same physical point whenever it lies outside the changed range (the usual case:
+    the correction is proximal, ``s_ref`` near the tip).
 
 Refused (:class:`SpliceError`, naming the point, the problem and the fix): fewer than 4 points,
 non-finite values, millimetres, two points closer than 1 um, a segment that folds back (turns by
 more than 90 degrees between consecutive points, or whose points do not advance along the
 channel), an end farther than ``max_gap_m`` from the centreline, a segment running distal ->
-proximal, and a segment that ends less than ``blend_m`` from either end of the channel (no room
-for the join).
+proximal, and a segment that ends less than ``blend_m`` (automatic: 5 mm) from either end of the
+channel (no room for the join).
 """
 
 from __future__ import annotations
@@ -83,9 +98,20 @@ from ringqa.geometry import _kernels as K
 from ringqa.geometry.applicator import Applicator, Channel
 from ringqa.geometry.centreline import TABLE_SPACING_M, Centreline, GeometryError
 from ringqa.geometry.lumen import Lumen
+from ringqa.units import M_PER_MM, MM_PER_M, m_to_mm
 
-#: Default length of each blend (m), see the module docstring.
+#: Shortest blend (m), the automatic blend's starting length (module docstring).
 BLEND_M = 5.0e-3
+#: Longest automatic blend (m) and its step (m).
+MAX_AUTO_BLEND_M = 15.0e-3
+AUTO_BLEND_STEP_M = 0.5e-3
+#: Where the library bends more than this (1/m, a 100 mm bend radius), an automatic blend must
+#: keep KEEP_BEND of its curvature and turn its normal by at most NORMAL_TOL_DEG.
+BEND_KAPPA_PER_M = 10.0
+KEEP_BEND = 0.25
+NORMAL_TOL_DEG = 20.0
+#: A gap may exceed max_gap_m by this much (m): floating-point rounding of "exactly on it".
+GAP_ROUNDING_M = 1.0e-9
 #: Default largest distance of the segment's ends from the centreline (m).
 MAX_GAP_M = 1.0e-3
 #: Fewest points a segment may have (a spline needs 4).
@@ -154,9 +180,10 @@ class SplicedCentreline:
         the range REPLACED by the segment (m).
     new_start_m, new_end_m : float
         Arc lengths of the segment's first and last points on the new centreline (m).
-    blend_m : float
-        Length of each blend (m): the library centreline is also changed over ``[old_start_m -
-        blend_m, old_start_m]`` and ``[old_end_m, old_end_m + blend_m]``.
+    blend_start_m, blend_end_m : float
+        Lengths of the two blends (m): the library centreline is also changed over
+        ``[old_start_m - blend_start_m, old_start_m]`` and ``[old_end_m, old_end_m +
+        blend_end_m]``.
     gap_start_m, gap_end_m : float
         Distances of the segment's first and last points from the library centreline (m).
     angle_start_deg, angle_end_deg : float
@@ -174,6 +201,12 @@ class SplicedCentreline:
         Largest curvature of the new centreline over the changed range (1/m).
     old_max_curvature_per_m : float
         Largest curvature of the library centreline over the same range (1/m).
+    max_normal_turn_deg : float
+        Largest rotation about the tangent of the new centreline's normal relative to the
+        library's (at the closest points) over the changed range, where both bend by more than
+        10 1/m (deg; 0 if they do not). The flat side of a U-shaped lumen lies along
+        ``-normal``, so it turns with it; more than 90 deg means the new centreline bends the
+        other way there.
     """
 
     centreline: Centreline
@@ -182,7 +215,8 @@ class SplicedCentreline:
     old_end_m: float
     new_start_m: float
     new_end_m: float
-    blend_m: float
+    blend_start_m: float
+    blend_end_m: float
     gap_start_m: float
     gap_end_m: float
     angle_start_deg: float
@@ -193,6 +227,7 @@ class SplicedCentreline:
     max_shift_at_m: float
     max_curvature_per_m: float
     old_max_curvature_per_m: float
+    max_normal_turn_deg: float
 
     @property
     def length_m(self) -> float:
@@ -206,8 +241,9 @@ class SplicedCentreline:
 
     @property
     def changed_range_m(self) -> tuple[float, float]:
-        """Library arc lengths ``(old_start_m - blend_m, old_end_m + blend_m)`` changed (m)."""
-        return self.old_start_m - self.blend_m, self.old_end_m + self.blend_m
+        """Library arc lengths ``(old_start_m - blend_start_m, old_end_m + blend_end_m)``
+        changed (m)."""
+        return self.old_start_m - self.blend_start_m, self.old_end_m + self.blend_end_m
 
     def changes(self, s_old_m: float) -> bool:
         """True when library arc length ``s_old_m`` (m) lies strictly inside the changed range
@@ -232,7 +268,7 @@ class SplicedCentreline:
 
     def as_mm_dict(self) -> dict[str, float]:
         """The numbers for a report or JSON file, in millimetres and degrees."""
-        mm = 1.0e3
+        mm = MM_PER_M
         return {
             "old_start_mm": self.old_start_m * mm,
             "old_end_mm": self.old_end_m * mm,
@@ -242,7 +278,8 @@ class SplicedCentreline:
             "old_length_mm": self.old_length_m * mm,
             "new_length_mm": self.length_m * mm,
             "length_change_mm": self.length_change_m * mm,
-            "blend_mm": self.blend_m * mm,
+            "blend_start_mm": self.blend_start_m * mm,
+            "blend_end_mm": self.blend_end_m * mm,
             "gap_start_mm": self.gap_start_m * mm,
             "gap_end_mm": self.gap_end_m * mm,
             "angle_start_deg": self.angle_start_deg,
@@ -251,8 +288,9 @@ class SplicedCentreline:
             "turn_end_deg": self.turn_end_deg,
             "max_shift_mm": self.max_shift_m * mm,
             "max_shift_at_mm": self.max_shift_at_m * mm,
-            "max_curvature_per_mm": self.max_curvature_per_m / mm,
-            "old_max_curvature_per_mm": self.old_max_curvature_per_m / mm,
+            "max_curvature_per_mm": self.max_curvature_per_m * M_PER_MM,
+            "old_max_curvature_per_mm": self.old_max_curvature_per_m * M_PER_MM,
+            "max_normal_turn_deg": self.max_normal_turn_deg,
         }
 
 
@@ -260,16 +298,86 @@ class SplicedCentreline:
 # helpers
 
 
-def _hermite_offset(sigma: np.ndarray, b: float, d_p, d_t, d_k) -> np.ndarray:
-    """Quintic Hermite offset ``(k, 3)`` that is 0 with zero first and second derivatives at
-    ``sigma = 0`` and ``d_p``, ``d_t``, ``d_k`` (position, first and second derivative with
-    respect to ``u = b (sigma - 1)``) at ``sigma = 1``; ``b < 0`` mirrors it (the end join)."""
-    x = np.asarray(sigma, dtype=float)[:, None]
-    x3 = x**3
-    h_pos = x3 * (10.0 - 15.0 * x + 6.0 * x * x)
-    h_tan = x3 * (-4.0 + 7.0 * x - 3.0 * x * x)
-    h_cur = x3 * (0.5 - x + 0.5 * x * x)
-    return h_pos * d_p + b * h_tan * d_t + b * b * h_cur * d_k
+@dataclass(frozen=True)
+class _Join:
+    """One join: library arc length, side (+1 start, -1 end), blend length (m), differences
+    (segment minus library: position (m), unit tangent, curvature vector (1/m)), angle (deg)."""
+
+    s_m: float
+    sign: float
+    blend_m: float
+    diff: tuple[np.ndarray, np.ndarray, np.ndarray]
+    angle_deg: float
+
+    def offset(self, s_m: np.ndarray, blend_m: float | None = None):
+        """Hermite offset and its first and second derivatives in ``s`` at library arc lengths
+        ``s_m (k,)`` of the blend: three ``(k, 3)`` arrays (m, 1, 1/m)."""
+        b = self.blend_m if blend_m is None else blend_m
+        beta = self.sign * b  # d sigma / ds = 1 / beta
+        x = (self.sign * (np.asarray(s_m, dtype=float) - self.s_m) + b) / b
+        x = x[:, None]
+        x2 = x * x
+        x3 = x2 * x
+        basis = (
+            (x3 * (10.0 - 15.0 * x + 6.0 * x2), x2 * (30.0 - 60.0 * x + 30.0 * x2),
+             x * (60.0 - 180.0 * x + 120.0 * x2)),
+            (x3 * (-4.0 + 7.0 * x - 3.0 * x2), x2 * (-12.0 + 28.0 * x - 15.0 * x2),
+             x * (-24.0 + 84.0 * x - 60.0 * x2)),
+            (x3 * (0.5 - x + 0.5 * x2), x2 * (1.5 - 4.0 * x + 2.5 * x2),
+             x * (3.0 - 12.0 * x + 10.0 * x2)),
+        )  # fmt: skip
+        d_p, d_t, d_k = self.diff
+        coef = (d_p, beta * d_t, beta * beta * d_k)
+        out = [sum(h[nu] * c for h, c in zip(basis, coef, strict=True)) for nu in range(3)]
+        return out[0], out[1] / beta, out[2] / (beta * beta)
+
+
+def _normal_across(nor: np.ndarray, tan: np.ndarray) -> np.ndarray:
+    """Library normals ``(k, 3)`` carried across to curves with unit tangents ``tan (k, 3)``
+    (the component perpendicular to ``tan``, normalised): compared with the new normals they
+    give the rotation ABOUT the tangent (which turns a U-shaped lumen's flat side), not the
+    tilt that comes with a turned tangent."""
+    v = nor - np.sum(nor * tan, axis=1)[:, None] * tan
+    return v / np.linalg.norm(v, axis=1)[:, None]
+
+
+def _keeps_bend(old: Centreline, join: _Join, blend_m: float) -> bool:
+    """Does a blend of ``blend_m`` keep the library's bend wherever the library bends?
+
+    At every sample where the library's curvature exceeds BEND_KAPPA_PER_M, the blended curve's
+    curvature vector must keep :data:`KEEP_BEND` of the library's curvature along its normal and
+    point within :data:`NORMAL_TOL_DEG` of it.
+    """
+    lo, hi = (join.s_m - blend_m, join.s_m) if join.sign > 0 else (join.s_m, join.s_m + blend_m)
+    s = _uniform(lo, hi, SAMPLE_SPACING_M, include_end=True)
+    kappa = old.curvature(s)
+    bends = kappa > BEND_KAPPA_PER_M
+    if not bends.any():
+        return True
+    s, kappa = s[bends], kappa[bends]
+    nor = old.normal(s)
+    _, d1, d2 = join.offset(s, blend_m)
+    r1 = old.tangent(s) + d1
+    r2 = kappa[:, None] * nor + d2
+    sp2 = np.sum(r1 * r1, axis=1)
+    tan = r1 / np.sqrt(sp2)[:, None]
+    kv = (r2 - np.sum(r2 * tan, axis=1)[:, None] * tan) / sp2[:, None]
+    along = np.sum(kv * _normal_across(nor, tan), axis=1)
+    size = np.linalg.norm(kv, axis=1)
+    cos_tol = np.cos(np.radians(NORMAL_TOL_DEG))
+    return bool(np.all(along >= KEEP_BEND * kappa) and np.all(along >= cos_tol * size))
+
+
+def _auto_blend(old: Centreline, s_m: float, sign: float, diff, upper_m: float) -> float:
+    """The shortest blend from BLEND_M up (0.5 mm steps, at most ``upper_m``) that keeps the
+    library's bend (:func:`_keeps_bend`); ``upper_m`` if none does."""
+    join = _Join(s_m, sign, BLEND_M, diff, 0.0)
+    n = 0
+    while (b := round(BLEND_M + n * AUTO_BLEND_STEP_M, 12)) < upper_m:
+        if _keeps_bend(old, join, b):
+            return b
+        n += 1
+    return upper_m
 
 
 def _curvature_vector(cl: Centreline, s: float) -> np.ndarray:
@@ -303,7 +411,7 @@ def _positive_length(name: str, value, upper_m: float) -> float:
     if v > upper_m:
         raise SpliceError(
             name,
-            f"{v:g} m is implausibly long (more than {upper_m * 1e3:g} mm)",
+            f"{v:g} m is implausibly long (more than {m_to_mm(upper_m):g} mm)",
             "give metres, e.g. 5e-3 for 5 mm",
         )
     return v
@@ -347,7 +455,7 @@ def _validate_segment(segment_m) -> np.ndarray:
         i, j = sorted(min(pairs))
         raise SpliceError(
             "segment_m",
-            f"{{1}} repeats {{0}} (closer than {DUPLICATE_TOL_M * 1e3:g} mm)",
+            f"{{1}} repeats {{0}} (closer than {m_to_mm(DUPLICATE_TOL_M):g} mm)",
             "remove duplicated points",
             (i, j),
         )
@@ -404,7 +512,7 @@ def _uniform(a: float, b: float, spacing: float, include_end: bool) -> np.ndarra
 def splice_centreline(
     centreline: Centreline,
     segment_m,
-    blend_m: float = BLEND_M,
+    blend_m: float | None = None,
     max_gap_m: float = MAX_GAP_M,
 ) -> SplicedCentreline:
     """Replace part of a centreline by a corrected segment, with smooth joins.
@@ -417,10 +525,12 @@ def splice_centreline(
         The corrected course of part of the channel (m), k >= 4 points ordered proximal ->
         distal, in the centreline's frame; its first and last points on the library centreline
         (within ``max_gap_m``), where the correction starts and ends.
-    blend_m : float
-        Length of library centreline (m) over which each join is blended (default 5 mm; see the
-        module docstring). There must be this much centreline before the segment's start and
-        after its end.
+    blend_m : float, optional
+        Length of library centreline (m) over which each join is blended. Default (None):
+        automatic, :data:`BLEND_M` (5 mm) lengthened per join in 0.5 mm steps up to
+        :data:`MAX_AUTO_BLEND_M` (15 mm) until the blend keeps the channel's bend (module
+        docstring). A number: exactly that length at both joins. There must be at least this
+        much (automatic: 5 mm) centreline before the segment's start and after its end.
     max_gap_m : float
         Largest distance (m) of the segment's first and last points from the centreline
         (default 1 mm).
@@ -438,7 +548,8 @@ def splice_centreline(
     """
     if not isinstance(centreline, Centreline):
         raise SpliceError("centreline", "must be a Centreline", "build one with from_points")
-    blend = _positive_length("blend_m", blend_m, 0.05)
+    auto = blend_m is None
+    blend_min = BLEND_M if auto else _positive_length("blend_m", blend_m, 0.05)
     max_gap = _positive_length("max_gap_m", max_gap_m, 0.01)
     seg = _validate_segment(segment_m)
     old = centreline
@@ -451,11 +562,11 @@ def splice_centreline(
     far = [
         (which, g, i)
         for which, g, i in (("first", g_a, 0), ("last", g_b, len(seg) - 1))
-        if g > max_gap
+        if g > max_gap + GAP_ROUNDING_M
     ]
     if far:
         parts = [
-            f"its {which} point ({{{k}}}) is {g * 1e3:.1f} mm away"
+            f"its {which} point ({{{k}}}) is {m_to_mm(g):.1f} mm away"
             for k, (which, g, _) in enumerate(far)
         ]
         where = " and ".join(parts)
@@ -463,30 +574,30 @@ def splice_centreline(
             "segment_m",
             f"the correction segment does not meet the centreline: {where}",
             "give a segment whose first and last points lie on the library centreline (within "
-            f"{max_gap * 1e3:.1f} mm), in the same frame as the centreline",
+            f"{m_to_mm(max_gap):.1f} mm), in the same frame as the centreline",
             [i for _, _, i in far],
         )
     if s_b <= s_a:
         raise SpliceError(
             "segment_m",
             f"the segment runs from distal to proximal: its first point ({{0}}) is at "
-            f"{s_a * 1e3:.1f} mm along the channel, its last ({{1}}) at {s_b * 1e3:.1f} mm",
+            f"{m_to_mm(s_a):.1f} mm along the channel, its last ({{1}}) at {m_to_mm(s_b):.1f} mm",
             "list the points from proximal to distal (reverse their order)",
             (0, len(seg) - 1),
         )
-    if s_a < blend or s_b > length - blend:
-        start = s_a < blend
-        s_room = s_a if start else length - s_b
-        what = "starts" if start else "ends"
-        where = "after the channel entry" if start else "before the channel tip"
-        raise SpliceError(
-            "segment_m",
-            f"the segment {what} {max(s_room, 0.0) * 1e3:.1f} mm {where} ({{0}}); the join "
-            f"needs blend_m = {blend * 1e3:.1f} mm of library centreline beyond it",
-            f"let the segment {'start' if start else 'end'} further inside the channel, or give "
-            "a smaller blend_m",
-            (0 if start else len(seg) - 1,),
-        )
+    room = (s_a, length - s_b)
+    for k, start in ((0, True), (1, False)):
+        if room[k] < blend_min:
+            what = "starts" if start else "ends"
+            where = "after the channel entry" if start else "before the channel tip"
+            raise SpliceError(
+                "segment_m",
+                f"the segment {what} {m_to_mm(max(room[k], 0.0)):.1f} mm {where} ({{0}}); the "
+                f"join needs blend_m = {m_to_mm(blend_min):.1f} mm of library centreline beyond it",
+                f"let the segment {'start' if start else 'end'} further inside the channel, or "
+                "give a smaller blend_m",
+                (0 if start else len(seg) - 1,),
+            )
     s_int, _ = _closest_in(old, seg[1:-1], s_a, s_b)
     s_all = np.concatenate([[s_a], s_int, [s_b]])
     back = np.flatnonzero(np.diff(s_all) <= 0.0)
@@ -494,41 +605,41 @@ def splice_centreline(
         i = int(back[0]) + 1
         raise SpliceError(
             "segment_m",
-            f"{{1}} is not distal of {{0}} along the channel ({s_all[i] * 1e3:.2f} mm vs "
-            f"{s_all[i - 1] * 1e3:.2f} mm): the segment folds back or overlaps itself",
+            f"{{1}} is not distal of {{0}} along the channel ({m_to_mm(s_all[i]):.2f} mm vs "
+            f"{m_to_mm(s_all[i - 1]):.2f} mm): the segment folds back or overlaps itself",
             "give the points in order along the channel, proximal -> distal, without loops",
             (i - 1, i),
         )
 
-    # -- the segment's course and the join differences ---------------------------------------
+    # -- the segment's course, the join differences and the blend lengths ----------------------
     q = _segment_curve(seg)
     u_data = _data_arc_lengths(q, seg)
     u_data[0], u_data[-1] = 0.0, q.length_m
-    ends = (
-        (s_a, 0.0),  # library arc length, segment arc length of each join
-        (s_b, q.length_m),
-    )
-    diffs = []
-    angles = []
-    for s_j, u_j in ends:
-        d_p = q.position(u_j) - old.position(s_j)
+    joins = []
+    for k, (s_j, u_j, sign) in enumerate(((s_a, 0.0, 1.0), (s_b, q.length_m, -1.0))):
         t_q, t_r = q.tangent(u_j), old.tangent(s_j)
-        d_k = _curvature_vector(q, u_j) - _curvature_vector(old, s_j)
-        diffs.append((d_p, t_q - t_r, d_k))
-        angles.append(float(_angle_deg(t_q, t_r)))
+        diff = (
+            q.position(u_j) - old.position(s_j),
+            t_q - t_r,
+            _curvature_vector(q, u_j) - _curvature_vector(old, s_j),
+        )
+        if auto:
+            b = _auto_blend(old, s_j, sign, diff, min(MAX_AUTO_BLEND_M, room[k]))
+        else:
+            b = blend_min
+        joins.append(_Join(s_j, sign, b, diff, float(_angle_deg(t_q, t_r))))
+    j_a, j_b = joins
 
     # -- samples of the new centreline --------------------------------------------------------
     s_old_data = _data_arc_lengths(old, old.points_m)
     pts_old = old.points_m
     margin = 0.5 * SAMPLE_SPACING_M
-    before = pts_old[s_old_data < s_a - blend - margin]
-    after = pts_old[s_old_data > s_b + blend + margin]
-
-    s1 = _uniform(s_a - blend, s_a, SAMPLE_SPACING_M, include_end=False)
-    blend1 = old.position(s1) + _hermite_offset((s1 - s_a + blend) / blend, blend, *diffs[0])
-    s2 = _uniform(s_b, s_b + blend, SAMPLE_SPACING_M, include_end=True)[1:]
-    blend2 = old.position(s2) + _hermite_offset((s_b + blend - s2) / blend, -blend, *diffs[1])
-
+    before = pts_old[s_old_data < s_a - j_a.blend_m - margin]
+    after = pts_old[s_old_data > s_b + j_b.blend_m + margin]
+    s1 = _uniform(s_a - j_a.blend_m, s_a, SAMPLE_SPACING_M, include_end=False)
+    blend1 = old.position(s1) + j_a.offset(s1)[0]
+    s2 = _uniform(s_b, s_b + j_b.blend_m, SAMPLE_SPACING_M, include_end=True)[1:]
+    blend2 = old.position(s2) + j_b.offset(s2)[0]
     inner = [seg[:1]]
     for i in range(len(seg) - 1):
         u = _uniform(u_data[i], u_data[i + 1], SAMPLE_SPACING_M, include_end=False)[1:]
@@ -546,13 +657,13 @@ def splice_centreline(
         ) from None
 
     # -- where the joins are on the new centreline ---------------------------------------------
-    lo, hi = s_a - blend, s_b + blend
+    lo, hi = s_a - j_a.blend_m, s_b + j_b.blend_m
     est = np.array([s_a, s_a + q.length_m])
-    s_new_ends, _ = new.closest(seg[[0, -1]], s_hint_m=est, window_m=2.0 * blend + q.length_m)
+    s_new_ends, _ = new.closest(seg[[0, -1]], s_hint_m=est, window_m=hi - lo + q.length_m)
     new_start, new_end = float(s_new_ends[0]), float(s_new_ends[1])
     d_len = new.length_m - length
 
-    # -- what changed: distances, tangents and curvature over the changed range -----------------
+    # -- what changed: distances, tangents, normals and curvature over the changed range -------
     s_new = _uniform(lo, hi + d_len, CHECK_SPACING_M, include_end=True)
     p_new = new.position(s_new)
     s_o, d_new_to_old = _closest_in(old, p_new, lo, hi)
@@ -565,8 +676,10 @@ def splice_centreline(
     else:
         k = int(np.argmax(d_old_to_new))
         shift, shift_at = float(d_old_to_new[k]), float(s_chk[k])
-    in1 = s_new <= new_start
-    in2 = s_new >= new_end
+    kappa_new = new.curvature(s_new)
+    bent = (kappa_new > BEND_KAPPA_PER_M) & (old.curvature(s_o) > BEND_KAPPA_PER_M)
+    n_new, t_new = new.normal(s_new[bent]), new.tangent(s_new[bent])
+    n_turn = _angle_deg(n_new, _normal_across(old.normal(s_o[bent]), t_new))
     return SplicedCentreline(
         centreline=new,
         old_length_m=length,
@@ -574,24 +687,26 @@ def splice_centreline(
         old_end_m=s_b,
         new_start_m=new_start,
         new_end_m=new_end,
-        blend_m=blend,
+        blend_start_m=j_a.blend_m,
+        blend_end_m=j_b.blend_m,
         gap_start_m=g_a,
         gap_end_m=g_b,
-        angle_start_deg=angles[0],
-        angle_end_deg=angles[1],
-        turn_start_deg=float(turn[in1].max()),
-        turn_end_deg=float(turn[in2].max()),
+        angle_start_deg=j_a.angle_deg,
+        angle_end_deg=j_b.angle_deg,
+        turn_start_deg=float(turn[s_new <= new_start].max()),
+        turn_end_deg=float(turn[s_new >= new_end].max()),
         max_shift_m=shift,
         max_shift_at_m=shift_at,
-        max_curvature_per_m=float(np.max(new.curvature(s_new))),
+        max_curvature_per_m=float(np.max(kappa_new)),
         old_max_curvature_per_m=float(np.max(old.curvature(s_chk))),
+        max_normal_turn_deg=float(n_turn.max()) if n_turn.size else 0.0,
     )
 
 
 def splice_channel(
     channel: Channel,
     segment_m,
-    blend_m: float = BLEND_M,
+    blend_m: float | None = None,
     max_gap_m: float = MAX_GAP_M,
 ) -> tuple[Channel, SplicedCentreline]:
     """A channel with a corrected segment spliced into its centreline.
@@ -607,7 +722,9 @@ def splice_channel(
         The channel to correct.
     segment_m : (k, 3) array_like
         Corrected course (m), proximal -> distal; see :func:`splice_centreline`.
-    blend_m, max_gap_m : float
+    blend_m : float, optional
+        See :func:`splice_centreline` (m; default automatic, 5-15 mm).
+    max_gap_m : float
         See :func:`splice_centreline` (m).
 
     Returns
@@ -644,7 +761,7 @@ def splice_applicator(
     applicator: Applicator,
     channel: str,
     segment_m,
-    blend_m: float = BLEND_M,
+    blend_m: float | None = None,
     max_gap_m: float = MAX_GAP_M,
 ) -> tuple[Applicator, SplicedCentreline]:
     """An applicator whose channel ``channel`` has a corrected segment spliced in.
@@ -659,7 +776,9 @@ def splice_applicator(
         Name of the channel to correct (e.g. ``"ring"``).
     segment_m : (k, 3) array_like
         Corrected course (m), proximal -> distal, in the applicator's frame.
-    blend_m, max_gap_m : float
+    blend_m : float, optional
+        See :func:`splice_centreline` (m; default automatic, 5-15 mm).
+    max_gap_m : float
         See :func:`splice_centreline` (m).
 
     Returns

@@ -26,7 +26,6 @@ import numpy as np
 
 from ringqa.geometry.applicator import Applicator
 from ringqa.geometry.splice import (
-    BLEND_M,
     MAX_GAP_M,
     SplicedCentreline,
     SpliceError,
@@ -106,7 +105,7 @@ def apply_centreline_correction(
     applicator: Applicator,
     path: str | Path,
     channel: str = "ring",
-    blend_m: float = BLEND_M,
+    blend_m: float | None = None,
     max_gap_m: float = MAX_GAP_M,
 ) -> CentrelineCorrection:
     """Read a correction file and splice it over one channel's centreline.
@@ -119,9 +118,9 @@ def apply_centreline_correction(
         The correction file (see the module docstring).
     channel : str
         Channel to correct (default ``"ring"``).
-    blend_m : float
-        Length of each smooth join (m), default 5 mm
-        (:data:`ringqa.geometry.splice.BLEND_M`).
+    blend_m : float, optional
+        Length of each smooth join (m); default automatic: 5 mm, longer (up to 15 mm) where a
+        join must absorb a larger gap or angle (:func:`ringqa.geometry.splice.splice_centreline`).
     max_gap_m : float
         Largest distance of the segment's ends from the library centreline (m), default 1 mm.
 

@@ -28,7 +28,7 @@ from ringqa.geometry import (
     splice_channel,
     tandem_channel,
 )
-from ringqa.geometry.splice import BLEND_M, MAX_GAP_M
+from ringqa.geometry.splice import MAX_GAP_M
 
 MM = 1e-3
 R = 13.0 * MM
@@ -105,10 +105,10 @@ def test_segment_equal_to_the_centreline_changes_nothing(ring, range_mm):
 
 @pytest.fixture(scope="module")
 def displaced(ring):
-    """The circle from s0 + 5 mm to s0 + 25 mm (21 points) moved 0.5 mm outward (r = 13.5 mm):
-    both ends 0.5 mm from the library centreline."""
+    """The circle from s0 + 10 mm to s0 + 30 mm (21 points) moved 0.5 mm outward (r = 13.5 mm):
+    both ends 0.5 mm from the library centreline; automatic blends (7 mm: all on the circle)."""
     ch, s0 = ring
-    s = s0 + np.linspace(5.0, 25.0, 21) * MM
+    s = s0 + np.linspace(10.0, 30.0, 21) * MM
     seg = circle(s, s0, R + 0.5 * MM)
     new, sp = splice_channel(ch, seg)
     return ch, s0, seg, new, sp
@@ -131,7 +131,7 @@ def test_displaced_ring_passes_through_the_segment(displaced):
 def test_displaced_ring_joins_are_continuous_and_smooth(displaced):
     """At both joins the new centreline is at the segment's end point (< 1 um) and its tangents
     0.05 mm either side differ by < 1 deg: a smooth curve turns by its curvature x 0.1 mm there,
-    0.44 deg on the 13 mm circle (measured 0.45 deg). Control: splicing the same points without
+    0.44 deg on the 13 mm circle (measured 0.43 deg). Control: splicing the same points without
     blends (old points, then the segment, then old points) gives a kink (measured 7.2 deg, > 5)
     at the same place, so this measure does see kinks."""
     ch, _, seg, new, sp = displaced
@@ -150,31 +150,84 @@ def test_displaced_ring_joins_are_continuous_and_smooth(displaced):
     assert join_angle_deg(naive_cl, float(s_join[0])) > 5.0
 
 
+def blend_length_on_circle_mm(g, b):
+    """Length (mm) of a start blend of length ``b`` (mm) joining the 13 mm circle to its
+    parallel at 13 + g mm, from the construction: with dP = g e_r, dT = 0 and
+    dK = g / (R (R + g)) e_r (all along the join's radial unit vector e_r), the blend is
+    r(s) + (g h_p + b^2 dK h_k) e_r, so |c'|^2 = 1 + 2 a sin(delta) + a^2 with
+    a = g h_p' / b + b dK h_k' and delta = (1 - sigma) b / R the angle from the join.
+    Integrated by the trapezoidal rule on 200001 points (error < 1e-9 mm)."""
+    dk = g / (13.0 * (13.0 + g))
+    x = np.linspace(0.0, 1.0, 200001)
+    a = g * (30 * x**2 - 60 * x**3 + 30 * x**4) / b + b * dk * (1.5 * x**2 - 4 * x**3 + 2.5 * x**4)
+    f = np.sqrt(1 + 2 * a * np.sin((1 - x) * b / 13.0) + a * a)
+    return b * float(np.sum((f[1:] + f[:-1]) / 2) * (x[1] - x[0]))
+
+
 def test_displaced_ring_report_numbers(displaced):
     """Hand-derived expectations.
 
+    - blends: automatic. A 5 mm blend would add up to 10/sqrt(3) g / b^2 = 0.115 1/mm of
+      outward curvature, more than the circle's 1/13 = 0.077 (the bend would reverse); keeping a
+      quarter of it needs b >= sqrt(5.77 g R / 0.75) = 7.07 mm on a straight approximation; the
+      exact check on the curved blend passes at 7.0 mm (the 0.5 mm steps: 5, 5.5, ..., 7.0);
     - gaps: 13.5 - 13 = 0.5 mm (to 1 nm); the offset circle is parallel: angles < 0.01 deg;
     - largest shift 0.5 mm (the whole segment; the blends less), to 5 um (segment spline ends);
-    - turn in each blend: a straight channel would give atan(15/8 * 0.5 / 5) = 10.62 deg; the
-      13 mm bend changes it by O(b/R): between 9.5 and 10.7 deg;
-    - length: the arc at 13.5 mm, 20 * 13.5 / 13 = 20.769 mm (+0.769), plus the outward drift of
-      each blend, g/R * b * int(h) = 0.5/13 * 5 * 1/2 = 0.096 mm (x2), plus the wiggle
-      g^2/b * 10/7 = 0.071 mm (both blends): +1.032 mm, to 10 um (neglected terms of order
-      g b^3 / R^3 ~ 0.03 mm times small coefficients; measured 1.027 mm);
-    - the replaced range is s0 + 5 .. s0 + 25 mm on the library.
+    - turn in each blend: below the straight channel's atan(15/8 * 0.5 / 7) = 7.63 deg, above
+      7.0 (the bend reduces it by O(b/R));
+    - normals: the change is in the ring plane and keeps the bend: no rotation (< 0.01 deg);
+    - length: the arc at 13.5 mm, 20 * 13.5 / 13 = 20.769 mm, plus two blends of
+      blend_length_on_circle_mm(0.5, 7) (7.1559 mm): +1.0809 mm, to 0.05 um;
+    - the replaced range is s0 + 10 .. s0 + 30 mm on the library.
     """
     _, s0, _, _, sp = displaced
     assert isinstance(sp, SplicedCentreline)
+    assert sp.blend_start_m == pytest.approx(7.0 * MM, abs=1e-12)
+    assert sp.blend_end_m == pytest.approx(7.0 * MM, abs=1e-12)
     assert abs(sp.gap_start_m - 0.5 * MM) < 1e-9 and abs(sp.gap_end_m - 0.5 * MM) < 1e-9
     assert max(sp.angle_start_deg, sp.angle_end_deg) < 0.01
     assert abs(sp.max_shift_m - 0.5 * MM) < 5e-6
-    assert 9.5 < sp.turn_start_deg < 10.7 and 9.5 < sp.turn_end_deg < 10.7
-    assert abs(sp.length_change_m - 1.032 * MM) < 10e-6
-    assert abs(sp.old_start_m - (s0 + 5 * MM)) < 1e-9
-    assert abs(sp.old_end_m - (s0 + 25 * MM)) < 1e-9
-    assert abs((sp.new_end_m - sp.new_start_m) - 20.769 * MM) < 2e-6
+    assert 7.0 < sp.turn_start_deg < 7.63 and 7.0 < sp.turn_end_deg < 7.63
+    assert sp.max_normal_turn_deg < 0.01
+    arc = 20.0 * 13.5 / 13.0
+    expected = arc - 20.0 + 2 * (blend_length_on_circle_mm(0.5, 7.0) - 7.0)
+    assert sp.length_change_m / MM == pytest.approx(expected, abs=0.05e-3)
+    assert abs(sp.old_start_m - (s0 + 10 * MM)) < 1e-9
+    assert abs(sp.old_end_m - (s0 + 30 * MM)) < 1e-9
+    assert abs((sp.new_end_m - sp.new_start_m) / MM - arc) < 2e-6
     mm = sp.as_mm_dict()
-    assert abs(mm["max_shift_mm"] - 0.5) < 0.005 and mm["blend_mm"] == BLEND_M / MM
+    assert abs(mm["max_shift_mm"] - 0.5) < 0.005 and mm["blend_start_mm"] == pytest.approx(7.0)
+
+
+def test_short_blend_reverses_the_bend(ring):
+    """The same 0.5 mm displacement with blend_m = 5 mm: the blend bends outward by up to
+    0.115 1/mm > 1/13 (above), so the normal turns over (> 90 deg, measured 180) - the U-shaped
+    lumen's flat side would face the inside there; the report shows it. The length is again
+    20.769 - 20 + 2 (blend_length_on_circle_mm(0.5, 5) - 5) mm (0.05 um)."""
+    ch, s0 = ring
+    s = s0 + np.linspace(10.0, 30.0, 21) * MM
+    sp = splice_centreline(ch.centreline, circle(s, s0, R + 0.5 * MM), blend_m=5 * MM)
+    assert sp.blend_start_m == sp.blend_end_m == 5 * MM
+    assert sp.max_normal_turn_deg > 90.0
+    expected = 20.0 * 13.5 / 13.0 - 20.0 + 2 * (blend_length_on_circle_mm(0.5, 5.0) - 5.0)
+    assert sp.length_change_m / MM == pytest.approx(expected, abs=0.05e-3)
+
+
+def test_out_of_plane_gap_lengthens_the_blend(ring):
+    """The proximal ring lifted 0.2 mm out of its plane (a CT slice offset): the blends add
+    out-of-plane curvature 5.77 g / b^2, rotating the normal about the tangent by
+    atan(5.77 * 0.2 / b^2 * 13): 31 deg with b = 5 mm (explicit: measured > 25 deg). The
+    automatic blend grows until the rotation is <= 20 deg (criterion on the blend itself;
+    measured on the fitted centreline < 21 deg), so b > 5 mm, about sqrt(5.77 * 0.2 * 13 /
+    tan 20 deg) = 6.3 mm."""
+    ch, s0 = ring
+    s = s0 + np.linspace(10.0, 30.0, 21) * MM
+    seg = circle(s, s0) + np.array([0.0, 0.0, 0.2 * MM])
+    fixed = splice_centreline(ch.centreline, seg, blend_m=5 * MM)
+    assert fixed.max_normal_turn_deg > 25.0
+    auto = splice_centreline(ch.centreline, seg)
+    assert 6.0 * MM <= auto.blend_start_m <= 7.0 * MM
+    assert auto.max_normal_turn_deg < 21.0
 
 
 def test_displaced_ring_keeps_s_ref_and_lumen(displaced):
@@ -200,11 +253,12 @@ def test_displaced_ring_keeps_s_ref_and_lumen(displaced):
 def test_tangential_segment_leaves_the_library_alone(ring):
     """A bulge that meets the centreline tangentially: r = R + 0.5 mm sin^2(pi x), x = 0..1 over
     the same 20 mm. At its ends dP = dT = 0; only its curvature differs (by 0.5 * 2 pi^2 / 20^2
-    = 0.025 1/mm), so the blends turn the direction by at most b dK max|h_k'| = 5 * 0.025 * 0.05
-    rad = 0.35 deg (measured against the nearest library tangent: < 0.6 deg), the joins show no
-    kink (< 1 deg, as on the plain circle) and the largest shift is the bulge's 0.5 mm (1 um)."""
+    = 0.025 1/mm), so the automatic blends stay at 5 mm and turn the direction by at most
+    b dK max|h_k'| = 5 * 0.025 * 0.05 rad = 0.35 deg (measured against the nearest library
+    tangent: < 0.6 deg), the joins show no kink (< 1 deg, as on the plain circle), the normals
+    stay in the ring plane and the largest shift is the bulge's 0.5 mm (1 um)."""
     ch, s0 = ring
-    s = s0 + np.linspace(5.0, 25.0, 21) * MM
+    s = s0 + np.linspace(10.0, 30.0, 21) * MM
     bulge = 0.5 * MM * np.sin(np.pi * np.linspace(0.0, 1.0, 21)) ** 2
     sp = splice_centreline(ch.centreline, circle(s, s0, R + bulge))
     assert max(sp.gap_start_m, sp.gap_end_m) < 1e-9
@@ -213,6 +267,8 @@ def test_tangential_segment_leaves_the_library_alone(ring):
     assert join_angle_deg(sp.centreline, sp.new_start_m) < 1.0
     assert join_angle_deg(sp.centreline, sp.new_end_m) < 1.0
     assert abs(sp.max_shift_m - 0.5 * MM) < 1e-6
+    assert sp.blend_start_m == sp.blend_end_m == 5 * MM
+    assert sp.max_normal_turn_deg < 0.01
 
 
 # --------------------------------------------------------------------------------------------
