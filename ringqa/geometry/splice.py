@@ -14,49 +14,55 @@ The splice
 
     1. the library centreline for ``s <= s_a - b`` (its own input points there, unchanged);
     2. a START BLEND for ``s_a - b <= s <= s_a``: the library centreline plus an offset,
-       ``r(s) + H(sigma)``, ``sigma = (s - s_a + b) / b``, where ``H`` is the quintic Hermite
-       polynomial that is 0 with zero first and second derivatives at ``sigma = 0`` and equals
-       ``dP``, ``dT``, ``dK`` (with its first and second derivatives in ``s``) at ``sigma = 1``:
-       ``H = dP h_p(sigma) + b dT h_t(sigma) + b**2 dK h_k(sigma)``, ``h_p = 10 x^3 - 15 x^4 +
-       6 x^5``, ``h_t = -4 x^3 + 7 x^4 - 3 x^5``, ``h_k = x^3 / 2 - x^4 + x^5 / 2``. ``dP``,
-       ``dT``, ``dK`` are the differences between the segment and the library centreline at the
-       join in position, unit tangent and curvature vector (``q(0) - r(s_a)``, ...);
+       ``r(s) + dP h_p(x) + b dT h_t(x) + c**2 dK h_k(y)``, with ``x = (s - s_a + b) / b``
+       running 0 -> 1 over the blend and ``y = (s - s_a + c) / c`` over its last ``c = min(b,
+       2 mm)`` (``y = 0`` before). ``h_p = 10 x^3 - 15 x^4 + 6 x^5``, ``h_t = -4 x^3 + 7 x^4 -
+       3 x^5``, ``h_k = x^3 / 2 - x^4 + x^5 / 2`` are the quintic Hermite functions: all three
+       and their first two derivatives are 0 at 0; at 1, ``h_p`` is 1, ``h_t'`` is 1 and
+       ``h_k''`` is 1, the rest 0. ``dP``, ``dT``, ``dK`` are the differences between the
+       segment and the library centreline at the join in position, unit tangent and curvature
+       vector (``q(0) - r(s_a)``, ...). The curvature term has its own, short length because
+       its offset grows as ``c**2`` while its added curvature (up to ``|dK|``) does not shrink:
+       digitised centrelines (library or CT) have curvature noise of several 0.01 1/mm at 1 mm
+       spacing, which over a 15 mm blend would move the path by tenths of a millimetre;
     3. the segment ``q(u)``, ``0 <= u <= U``;
-    4. an END BLEND for ``s_b <= s <= s_b + b``, the mirror image of 2 (``sigma = (s_b + b - s)
-       / b``, ``b dT`` replaced by ``-b dT``, differences taken at ``s_b`` and ``q(U)``);
+    4. an END BLEND for ``s_b <= s <= s_b + b``, the mirror image of 2 (``x = (s_b + b - s) /
+       b``, ``y`` likewise, ``b dT`` replaced by ``-b dT``, differences taken at ``s_b`` and
+       ``q(U)``);
     5. the library centreline for ``s >= s_b + b``.
 
     So the blended curve leaves the library centreline with the library's position, tangent and
     curvature and arrives at the segment with the segment's position, tangent and curvature
     vector: the construction is C2 at all four joins, and the new :class:`Centreline`, an
     interpolating spline (the library's degree, quintic: C4) through dense samples (<= 0.25 mm)
-    of 1-5, is smooth; it passes exactly through every segment point. The blend only ever moves
-    the library centreline by the offset ``H``. For a segment parallel to the centreline but
+    of 1-5, is smooth; it passes exactly through every segment point. A blend only ever moves
+    the library centreline by its offset. For a segment parallel to the centreline but
     offset by a gap ``g`` the blend is the curve ``g h_p(x / b)``: its direction turns by up to
     ``atan(15/8 g / b)`` and its added curvature is up to ``10 / sqrt(3) g / b**2`` (``h_p'``
     <= 15/8, ``|h_p''|`` <= 5.77). A segment meeting the centreline at an angle ``theta`` (gap 0)
     is reached by turning gradually from the library's direction to the segment's over ``b``
     (added curvature up to ``3.94 * 2 sin(theta / 2) / b``). A segment whose ends lie on the
     centreline and which meets it tangentially (``dP = dT = 0``) moves the library outside
-    ``[s_a, s_b]`` by at most ``0.0173 b**2 |dK|`` (11 um for the 0.5 mm bulge of the tests).
+    ``[s_a, s_b]`` by at most ``0.0173 c**2 |dK|`` (1.7 um for the 0.5 mm bulge of the tests).
 
 Blend length (``blend_m``)
     The blend must absorb the digitisation error of the ends (CT voxels and film pixels
     ~0.2-0.5 mm) without bending the path much, and stay local. Default (``blend_m=None``):
     AUTOMATIC, per join: 5 mm (:data:`BLEND_M`), lengthened in 0.5 mm steps (at most to 15 mm,
     :data:`MAX_AUTO_BLEND_M`, and to the channel left beyond the join) until, wherever the
-    library bends (curvature > 10 1/m), the blended curve keeps at least a quarter of the
-    library's curvature along its normal and its normal turns about the tangent by at most
-    20 deg. Why: the flat side of the ring's U-shaped lumen lies along ``-normal``; a blend that
+    library bends (curvature > 10 1/m), the blend of the gap and the angle (``dP``, ``dT``:
+    the curvature term does not depend on ``b``) keeps at least a quarter of the library's
+    curvature along its normal and turns its normal about the tangent by at most 20 deg.
+    Why: the flat side of the ring's U-shaped lumen lies along ``-normal``; a blend that
     adds more curvature than the ring has reverses the bend over a few mm and turns the flat
     side to the inside (for an in-plane gap ``g`` on a ring of radius ``R`` this happens when
     ``5.77 g / b**2 > 1 / R``: ``b < 6.1 mm`` for ``g = 0.5 mm`` on the 26 mm ring); 20 deg
     moves the flat side outwards by at most 0.08 mm (1.2 mm / cos 20 deg). With ``g <= 0.2 mm``
     in the ring plane the blend stays 5 mm: it turns the direction by <= 4.3 deg and adds <=
     0.046 1/mm of curvature, below the 26 mm ring's own 0.077 1/mm (0.5 mm: 7 mm; 1 mm: 10 mm;
-    0.2 mm out of the ring plane: 6.5 mm). 5 mm is local (one step of
-    the 5 mm standard plan, 6 % of the 26 mm ring's circle); 2 mm would turn the direction by
-    10.6 deg and add 0.29 1/mm (a 3.5 mm bend radius) for a 0.2 mm gap. The lengths used are
+    0.2 mm out of the ring plane: 6.5 mm). 5 mm is local (one step of the 5 mm standard plan,
+    6 % of the 26 mm ring's circle); 2 mm would turn the direction by 10.6 deg and add
+    0.29 1/mm (a 3.5 mm bend radius) for a 0.2 mm gap. The lengths used are
     reported (``blend_start_m``, ``blend_end_m``). A number for ``blend_m`` uses exactly that
     length at both joins (no lengthening).
 
@@ -110,6 +116,9 @@ AUTO_BLEND_STEP_M = 0.5e-3
 BEND_KAPPA_PER_M = 10.0
 KEEP_BEND = 0.25
 NORMAL_TOL_DEG = 20.0
+#: The curvature difference is blended in over the last this much of each blend (m): its
+#: offset grows as the square of this length, so it is kept short (module docstring).
+CURVATURE_BLEND_M = 2.0e-3
 #: A gap may exceed max_gap_m by this much (m): floating-point rounding of "exactly on it".
 GAP_ROUNDING_M = 1.0e-9
 #: Default largest distance of the segment's ends from the centreline (m).
@@ -309,27 +318,62 @@ class _Join:
     diff: tuple[np.ndarray, np.ndarray, np.ndarray]
     angle_deg: float
 
-    def offset(self, s_m: np.ndarray, blend_m: float | None = None):
-        """Hermite offset and its first and second derivatives in ``s`` at library arc lengths
-        ``s_m (k,)`` of the blend: three ``(k, 3)`` arrays (m, 1, 1/m)."""
+    def offset(self, s_m: np.ndarray, blend_m: float | None = None, curvature: bool = True):
+        """Offset of the library centreline and its first and second derivatives in ``s`` at
+        library arc lengths ``s_m (k,)`` of the blend: three ``(k, 3)`` arrays (m, 1, 1/m).
+
+        ``dP h_p(x) + beta dT h_t(x) + gamma**2 dK h_k(y)`` with ``x`` running 0 -> 1 over the
+        blend ``b`` (``beta = +-b``, ``d x / ds = 1 / beta``) and ``y`` over its last ``c =
+        min(b, CURVATURE_BLEND_M)`` (``gamma = +-c``; ``y = 0`` before it, where ``h_k`` and its
+        first two derivatives vanish). ``curvature=False`` leaves out the ``dK`` term.
+        """
         b = self.blend_m if blend_m is None else blend_m
-        beta = self.sign * b  # d sigma / ds = 1 / beta
-        x = (self.sign * (np.asarray(s_m, dtype=float) - self.s_m) + b) / b
-        x = x[:, None]
-        x2 = x * x
-        x3 = x2 * x
-        basis = (
-            (x3 * (10.0 - 15.0 * x + 6.0 * x2), x2 * (30.0 - 60.0 * x + 30.0 * x2),
-             x * (60.0 - 180.0 * x + 120.0 * x2)),
-            (x3 * (-4.0 + 7.0 * x - 3.0 * x2), x2 * (-12.0 + 28.0 * x - 15.0 * x2),
-             x * (-24.0 + 84.0 * x - 60.0 * x2)),
-            (x3 * (0.5 - x + 0.5 * x2), x2 * (1.5 - 4.0 * x + 2.5 * x2),
-             x * (3.0 - 12.0 * x + 10.0 * x2)),
-        )  # fmt: skip
+        c = min(b, CURVATURE_BLEND_M)
+        u = self.sign * (np.asarray(s_m, dtype=float) - self.s_m)  # -b .. 0, towards the join
+        x = ((u + b) / b)[:, None]
+        y = np.clip((u + c) / c, 0.0, None)[:, None]
+        beta, gamma = self.sign * b, self.sign * c
         d_p, d_t, d_k = self.diff
-        coef = (d_p, beta * d_t, beta * beta * d_k)
-        out = [sum(h[nu] * c for h, c in zip(basis, coef, strict=True)) for nu in range(3)]
-        return out[0], out[1] / beta, out[2] / (beta * beta)
+        if curvature:
+            out = [
+                _h_pos(x, nu) * d_p / beta**nu
+                + _h_tan(x, nu) * d_t * beta ** (1 - nu)
+                + _h_cur(y, nu) * d_k * gamma ** (2 - nu)
+                for nu in range(3)
+            ]
+        else:
+            out = [
+                _h_pos(x, nu) * d_p / beta**nu + _h_tan(x, nu) * d_t * beta ** (1 - nu)
+                for nu in range(3)
+            ]
+        return out[0], out[1], out[2]
+
+
+def _h_pos(x: np.ndarray, nu: int) -> np.ndarray:
+    """``nu``-th derivative of ``h_p = 10 x^3 - 15 x^4 + 6 x^5`` (0 -> 1, ends flat)."""
+    return (
+        x**3 * (10.0 - 15.0 * x + 6.0 * x * x),
+        x**2 * (30.0 - 60.0 * x + 30.0 * x * x),
+        x * (60.0 - 180.0 * x + 120.0 * x * x),
+    )[nu]
+
+
+def _h_tan(x: np.ndarray, nu: int) -> np.ndarray:
+    """``nu``-th derivative of ``h_t = -4 x^3 + 7 x^4 - 3 x^5`` (slope 1 at x = 1)."""
+    return (
+        x**3 * (-4.0 + 7.0 * x - 3.0 * x * x),
+        x**2 * (-12.0 + 28.0 * x - 15.0 * x * x),
+        x * (-24.0 + 84.0 * x - 60.0 * x * x),
+    )[nu]
+
+
+def _h_cur(x: np.ndarray, nu: int) -> np.ndarray:
+    """``nu``-th derivative of ``h_k = x^3 / 2 - x^4 + x^5 / 2`` (second derivative 1 at 1)."""
+    return (
+        x**3 * (0.5 - x + 0.5 * x * x),
+        x**2 * (1.5 - 4.0 * x + 2.5 * x * x),
+        x * (3.0 - 12.0 * x + 10.0 * x * x),
+    )[nu]
 
 
 def _normal_across(nor: np.ndarray, tan: np.ndarray) -> np.ndarray:
@@ -356,7 +400,7 @@ def _keeps_bend(old: Centreline, join: _Join, blend_m: float) -> bool:
         return True
     s, kappa = s[bends], kappa[bends]
     nor = old.normal(s)
-    _, d1, d2 = join.offset(s, blend_m)
+    _, d1, d2 = join.offset(s, blend_m, curvature=False)
     r1 = old.tangent(s) + d1
     r2 = kappa[:, None] * nor + d2
     sp2 = np.sum(r1 * r1, axis=1)
@@ -435,7 +479,7 @@ def _validate_segment(segment_m) -> np.ndarray:
         raise SpliceError(
             "segment_m",
             f"a correction segment needs at least {MIN_SEGMENT_POINTS} points, got {n}",
-            "give points every 1-2 mm along the corrected part of the channel",
+            "give points every 0.5-1 mm along the corrected part of the channel",
         )
     bad = ~np.isfinite(seg).all(axis=1)
     if bad.any():
@@ -653,7 +697,7 @@ def splice_centreline(
         raise SpliceError(
             "segment_m",
             f"the spliced centreline could not be fitted ({_literal(str(exc))})",
-            "resample the segment evenly (every 1-2 mm) along the channel",
+            "resample the segment evenly (every 0.5-1 mm) along the channel",
         ) from None
 
     # -- where the joins are on the new centreline ---------------------------------------------

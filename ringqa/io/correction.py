@@ -3,10 +3,11 @@
 Format
     The point-file format of :mod:`ringqa.io.points` (``docs/importers.md``): a CSV with the
     columns ``x_mm, y_mm, z_mm`` (or the JSON equivalent), one row per point, ordered PROXIMAL ->
-    DISTAL like every centreline, at least 4 points (one every 1-2 mm), in the applicator's frame
-    (for an RT Plan input: the plan's patient coordinates, the frame of its library
-    centreline). The first and last points lie on the library centreline (within 1 mm) where the
-    correction starts and ends; the rows between give the corrected course.
+    DISTAL like every centreline, at least 4 points, one every 0.5-1 mm (the joins take the
+    segment's direction and curvature at its ends from its last few points), in the
+    applicator's frame (for an RT Plan input: the plan's patient coordinates, the frame of its
+    library centreline). The first and last points lie on the library centreline (within 1 mm)
+    where the correction starts and ends; the rows between give the corrected course.
 
     A ``relative_position_mm`` column is refused: such a file is a measured source path (most
     distal first), not a centreline.

@@ -169,3 +169,44 @@ def test_unknown_channel_and_bad_settings(tmp_path, app):
         apply_centreline_correction(app, p, channel="ovoid")
     with pytest.raises(GeometryError, match="blend_m: must be a positive length"):
         apply_centreline_correction(app, p, blend_m=-1.0)
+
+
+# --------------------------------------------------------------------------------------------
+# the Oncentra plan (patient coordinates)
+
+
+@pytest.mark.shared
+def test_oncentra_plan_ring_corrected_in_patient_coordinates(oncentra_plan_path, tmp_path):
+    """The plan's ring (library centreline in DICOM patient coordinates, a 13.00 mm circle from
+    ~60 mm before the tip) moved 0.5 mm outward in its ring plane from 50 to 30 mm before the tip,
+    points every 0.5 mm written in mm. As on the parametric ring (same radius, same gap, see
+    tests/geometry/test_splice.py): blends 7.0 mm, gaps 0.5 mm, largest shift 0.5 mm (10 um:
+    the library is a circle only to ~0.01 mm), length +1.0795 mm (5 um), the normal stays in the
+    ring plane (< 1 deg); s_ref (library marker, distal of the change) keeps its point (< 1 um,
+    the file's 1e-6 mm rounding included); the same file spliced with the points exactly ON the
+    library (no displacement) moves nothing by more than 1 um."""
+    from ringqa.io.rtplan import applicator_from_rtplan, read_rtplan
+
+    app = applicator_from_rtplan(read_rtplan(oncentra_plan_path))
+    ring = app.channel("ring")
+    cl = ring.centreline
+    s = np.arange(cl.length_m - 50e-3, cl.length_m - 30e-3 + 1e-9, 0.5e-3)
+    p = cl.position(s)
+    c, n = app.ring_centre_m, app.ring_normal
+    radial = p - c - ((p - c) @ n)[:, None] * n
+    radial /= np.linalg.norm(radial, axis=1)[:, None]
+
+    same = apply_centreline_correction(app, write_points(tmp_path / "same.csv", p)).splice
+    assert same.max_shift_m < 1e-6 and abs(same.length_change_m) < 1e-6
+
+    corr = apply_centreline_correction(app, write_points(tmp_path / "out.csv", p + 0.5e-3 * radial))
+    sp = corr.splice
+    assert sp.blend_start_m == pytest.approx(7e-3) and sp.blend_end_m == pytest.approx(7e-3)
+    assert sp.gap_start_m == pytest.approx(0.5e-3, abs=1e-6)
+    assert sp.gap_end_m == pytest.approx(0.5e-3, abs=1e-6)
+    assert sp.max_shift_m == pytest.approx(0.5e-3, abs=10e-6)
+    assert sp.length_change_m == pytest.approx(1.0795e-3, abs=5e-6)
+    assert sp.max_normal_turn_deg < 1.0
+    new = corr.applicator.channel("ring")
+    moved = np.linalg.norm(new.centreline.position(new.s_ref_m) - cl.position(ring.s_ref_m))
+    assert moved < 1e-6
