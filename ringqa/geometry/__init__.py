@@ -16,6 +16,13 @@ from ringqa.geometry.registration import (
 )
 from ringqa.geometry.ring_frame import RingFrame, fit_circle, fit_ring_frame
 from ringqa.geometry.s_channel import SChannelLayout, s_channel, s_channel_layout
+from ringqa.geometry.splice import (
+    SplicedCentreline,
+    SpliceError,
+    splice_applicator,
+    splice_centreline,
+    splice_channel,
+)
 
 __all__ = [
     "REGISTER_MODES",
@@ -31,6 +38,8 @@ __all__ = [
     "RegistrationError",
     "RingFrame",
     "SChannelLayout",
+    "SpliceError",
+    "SplicedCentreline",
     "check_reference_path",
     "fit_circle",
     "fit_ring_frame",
@@ -40,5 +49,8 @@ __all__ = [
     "ring_channel",
     "s_channel",
     "s_channel_layout",
+    "splice_applicator",
+    "splice_centreline",
+    "splice_channel",
     "tandem_channel",
 ]

@@ -11,9 +11,11 @@ JSON
     optional), or the column form ``{"x_mm": [...], "y_mm": [...], "z_mm": [...]}``.
 
 Ordering conventions
-    A centreline (``kind="centreline"``) runs PROXIMAL (channel entry) -> DISTAL (tip). A measured
-    source path (``kind="path"``) lists source-centre positions MOST DISTAL FIRST (relative
-    positions 0, step, 2 step, ...), as afterloaders and TPSs number them.
+    A centreline (``kind="centreline"``) runs PROXIMAL (channel entry) -> DISTAL (tip), and so
+    does a centreline correction segment (``kind="correction"``, read by
+    :mod:`ringqa.io.correction`). A measured source path (``kind="path"``) lists source-centre
+    positions MOST DISTAL FIRST (relative positions 0, step, 2 step, ...), as afterloaders and
+    TPSs number them.
 
 Every problem (missing file or column, metres instead of millimetres, NaN, duplicated or
 unordered points, too few points) raises :class:`PointsFileError` naming the file, the row or
@@ -36,8 +38,10 @@ from ringqa.jsonio import json_text
 from ringqa.outdir import atomic_write_text
 from ringqa.units import m_to_mm, mm_to_m
 
-KINDS = ("centreline", "path")
-MIN_POINTS = {"centreline": 4, "path": 2}
+KINDS = ("centreline", "path", "correction")
+MIN_POINTS = {"centreline": 4, "path": 2, "correction": 4}
+#: What each kind is called in messages.
+KIND_NAMES = {"centreline": "centreline", "path": "path", "correction": "correction segment"}
 COLUMNS = ("x_mm", "y_mm", "z_mm")
 REL_COLUMN = "relative_position_mm"
 #: Points closer than this (mm) are duplicates.
@@ -63,15 +67,19 @@ class PointSet:
     relative_position_mm : numpy.ndarray or None
         (n,) relative positions in mm when the file has them.
     kind : str
-        ``"centreline"`` or ``"path"``.
+        ``"centreline"``, ``"path"`` or ``"correction"``.
     path : str
         The file read.
+    labels : tuple of str
+        Where each point is in the file (``"line 7"`` in a CSV, ``"point 3"`` in JSON), for
+        messages about single points found later (e.g. by the centreline correction).
     """
 
     points_m: np.ndarray
     relative_position_mm: np.ndarray | None
     kind: str
     path: str
+    labels: tuple[str, ...] = ()
 
 
 def read_points(path: str | Path, kind: str = "centreline") -> np.ndarray:
@@ -81,9 +89,10 @@ def read_points(path: str | Path, kind: str = "centreline") -> np.ndarray:
     ----------
     path : str or Path
         A ``.csv`` or ``.json`` file in millimetres (see the module docstring).
-    kind : {"centreline", "path"}
-        Centreline (proximal -> distal, at least 4 points) or measured source path (most distal
-        first, at least 2 points).
+    kind : {"centreline", "path", "correction"}
+        Centreline (proximal -> distal, at least 4 points), measured source path (most distal
+        first, at least 2 points) or centreline correction segment (proximal -> distal, at least
+        4 points; see :mod:`ringqa.io.correction`).
 
     Returns
     -------
@@ -120,6 +129,7 @@ def read_point_set(path: str | Path, kind: str = "centreline") -> PointSet:
         relative_position_mm=None if rel is None else np.ascontiguousarray(rel),
         kind=kind,
         path=str(p),
+        labels=tuple(labels),
     )
 
 
@@ -328,10 +338,11 @@ def _json_number(p: Path, where: str, v) -> float:
 
 def _check(p: Path, pts: np.ndarray, rel: np.ndarray | None, labels, kind: str) -> None:
     n = len(pts)
+    name = KIND_NAMES[kind]
     if n < MIN_POINTS[kind]:
         raise PointsFileError(
             p,
-            f"{n} point(s); a {kind} needs at least {MIN_POINTS[kind]}",
+            f"{n} point(s); a {name} needs at least {MIN_POINTS[kind]}",
             "give more points (centrelines: one every 1-2 mm)",
         )
     span = float(np.max(np.ptp(pts, axis=0)))
@@ -372,10 +383,10 @@ def _check(p: Path, pts: np.ndarray, rel: np.ndarray | None, labels, kind: str) 
             k = int(bad[0]) + 1
             raise PointsFileError(
                 p,
-                f"the {kind} turns back by {turn[k - 1]:.0f} degrees at {labels[k]}: the points "
+                f"the {name} turns back by {turn[k - 1]:.0f} degrees at {labels[k]}: the points "
                 "are not in order along the channel",
                 "sort the rows along the channel ("
-                + ("proximal entry -> distal tip" if kind == "centreline" else "most distal first")
+                + ("most distal first" if kind == "path" else "proximal entry -> distal tip")
                 + ")",
             )
     # Any two non-consecutive points coinciding (a loop through itself) is also a duplicate.
