@@ -42,9 +42,15 @@ class Channel:
     s_ref_m : float
         Arc length (m) of the source centre at relative position 0 (most distal dwell).
     measured_path_m : (n, 3) ndarray or None
-        Measured source-centre positions (m), most distal first (relative positions 0, step, ...).
+        Measured (reference) source-centre positions (m), most distal first.
     measured_step_m : float or None
-        Spacing of the measured path in relative position (m).
+        Spacing of the measured path in relative position (m), when it is evenly spaced.
+    measured_relative_m : (n,) ndarray or None
+        The measured positions' relative positions (m) as the source gave them, increasing
+        (uneven spacing kept); None: ``0, step, 2 step, ...``.
+    measured_source : str
+        Where the measured path comes from (a library path's name, version and date, or the
+        user's file); ``""`` when unknown.
     """
 
     name: str
@@ -53,6 +59,8 @@ class Channel:
     s_ref_m: float
     measured_path_m: np.ndarray | None = None
     measured_step_m: float | None = None
+    measured_relative_m: np.ndarray | None = None
+    measured_source: str = ""
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not self.name.strip():
@@ -87,6 +95,35 @@ class Channel:
                     f"channel {self.name!r}: measured_step_m must be > 0 m, got {step!r}"
                 )
             object.__setattr__(self, "measured_step_m", step)
+        if self.measured_relative_m is not None:
+            rel = np.array(self.measured_relative_m, dtype=float).reshape(-1)
+            n_path = None if self.measured_path_m is None else len(self.measured_path_m)
+            if n_path is None or rel.size != n_path:
+                raise GeometryError(
+                    f"channel {self.name!r}: measured_relative_m needs one relative position per "
+                    f"measured position ({rel.size} given for {n_path or 0})"
+                )
+            if not np.isfinite(rel).all() or np.any(np.diff(rel) <= 0.0):
+                raise GeometryError(
+                    f"channel {self.name!r}: measured_relative_m must be finite and increase "
+                    "strictly (most distal first, no duplicated relative positions)"
+                )
+            rel.setflags(write=False)
+            object.__setattr__(self, "measured_relative_m", rel)
+        if not isinstance(self.measured_source, str):
+            raise GeometryError(f"channel {self.name!r}: measured_source must be a string")
+
+    @property
+    def measured_relative_positions_m(self) -> np.ndarray | None:
+        """Relative positions (m) of the measured path: as given, else ``0, step, ...``; None
+        without a measured path or when neither relative positions nor a step are known."""
+        if self.measured_path_m is None:
+            return None
+        if self.measured_relative_m is not None:
+            return self.measured_relative_m
+        if self.measured_step_m is None:
+            return None
+        return np.arange(len(self.measured_path_m)) * self.measured_step_m
 
     @property
     def length_m(self) -> float:

@@ -103,7 +103,6 @@ from scipy.spatial import cKDTree
 from ringqa.geometry import _kernels as K
 from ringqa.geometry.applicator import Applicator, Channel
 from ringqa.geometry.centreline import TABLE_SPACING_M, Centreline, GeometryError
-from ringqa.geometry.lumen import Lumen
 from ringqa.units import M_PER_MM, MM_PER_M, m_to_mm
 
 #: Shortest blend (m), the automatic blend's starting length (module docstring).
@@ -788,16 +787,11 @@ def splice_channel(
         raise SpliceError("channel", "must be a Channel", "give e.g. applicator.channel('ring')")
     spliced = splice_centreline(channel.centreline, segment_m, blend_m, max_gap_m)
     lum = channel.lumen
-    lumen = Lumen(spliced.map_arc_length(lum.seg_s), lum.seg_rb, lum.seg_ra, lum.seg_flat)
+    lumen = dataclasses.replace(lum, seg_s=spliced.map_arc_length(lum.seg_s))
     s_ref = min(max(spliced.map_arc_length(channel.s_ref_m), 0.0), spliced.length_m)
-    new = Channel(
-        name=channel.name,
-        centreline=spliced.centreline,
-        lumen=lumen,
-        s_ref_m=s_ref,
-        measured_path_m=channel.measured_path_m,
-        measured_step_m=channel.measured_step_m,
-    )
+    new = dataclasses.replace(
+        channel, centreline=spliced.centreline, lumen=lumen, s_ref_m=s_ref
+    )  # the lumen keeps its flat side and source, the channel its measured path
     return new, spliced
 
 

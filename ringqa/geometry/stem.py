@@ -16,7 +16,7 @@ is measured in ``benchmarks/bench_commission_numerics.py`` and shown in docs/com
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -106,12 +106,7 @@ def trim_to_stem(channel: Channel, stem_m: float | None = DEFAULT_STEM_M) -> Tri
     trimmed_lumen = Lumen(
         seg_s, lumen.seg_rb, lumen.seg_ra, lumen.seg_flat, lumen.flat_side, lumen.source
     )
-    trimmed = Channel(
-        channel.name,
-        centreline,
-        trimmed_lumen,
-        channel.s_ref_m - s0,
-        channel.measured_path_m,
-        channel.measured_step_m,
+    trimmed = replace(
+        channel, centreline=centreline, lumen=trimmed_lumen, s_ref_m=channel.s_ref_m - s0
     )
     return TrimmedChannel(trimmed, s0, stem, s_bend)

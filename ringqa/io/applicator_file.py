@@ -21,8 +21,14 @@ Format (``format_version`` 1; full description in ``data/applicators/README.md``
 The lumen is a spec in the one vocabulary of :mod:`ringqa.geometry.lumen_spec` (shared with scene
 files): ``circular``, ``u`` or ``stepped``, with ``flat_towards`` and ``source``; older files'
 ``u_shaped`` and ``segments`` are read too. Instead of ``s_ref_mm`` a channel may give
-``tip_to_first_dwell_mm`` (s_ref = length - that) or, with a measured path, neither (s_ref = arc
-length closest to the path's first point).
+``tip_to_first_dwell_mm`` (s_ref = length - that) or, with a measured path,
+``"s_ref_mm": "from_measured_path"`` (s_ref = arc length closest to the path's first point: an
+estimate, asked for by name, never guessed).
+
+A measured path's relative positions are read as given: ``measured_relative_mm`` (inline) or a
+``relative_position_mm`` column (file), uneven spacing kept; without them, ``measured_step_mm``
+numbers the positions 0, step, 2 step, ... ``measured_path_source`` says where the path comes from
+(default: "user file <name>").
 
 A FOLDER is accepted too: ``applicator.json`` (as above, where ``centreline_file`` /
 ``measured_path_file`` name CSV files in the folder), or an ``applicator.json`` without
@@ -55,7 +61,7 @@ from ringqa.geometry import (
     fit_ring_frame,
 )
 from ringqa.geometry.lumen_spec import lumen_from_spec, lumen_to_spec
-from ringqa.io.points import read_points
+from ringqa.io.points import PointSet, read_point_set
 from ringqa.jsonio import json_text, to_jsonable
 from ringqa.outdir import atomic_write_text
 from ringqa.paths import data_dir
@@ -143,6 +149,10 @@ def applicator_to_dict(app: Applicator, decimals: int | None = None) -> dict[str
             entry["measured_path_mm"] = pts(ch.measured_path_m)
         if ch.measured_step_m is not None:
             entry["measured_step_mm"] = float(m_to_mm(ch.measured_step_m))
+        if ch.measured_relative_m is not None:
+            entry["measured_relative_mm"] = [num(v) for v in m_to_mm(ch.measured_relative_m)]
+        if ch.measured_source:
+            entry["measured_path_source"] = ch.measured_source
         channels.append(entry)
     return {
         "format": FORMAT,
@@ -153,7 +163,8 @@ def applicator_to_dict(app: Applicator, decimals: int | None = None) -> dict[str
             "centreline": "points in mm, ordered proximal (channel entry) -> distal (lumen tip)",
             "s_ref_mm": "arc length from the proximal end to the source centre at relative "
             "position 0 (most distal dwell); relative position p sits at s_ref_mm - p",
-            "measured_path_mm": "source-centre positions, most distal first (p = 0, step, ...)",
+            "measured_path_mm": "source-centre positions, most distal first (p = 0, step, ... or "
+            "measured_relative_mm as given)",
             "lumen": "kind circular | u | stepped (ringqa.geometry.lumen_spec); flat_mm from the "
             "centreline, facing flat_towards (bend_outside, or fixed in the ring frame: "
             "ring_outside, cranial, caudal); at or beyond r_b_mm the flat does not cut the "
@@ -310,7 +321,8 @@ def _load_folder(folder: Path) -> Applicator:
             "name": doc.get("channel", "ring"),
             "centreline_file": "centreline.csv",
         }
-        for key in ("lumen", "s_ref_mm", "tip_to_first_dwell_mm", "measured_step_mm"):
+        for key in ("lumen", "s_ref_mm", "tip_to_first_dwell_mm", "measured_step_mm",
+                    "measured_path_source"):  # fmt: skip
             if key in doc:
                 ch[key] = doc[key]
         if (folder / "measured_path.csv").is_file():
@@ -408,10 +420,14 @@ def _fit_frame(channels, rd: _Reader) -> RingFrame:
 
 
 def _read_csv_points(rd: _Reader, field: str, name, kind: str) -> np.ndarray:
+    return _read_csv_point_set(rd, field, name, kind).points_m
+
+
+def _read_csv_point_set(rd: _Reader, field: str, name, kind: str) -> PointSet:
     if not isinstance(name, str):
         raise rd.fail(field, f"expected a file name, got {name!r}")
     p = (rd.base / name).resolve()
-    return read_points(p, kind=kind)  # raises PointsFileError naming the file
+    return read_point_set(p, kind=kind)  # raises PointsFileError naming the file
 
 
 def _channel(c, where: str, rd: _Reader, ring_frame=None) -> Channel:
@@ -434,30 +450,12 @@ def _channel(c, where: str, rd: _Reader, ring_frame=None) -> Channel:
     except GeometryError as exc:
         raise rd.fail(f"{where}.centreline_mm", str(exc)) from None
     lumen = _lumen(rd.get(c, "lumen", where), f"{where}.lumen", rd, ring_frame)
-    path_m = None
-    if c.get("measured_path_mm") is not None:
-        path_m = mm_to_m(rd.points(c["measured_path_mm"], f"{where}.measured_path_mm"))
-    elif c.get("measured_path_file") is not None:
-        path_m = _read_csv_points(rd, f"{where}.measured_path_file", c["measured_path_file"],
-                                  "path")  # fmt: skip
+    path_m, rel_m, origin = _measured_path(c, where, rd)
     step = rd.number(c, "measured_step_mm", where, default=None, positive=True)
-    if "s_ref_mm" in c and c["s_ref_mm"] is not None:
-        s_ref = mm_to_m(rd.number(c, "s_ref_mm", where))
-    elif c.get("tip_to_first_dwell_mm") is not None:
-        s_ref = cl.length_m - mm_to_m(rd.number(c, "tip_to_first_dwell_mm", where))
-    elif path_m is not None:
-        s_arr, d_arr = cl.closest(path_m[:1])
-        if d_arr[0] > 2e-3:
-            raise rd.fail(
-                f"{where}.s_ref_mm", "missing, and the measured path's first point is "
-                f"{d_arr[0] * 1e3:.1f} mm from the centreline", "give s_ref_mm",
-            )  # fmt: skip
-        s_ref = float(s_arr[0])
-    else:
-        raise rd.fail(
-            f"{where}.s_ref_mm", "missing",
-            "give s_ref_mm (arc length of relative position 0) or tip_to_first_dwell_mm",
-        )  # fmt: skip
+    step_m = None if step is None else mm_to_m(step)
+    if path_m is not None:
+        step_m = _path_spacing(path_m, rel_m, step_m, where, rd)
+    s_ref = _s_ref(c, where, rd, cl, path_m)
     try:
         return Channel(
             name=name,
@@ -465,10 +463,109 @@ def _channel(c, where: str, rd: _Reader, ring_frame=None) -> Channel:
             lumen=lumen,
             s_ref_m=float(s_ref),
             measured_path_m=path_m,
-            measured_step_m=None if step is None else mm_to_m(step),
+            measured_step_m=step_m,
+            measured_relative_m=rel_m,
+            measured_source=origin,
         )
     except GeometryError as exc:
         raise rd.fail(where, str(exc)) from None
+
+
+#: ``s_ref_mm`` value asking for s_ref at the measured path's first position (an estimate).
+S_REF_FROM_PATH = "from_measured_path"
+
+
+def _measured_path(c: dict, where: str, rd: _Reader):
+    """The measured path (m), its relative positions as given (m, or None) and its provenance."""
+    origin = rd.get(c, "measured_path_source", where, default=None)
+    if origin is not None and not (isinstance(origin, str) and origin.strip()):
+        raise rd.fail(
+            f"{where}.measured_path_source", "expected a text",
+            'say where the path comes from, e.g. "vendor measurement, 2024-03-01"',
+        )  # fmt: skip
+    rel_mm = None
+    if c.get("measured_path_mm") is not None:
+        path_m = mm_to_m(rd.points(c["measured_path_mm"], f"{where}.measured_path_mm"))
+        if c.get("measured_relative_mm") is not None:
+            rel_mm = rd.numbers(c["measured_relative_mm"], f"{where}.measured_relative_mm")
+        default_origin = f"user file {rd.path.name}"
+    elif c.get("measured_path_file") is not None:
+        name = c["measured_path_file"]
+        pset = _read_csv_point_set(rd, f"{where}.measured_path_file", name, "path")
+        path_m, rel_mm = pset.points_m, pset.relative_position_mm
+        default_origin = f"user file {Path(pset.path).name}"
+    else:
+        return None, None, ""
+    rel_m = None
+    if rel_mm is not None:
+        rel_mm = np.asarray(rel_mm, dtype=float).reshape(-1)
+        field = f"{where}.measured_relative_mm"
+        if rel_mm.size != len(path_m):
+            raise rd.fail(
+                field, f"{rel_mm.size} relative positions for {len(path_m)} measured positions",
+                "give one relative position (mm) per measured position",
+            )  # fmt: skip
+        if np.any(np.diff(rel_mm) <= 0):
+            k = int(np.flatnonzero(np.diff(rel_mm) <= 0)[0])
+            raise rd.fail(
+                field, f"relative positions {rel_mm[k]:g} and {rel_mm[k + 1]:g} mm do not "
+                "increase (duplicated or out of order)",
+                "list the positions most distal (0) first, each relative position once",
+            )  # fmt: skip
+        rel_m = mm_to_m(rel_mm)
+    return path_m, rel_m, (origin or default_origin).strip()
+
+
+def _path_spacing(path_m, rel_m, step_m, where: str, rd: _Reader) -> float | None:
+    """The measured path's step (m): as given, or from evenly spaced relative positions; None for
+    uneven ones. Refuses a path with neither, and a step that contradicts the positions."""
+    if rel_m is None:
+        if step_m is None:
+            raise rd.fail(
+                f"{where}.measured_step_mm", "missing",
+                "give the measured path's spacing (mm), or a relative_position_mm column "
+                "(measured_relative_mm) with each position's relative position",
+            )  # fmt: skip
+        return step_m
+    gaps = np.diff(rel_m)
+    even = gaps.size > 0 and np.allclose(gaps, gaps[0], rtol=0.0, atol=1e-6)
+    if step_m is not None and not (even and abs(gaps[0] - step_m) <= 1e-6):
+        raise rd.fail(
+            f"{where}.measured_step_mm",
+            f"{m_to_mm(step_m):g} mm contradicts the relative positions given "
+            f"({', '.join(f'{m_to_mm(x):g}' for x in rel_m[:4])}, ... mm)",
+            "drop measured_step_mm (the relative positions are used as given) or correct it",
+        )
+    return float(gaps[0]) if even else None
+
+
+def _s_ref(c: dict, where: str, rd: _Reader, cl, path_m) -> float:
+    """s_ref (m): ``s_ref_mm``, ``length - tip_to_first_dwell_mm``, or, when asked for with
+    ``"s_ref_mm": "from_measured_path"``, the arc length closest to the path's first position."""
+    value = c.get("s_ref_mm")
+    if value == S_REF_FROM_PATH:
+        if path_m is None:
+            raise rd.fail(
+                f"{where}.s_ref_mm", f"{S_REF_FROM_PATH!r} needs a measured path",
+                "give s_ref_mm in mm",
+            )  # fmt: skip
+        s_arr, d_arr = cl.closest(path_m[:1])
+        if d_arr[0] > 2e-3:
+            raise rd.fail(
+                f"{where}.s_ref_mm", f"{S_REF_FROM_PATH!r}, but the measured path's first point "
+                f"is {d_arr[0] * 1e3:.1f} mm from the centreline", "give s_ref_mm in mm",
+            )  # fmt: skip
+        return float(s_arr[0])
+    if value is not None:
+        return mm_to_m(rd.number(c, "s_ref_mm", where))
+    if c.get("tip_to_first_dwell_mm") is not None:
+        return cl.length_m - mm_to_m(rd.number(c, "tip_to_first_dwell_mm", where))
+    raise rd.fail(
+        f"{where}.s_ref_mm", "missing",
+        "give s_ref_mm (arc length of relative position 0, mm) or tip_to_first_dwell_mm; "
+        f'"s_ref_mm": "{S_REF_FROM_PATH}" takes the arc length nearest the measured path\'s '
+        "first position (an estimate: every along-channel deviation depends on it)",
+    )  # fmt: skip
 
 
 def _lumen(d, where: str, rd: _Reader, ring_frame=None) -> Lumen:

@@ -83,6 +83,11 @@ class LibraryChannel:
         The source path's id (e.g. ``"VCC_RingCTMR_26x60_192-Ir-mxDR-v2 v1.1"``).
     measured_step_mm : float or None
         Spacing of the measured path's positions (relative positions).
+    measured_path_origin : str
+        The source path's provenance in words: label, version and creation date as stored in
+        the library (``""`` without a path). Nothing in the library says how the path was
+        obtained: it is the vendor's path for this applicator model, not a measurement of the
+        user's applicator.
     marker_mm : numpy.ndarray or None
         (3,) the first marker (``marker1``) = where relative position 0 lies on the centreline.
     tip_length_mm : float or None
@@ -107,6 +112,7 @@ class LibraryChannel:
     part_id: str
     description: str
     joint_address: str
+    measured_path_origin: str = ""
 
 
 @dataclass(frozen=True)
@@ -127,6 +133,7 @@ class _SourcePath:
     step: float | None
     connector: tuple  # (name, centre, axis, ref)
     part_ids: tuple[str, ...]
+    origin: str = ""  # label, version, creation date in words
 
 
 @dataclass(frozen=True)
@@ -251,6 +258,7 @@ def parse_library(text: str) -> OncentraLibrary:
             step=_float_attr(doc, "stepsize"),
             connector=_connector(con) if con is not None else ("", np.zeros(3), None, None),
             part_ids=tuple(pc.get("partid") for pc in doc.iter("partConnection")),
+            origin=_path_origin(el.get("id"), doc),
         )
     addresses: dict = {}
     label = ""
@@ -274,6 +282,18 @@ def parse_library(text: str) -> OncentraLibrary:
     if not parts:
         raise LibraryFormatError("no applicator parts with a centre curve")
     return OncentraLibrary(parts, paths, addresses, transforms, label)
+
+
+def _path_origin(path_id: str | None, doc: ET.Element) -> str:
+    """A source path's provenance in words: its label, version and creation date."""
+    label = doc.get("label") or path_id or "unnamed"
+    parts = [f"Oncentra applicator library source path {label!r}"]
+    if doc.get("version"):
+        parts.append(f"version {doc.get('version')}")
+    date = (doc.get("creationDate") or "")[:10]
+    if date:
+        parts.append(f"created {date}")
+    return ", ".join(parts)
 
 
 def _walk(assembly: ET.Element, address: str, out: dict) -> None:
@@ -349,6 +369,7 @@ def library_channel(
     centreline = to_patient(part.centre_curve)[::-1].copy()  # library: tip first
     marker = None if part.marker1 is None else to_patient(part.marker1)[0]
     measured = name = step = None
+    origin = ""
     candidates = [p for p in lib.source_paths.values() if part_id in p.part_ids]
     if preferred_path is not None:
         candidates.sort(key=lambda p: p.path_id != preferred_path)
@@ -360,6 +381,7 @@ def library_channel(
         rot = _frame(a_part, r_part) @ _frame(a_path, r_path).T
         in_part = (sp.positions - c_path) @ rot.T + c_part
         measured, name, step = to_patient(in_part), sp.path_id, sp.step
+        origin = sp.origin
         break
     return LibraryChannel(
         name=label,
@@ -374,4 +396,5 @@ def library_channel(
         part_id=part_id,
         description=part.description,
         joint_address=address,
+        measured_path_origin=origin,
     )

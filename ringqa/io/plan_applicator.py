@@ -230,6 +230,7 @@ def applicator_from_rtplan(plan):
                 s_ref_m=mm_to_m(s_ref_mm),
                 measured_path_m=path_m,
                 measured_step_m=step_m,
+                measured_source=lc.measured_path_origin if path_m is not None else "",
             )
         )
         info[name] = {

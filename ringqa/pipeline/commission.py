@@ -34,13 +34,22 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-from ringqa.pipeline.deviations import compare_with_reference, dwell_table
+import numpy as np
+
+from ringqa.pipeline.deviations import (
+    DwellColumns,
+    centreline_offsets,
+    compare_with_reference,
+    deviation_components,
+    dwell_table,
+)
 from ringqa.pipeline.doses import dose_points, dose_tables, standard_plans
 from ringqa.pipeline.dwells import (
     centreline_dwells,
     plan_selection,
     reference_dwells,
     reference_note,
+    ring_arc_mm,
     ring_geometry,
     tandem_dwells,
 )
@@ -51,12 +60,22 @@ from ringqa.pipeline.inputs import (
     load_input,
     loaded_text,
 )
+from ringqa.pipeline.reference import review_reference
 from ringqa.pipeline.result import CommissioningResult, RunSettings, Timings
 from ringqa.pipeline.settings import CommissionSettings
-from ringqa.pipeline.simulate import Engine, simulate_dwells, simulation_notes
+from ringqa.pipeline.simulate import (
+    NUMERICAL_ERROR_WARN_MM,
+    Engine,
+    check_clearance,
+    choose_cable,
+    instrument_radii_m,
+    simulate_dwells,
+    simulation_notes,
+)
 from ringqa.pipeline.summary import summarise
-from ringqa.pipeline.verdicts import check_tolerances, verdict_meanings
+from ringqa.pipeline.verdicts import check_tolerances, conclusion, verdict_meanings
 from ringqa.provenance import Provenance
+from ringqa.units import m_to_mm
 
 __all__ = ["commission"]
 
@@ -98,39 +117,77 @@ def commission(
     loaded = load_input(input)
     load_s = time.perf_counter() - t_start
     app = loaded.applicator
+    files = loaded.files
+    correction_notes: tuple[str, ...] = ()
+    if cfg.centreline_correction is not None:
+        from ringqa.io.correction import apply_centreline_correction
+
+        channel_of(app, cfg.channel)  # names the channels when it is missing
+        correction = apply_centreline_correction(app, cfg.centreline_correction, cfg.channel)
+        app = correction.applicator
+        files = (*files, Path(correction.path))
+        correction_notes = (correction_note(correction),)
     ring = channel_of(app, cfg.channel)
     check_measured_path(input, ring, cfg.channel, loaded.kind, cfg.require_measured)
     src = choose_source(cfg.source, cfg.sk_U, loaded.rtplan)
+    cable = choose_cable(cfg.cable, src.source.name)
+    capsule_r_m, cable_r_m = instrument_radii_m(engine, ring, cable.preset)
+    check_clearance(app, ring, cable_r_m)
     reference = reference_dwells(app, ring, cfg.plan_step_mm)
-    selection = plan_selection(app, ring, reference, cfg.plan_step_mm)
+    review = review_reference(app, ring, reference, cfg.register, capsule_r_m)
+    compared_ref = review.registered
+    registered = compared_ref.dwells if cfg.register != "none" and reference.kind == "measured" \
+        else None  # fmt: skip
+    selection = plan_selection(app, ring, reference, cfg.plan_step_mm, review.compared)
 
     t0 = time.perf_counter()
     simulated = simulate_dwells(
-        app, ring, reference.relative_position_mm, cable=cfg.cable,
+        app, ring, reference.relative_position_mm, cable=cable.preset,
         scene_overrides=cfg.scene_overrides, engine=engine, progress=progress,
+        stem_mm=cfg.stem_mm,
     )  # fmt: skip
     simulation_s = time.perf_counter() - t0
-    centreline = centreline_dwells(ring, reference.relative_position_mm)
-    dev = compare_with_reference(app, reference.dwells, simulated.dwells, centreline)
-    dwells = dwell_table(app.name, reference, selection, simulated.dwells, centreline, dev)
+    rel = reference.relative_position_mm
+    centreline = centreline_dwells(ring, rel)
+    dev = compare_with_reference(app, compared_ref.dwells, simulated.dwells, centreline)
+    dev_raw = compare_with_reference(app, reference.dwells, simulated.dwells, centreline)
+    paths = {reference.kind: reference.dwells, "simulated": simulated.dwells,
+             "centreline": centreline}  # fmt: skip
+    if registered is not None:
+        paths["registered"] = registered
+    offsets = {name: centreline_offsets(app, ring, p.positions_mm) for name, p in paths.items()}
+    supplied = None
+    if registered is not None:
+        supplied = deviation_components(
+            registered.positions_mm, registered.directions, reference.dwells.positions_mm,
+            m_to_mm(np.asarray(app.ring_centre_m, dtype=float)), app.ring_normal,
+        )  # fmt: skip
+    columns = DwellColumns(review.flags, simulated.numerics.error_mm, offsets, supplied)
+    dwells = dwell_table(app.name, reference, registered and compared_ref, selection,
+                         simulated.dwells, centreline, dev, dev_raw, columns)  # fmt: skip
 
     t0 = time.perf_counter()
     points = dose_points(app, loaded.rtplan, cfg.point_spec)
     tandem = tandem_dwells(app, cfg.tandem_dwells, cfg.plan_step_mm)
     plans = standard_plans(
-        reference, selection, simulated.dwells, centreline, tandem, points, src.source,
-        prescription_gy=cfg.prescription_gy, sk_U=src.sk_U,
+        reference, registered, selection, simulated.dwells, centreline, tandem, points,
+        src.source, prescription_gy=cfg.prescription_gy, sk_U=src.sk_U,
     )  # fmt: skip
     tables = dose_tables(app, loaded.rtplan, plans, points, src.source, src.sk_U)
     dose_s = time.perf_counter() - t0
 
+    numerics = simulated.numerics
     verdicts = check_tolerances(
-        reference.kind, dev, tables.doses, plans, cfg.position_limits_mm, cfg.dose_action_pct
-    )
+        reference.kind, dev, tables.doses, plans, cfg.position_limits_mm, cfg.dose_action_pct,
+        relative_position_mm=rel, flags=review.flags, numerical_error_mm=numerics.max_mm,
+        numerical_warn_mm=NUMERICAL_ERROR_WARN_MM,
+    )  # fmt: skip
     n_tandem = 0 if tandem is None else len(tandem.relative_position_mm)
+    on_ring = rel <= ring_arc_mm(app, ring, 0.5) + 1e-9
     summary = summarise(
-        app.name, src.source.name, reference, selection, n_tandem, dev, tables.doses, plans,
-        simulated.info, verdicts,
+        app.name, src.source.name, reference, selection, n_tandem, dev, dev_raw, tables.doses,
+        plans, simulated.info, verdicts, review=review, numerical_error_mm=numerics.error_mm,
+        offsets=offsets, on_ring=on_ring,
     )  # fmt: skip
     tandem_note = (
         f"The standard plan includes {n_tandem} tandem dwells ({cfg.plan_step_mm:g} mm apart); "
@@ -139,21 +196,25 @@ def commission(
     notes = (
         *src.notes,
         loaded_text(app, ring, loaded.kind),
+        *correction_notes,
         reference_note(reference),
         *simulated.notes,
-        *simulation_notes(simulated.info, src.source, simulated.afterloader),
+        *simulation_notes(simulated.info, cable),
         *tables.notes,
         *((tandem_note,) if tandem is not None else ()),
         *verdict_meanings(verdicts),
     )
     used = RunSettings(
         source=src.source.name, sk_U=src.sk_U, prescription_gy=cfg.prescription_gy,
-        cable=cfg.cable, channel=cfg.channel, plan_step_mm=cfg.plan_step_mm,
-        tandem_dwells=cfg.tandem_dwells, position_limits_mm=cfg.position_limits_mm,
-        dose_action_pct=cfg.dose_action_pct, dose_points=cfg.point_spec,
-        scene_overrides=dict(cfg.scene_overrides), scene=simulated.scene,
+        cable=cable.preset, channel=cfg.channel, register=cfg.register, stem_mm=cfg.stem_mm,
+        plan_step_mm=cfg.plan_step_mm, tandem_dwells=cfg.tandem_dwells,
+        position_limits_mm=cfg.position_limits_mm, dose_action_pct=cfg.dose_action_pct,
+        dose_points=cfg.point_spec, scene_overrides=dict(cfg.scene_overrides),
+        scene=simulated.scene,
+        centreline_correction=None if cfg.centreline_correction is None
+        else str(cfg.centreline_correction),
     )  # fmt: skip
-    provenance = Provenance.now(inputs=loaded.files, settings=used.as_dict())
+    provenance = Provenance.now(inputs=files, settings=used.as_dict())
     return CommissioningResult(
         applicator=app.name,
         input=str(input) if isinstance(input, str | Path) else app.name,
@@ -170,4 +231,19 @@ def commission(
         notes=notes,
         provenance=provenance,
         timings=Timings(load_s, simulation_s, dose_s, time.perf_counter() - t_start),
+        reference_check=review,
+        numerics=numerics,
+        conclusion=conclusion(verdicts),
+    )
+
+
+def correction_note(correction) -> str:
+    """The report's statement of a centreline correction (:mod:`ringqa.io.correction`)."""
+    d = correction.splice.as_mm_dict()
+    return (
+        f"Centreline correction: {Path(correction.path).name} replaces the {correction.channel} "
+        f"channel's library centreline from {d['old_start_mm']:.1f} to {d['old_end_mm']:.1f} mm "
+        f"(blends {d['blend_start_mm']:.1f}/{d['blend_end_mm']:.1f} mm; gaps at the joins "
+        f"{d['gap_start_mm']:.2f}/{d['gap_end_mm']:.2f} mm; largest shift "
+        f"{d['max_shift_mm']:.2f} mm; length change {d['length_change_mm']:+.2f} mm)."
     )

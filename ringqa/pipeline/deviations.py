@@ -12,7 +12,7 @@ import numpy as np
 import pandas as pd
 
 from ringqa.pipeline.dwells import PathDwells, PlanSelection, ReferenceDwells
-from ringqa.units import m_to_mm
+from ringqa.units import m_to_mm, mm_to_m
 
 
 @dataclass(frozen=True, eq=False)
@@ -134,25 +134,104 @@ def compare_with_reference(
     )
 
 
+@dataclass(frozen=True, eq=False)
+class CentrelineOffsets:
+    """Signed offsets of one path's dwells from the channel centreline (mm).
+
+    For each position P, C is its closest centreline point; ``radial_mm`` is the in-plane
+    distance of P from the ring's axis minus that of C (outward positive), ``height_mm`` is
+    ``(P - C) . ring normal`` (cranial positive). On the ring's circle these are the offset from
+    the circle of radius R and the height above the ring channel's plane.
+
+    Attributes
+    ----------
+    radial_mm, height_mm : (n,) ndarray
+    """
+
+    radial_mm: np.ndarray
+    height_mm: np.ndarray
+
+
+def centreline_offsets(app, channel, positions_mm) -> CentrelineOffsets:
+    """Signed radial and height offsets of positions from the channel centreline (see
+    :class:`CentrelineOffsets`).
+
+    Parameters
+    ----------
+    app : Applicator
+        Gives the ring frame (centre, normal).
+    channel : Channel
+    positions_mm : (n, 3) array_like
+        Positions, mm.
+
+    Returns
+    -------
+    CentrelineOffsets
+    """
+    p = np.asarray(positions_mm, dtype=float).reshape(-1, 3)
+    s, _ = channel.centreline.closest(mm_to_m(p))
+    c = m_to_mm(np.asarray(channel.centreline.position(np.asarray(s)), dtype=float)).reshape(-1, 3)
+    centre = m_to_mm(np.asarray(app.ring_centre_m, dtype=float))
+    n = np.asarray(app.ring_normal, dtype=float)
+
+    def rho(x):
+        d = x - centre
+        return np.linalg.norm(d - np.outer(d @ n, n), axis=1)
+
+    return CentrelineOffsets(rho(p) - rho(c), (p - c) @ n)
+
+
+@dataclass(frozen=True, eq=False)
+class DwellColumns:
+    """Per-dwell values the dwell table carries beside the positions.
+
+    Attributes
+    ----------
+    flags : (n,) ndarray of str
+        ``reference_flag`` of each dwell (``""``, ``"infeasible"``, ``"outside_channel"``).
+    numerical_error_mm : (n,) ndarray
+        The simulation's numerical error per dwell (0 on the other paths).
+    offsets : dict of str to CentrelineOffsets
+        Per path name.
+    supplied : DeviationComponents or None
+        The supplied reference against the compared (registered) one, when they differ.
+    """
+
+    flags: np.ndarray
+    numerical_error_mm: np.ndarray
+    offsets: dict[str, CentrelineOffsets]
+    supplied: DeviationComponents | None = None
+
+
 def dwell_table(
     app_name: str,
     reference: ReferenceDwells,
+    registered: ReferenceDwells | None,
     selection: PlanSelection,
     simulated: PathDwells,
     centreline: PathDwells,
     dev: Deviations,
+    dev_raw: Deviations,
+    columns: DwellColumns,
 ) -> pd.DataFrame:
-    """One row per dwell and path: the reference path first, then simulated (and centreline).
+    """One row per dwell and path: the reference path(s) first, then simulated and centreline.
 
     Parameters
     ----------
     app_name : str
     reference : ReferenceDwells
-        Its kind says which path is the reference (``"centreline"``: the centreline itself).
+        The reference as supplied; its kind says which path it is (``"centreline"``: the
+        centreline itself).
+    registered : ReferenceDwells or None
+        The reference as compared, when registration moved it (rows ``path = "registered"``).
     selection : PlanSelection
         Which dwells the standard plan uses.
     simulated, centreline : PathDwells
     dev : Deviations
+        Against the compared reference (``dist_to_reference_mm`` and the components).
+    dev_raw : Deviations
+        Against the supplied reference (``dist_to_measured_mm``).
+    columns : DwellColumns
 
     Returns
     -------
@@ -162,18 +241,30 @@ def dwell_table(
     rel, in_plan, ref_kind = reference.relative_position_mm, selection.in_plan, reference.kind
     zeros = np.zeros(rel.size)
     zero = DeviationComponents(zeros, zeros, zeros, zeros)
-    paths = [("simulated", simulated, dev.simulated, dev.angle_simulated_deg)]
-    if ref_kind == "measured":
-        paths = [
-            ("measured", reference.dwells, zero, zeros),
-            *paths,
-            ("centreline", centreline, dev.centreline, dev.angle_centreline_deg),
-        ]
+    measured = ref_kind == "measured"
+    if measured:
+        supplied = columns.supplied if registered is not None else None
+        paths = [("measured", reference.dwells, supplied or zero, zeros, zeros, zeros)]
+        if registered is not None:
+            to_raw = zero.dist_mm if supplied is None else supplied.dist_mm
+            paths.append(("registered", registered.dwells, zero, zeros, zeros, to_raw))
+        paths += [
+            ("simulated", simulated, dev.simulated, dev.angle_simulated_deg,
+             columns.numerical_error_mm, dev_raw.simulated.dist_mm),
+            ("centreline", centreline, dev.centreline, dev.angle_centreline_deg, zeros,
+             dev_raw.centreline.dist_mm),
+        ]  # fmt: skip
     else:
-        paths = [("centreline", centreline, zero, zeros), *paths]
+        nan = np.full(rel.size, np.nan)
+        paths = [
+            ("centreline", centreline, zero, zeros, zeros, nan),
+            ("simulated", simulated, dev.simulated, dev.angle_simulated_deg,
+             columns.numerical_error_mm, nan),
+        ]  # fmt: skip
     rows = []
-    for name, path, comp, ang in paths:
+    for name, path, comp, ang, err, dist_measured in paths:
         pos, dirs = path.positions_mm, path.directions
+        off = columns.offsets[name]
         for i in range(rel.size):
             rows.append(
                 {
@@ -187,13 +278,17 @@ def dwell_table(
                     "dir_x": dirs[i, 0],
                     "dir_y": dirs[i, 1],
                     "dir_z": dirs[i, 2],
-                    "dist_to_measured_mm": comp.dist_mm[i] if ref_kind == "measured" else np.nan,
+                    "dist_to_measured_mm": dist_measured[i],
                     "dist_to_reference_mm": comp.dist_mm[i],
                     "along_mm": comp.along_mm[i],
                     "radial_mm": comp.radial_mm[i],
                     "out_of_plane_mm": comp.out_of_plane_mm[i],
                     "angle_deg": ang[i],
                     "in_plan": bool(in_plan[i]),
+                    "radial_from_centreline_mm": off.radial_mm[i],
+                    "height_mm": off.height_mm[i],
+                    "numerical_error_mm": err[i],
+                    "reference_flag": str(columns.flags[i]),
                 }
             )
     return pd.DataFrame(rows)

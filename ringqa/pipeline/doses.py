@@ -44,26 +44,37 @@ class DosePoints:
 
 @dataclass(frozen=True, eq=False)
 class StandardPlans:
-    """The reference plan and the same dwell times on the other dwell sets.
+    """The standard plan on the reference path and the same dwell times on the other dwell sets.
 
     Attributes
     ----------
     reference : Plan
-        Named ``"measured"`` or ``"centreline"`` (its dwells are the reference dwells).
+        Named ``"measured"`` or ``"centreline"``: the standard plan on the reference path as
+        supplied (its times are every plan's times).
+    registered : Plan or None
+        The same times on the registered reference path (when registration moved it): the plan
+        the other plans are compared with.
     simulated : Plan
     centreline : Plan or None
         Only when the reference is the measured path.
     """
 
     reference: Plan
+    registered: Plan | None
     simulated: Plan
     centreline: Plan | None
 
     @property
+    def compared_reference(self) -> Plan:
+        """The plan the simulated and centreline plans are judged against."""
+        return self.registered if self.registered is not None else self.reference
+
+    @property
     def in_order(self) -> tuple[Plan, ...]:
-        """The plans in table order: reference, simulated, centreline (when there is one)."""
-        rest = (self.simulated,) if self.centreline is None else (self.simulated, self.centreline)
-        return (self.reference, *rest)
+        """The plans in table order: reference, registered, simulated, centreline (those
+        there are)."""
+        plans = (self.reference, self.registered, self.simulated, self.centreline)
+        return tuple(p for p in plans if p is not None)
 
 
 @dataclass(frozen=True, eq=False)
@@ -110,6 +121,7 @@ def dose_points(app, rtplan, spec) -> DosePoints:
 
 def standard_plans(
     reference: ReferenceDwells,
+    registered: PathDwells | None,
     selection: PlanSelection,
     simulated: PathDwells,
     centreline: PathDwells,
@@ -125,7 +137,9 @@ def standard_plans(
     Parameters
     ----------
     reference : ReferenceDwells
-        Its kind names the reference plan.
+        Its kind names the reference plan (the path as supplied).
+    registered : PathDwells or None
+        The registered reference dwells (None: not registered).
     selection : PlanSelection
         Which dwells the plans use.
     simulated, centreline : PathDwells
@@ -163,7 +177,8 @@ def standard_plans(
         return ref_plan.transfer(pos, dirs, name)
 
     cl_plan = on(centreline, "centreline") if reference.kind == "measured" else None
-    return StandardPlans(ref_plan, on(simulated, "simulated"), cl_plan)
+    reg_plan = on(registered, "registered") if registered is not None else None
+    return StandardPlans(ref_plan, reg_plan, on(simulated, "simulated"), cl_plan)
 
 
 def dose_tables(
@@ -194,7 +209,9 @@ def dose_tables(
 
 
 def _dose_table(app_name: str, plans: StandardPlans, points) -> pd.DataFrame:
-    """One row per dose point and plan: the dose and its difference from the reference plan's.
+    """One row per dose point and plan: the dose and its difference from the reference plan's
+    (``diff_pct``: the path as supplied) and from the registered reference plan's
+    (``diff_registered_pct``; equal without registration).
 
     Returns
     -------
@@ -203,11 +220,16 @@ def _dose_table(app_name: str, plans: StandardPlans, points) -> pd.DataFrame:
     """
     xyz = points_array_mm(points)
     doses_ref = plans.reference.dose_gy(xyz)
+    doses = {id(plans.reference): doses_ref}
+    for plan in plans.in_order[1:]:
+        doses[id(plan)] = plan.dose_gy(xyz)
+    doses_reg = doses[id(plans.compared_reference)]
     dose_rows = []
     for plan in plans.in_order:
         pname = plan.name
-        d = doses_ref if plan is plans.reference else plan.dose_gy(xyz)
+        d = doses[id(plan)]
         diff = relative_difference_pct(d, doses_ref)
+        diff_reg = relative_difference_pct(d, doses_reg)
         for k, pt in enumerate(points):
             dose_rows.append(
                 {
@@ -217,6 +239,7 @@ def _dose_table(app_name: str, plans: StandardPlans, points) -> pd.DataFrame:
                     "plan": pname,
                     "dose_gy": d[k],
                     "diff_pct": diff[k],
+                    "diff_registered_pct": diff_reg[k],
                     "x_mm": pt.position_mm[0],
                     "y_mm": pt.position_mm[1],
                     "z_mm": pt.position_mm[2],
@@ -305,6 +328,7 @@ def _rtplan_own_doses(rtplan, app, source, sk_U) -> tuple[pd.DataFrame, list[str
             "plan": "rtplan",
             "dose_gy": dose,
             "diff_pct": relative_difference_pct(dose, tps),
+            "diff_registered_pct": relative_difference_pct(dose, tps),  # vs the TPS, as diff_pct
             "x_mm": xyz[:, 0],
             "y_mm": xyz[:, 1],
             "z_mm": xyz[:, 2],

@@ -12,6 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ringqa.errors import RingQAError
+from ringqa.geometry.registration import RegistrationError, reference_positions
 from ringqa.pipeline.result import RingGeometry
 from ringqa.plan import PLAN_STEP_MM, DwellSet, path_directions
 from ringqa.units import m_to_mm, mm_to_m
@@ -50,14 +51,18 @@ class ReferenceDwells:
         Relative position of each dwell, mm (0 = most distal, increasing proximally).
     dwells : PathDwells
         Their positions and directions.
-    step_mm : float
-        Spacing of the relative positions, mm.
+    step_mm : float or None
+        Spacing of the relative positions, mm; None when they are unevenly spaced.
+    source : str
+        Where the path comes from (the channel's ``measured_source``; for a centreline
+        reference, ``"channel centreline"``).
     """
 
     kind: str
     relative_position_mm: np.ndarray
     dwells: PathDwells
-    step_mm: float
+    step_mm: float | None
+    source: str = ""
 
 
 @dataclass(frozen=True, eq=False)
@@ -67,7 +72,8 @@ class PlanSelection:
     Attributes
     ----------
     in_plan : (n,) ndarray of bool
-        True for every ``plan_step_mm / step_mm``-th reference dwell from the most distal.
+        True for the reference dwells whose relative position is a multiple of the plan step
+        (and that are compared: not outside the channel).
     s_ref_mm : float
         The ring channel's reference arc length (relative position 0), mm.
     """
@@ -97,7 +103,7 @@ def centreline_dwells(channel, relative_position_mm: np.ndarray) -> PathDwells:
     return PathDwells(pos, tan / np.linalg.norm(tan, axis=1)[:, None])
 
 
-def _ring_arc_mm(app, channel, step_mm: float) -> float:
+def ring_arc_mm(app, channel, step_mm: float) -> float:
     """Largest relative position still on the ring's circle (within 1 mm of it), mm.
 
     Walks proximally from s_ref in ``step_mm`` steps while the centreline stays within 1 mm of
@@ -137,28 +143,29 @@ def reference_dwells(app, channel, step_mm: float | None) -> ReferenceDwells:
     Raises
     ------
     RingQAError
-        A measured path of fewer than 2 positions or without a step; no measured path and no
-        circular part of the ring near s_ref.
+        A measured path of fewer than 3 positions, duplicated positions or relative positions,
+        fewer than 3 relative positions on the channel, neither relative positions nor a step;
+        no measured path and no circular part of the ring near s_ref.
     """
     path = getattr(channel, "measured_path_m", None)
-    if path is not None and len(path) < 2:
-        raise RingQAError(
-            f"applicator {app.name}, channel {channel.name}: the measured path has "
-            f"{len(path)} position(s); it needs at least 2 (most distal first)"
-        )
     if path is not None:
-        step = getattr(channel, "measured_step_m", None)
-        if step is None or not step > 0:
-            raise RingQAError(
-                f"applicator {app.name}, channel {channel.name}: the measured path has no step "
-                "(give measured_step_mm in the applicator file)"
+        try:
+            given = reference_positions(
+                path, channel, relative_m=channel.measured_relative_positions_m
             )
-        pos = m_to_mm(np.asarray(path, dtype=float))
-        step_mm_path = m_to_mm(float(step))
-        rel = np.arange(pos.shape[0]) * step_mm_path
-        return ReferenceDwells("measured", rel, PathDwells(pos, path_directions(pos)), step_mm_path)
+        except RegistrationError as exc:
+            raise RingQAError(
+                f"applicator {app.name}, channel {channel.name}: measured path: {exc}"
+            ) from None
+        pos = m_to_mm(given.points_m)
+        rel = m_to_mm(given.relative_m)
+        step_mm_path = None if given.step_m is None else m_to_mm(given.step_m)
+        source = getattr(channel, "measured_source", "") or "source not stated"
+        return ReferenceDwells(
+            "measured", rel, PathDwells(pos, path_directions(pos)), step_mm_path, source
+        )
     step = PLAN_STEP_MM if step_mm is None else float(step_mm)
-    arc = _ring_arc_mm(app, channel, step)
+    arc = ring_arc_mm(app, channel, step)
     if arc < step:
         raise RingQAError(
             f"applicator {app.name}: no measured source path and no circular ring part found "
@@ -166,7 +173,9 @@ def reference_dwells(app, channel, step_mm: float | None) -> ReferenceDwells:
             "applicator folder)"
         )
     rel = np.arange(0.0, arc + 1e-9, step)
-    return ReferenceDwells("centreline", rel, centreline_dwells(channel, rel), step)
+    return ReferenceDwells(
+        "centreline", rel, centreline_dwells(channel, rel), step, "channel centreline"
+    )
 
 
 def tandem_dwells(app, n_dwells: int, plan_step_mm: float) -> DwellSet | None:
@@ -204,7 +213,9 @@ def tandem_dwells(app, n_dwells: int, plan_step_mm: float) -> DwellSet | None:
     return DwellSet("tandem", rel, cl.positions_mm, cl.directions)
 
 
-def plan_selection(app, ring, reference: ReferenceDwells, plan_step_mm: float) -> PlanSelection:
+def plan_selection(
+    app, ring, reference: ReferenceDwells, plan_step_mm: float, compared=None
+) -> PlanSelection:
     """Which reference dwells the standard plan uses (every ``plan_step_mm``), checked.
 
     Parameters
@@ -214,7 +225,9 @@ def plan_selection(app, ring, reference: ReferenceDwells, plan_step_mm: float) -
         The ring channel (gives s_ref).
     reference : ReferenceDwells
     plan_step_mm : float
-        Dwell spacing of the standard plan, mm.
+        Dwell spacing of the standard plan, mm: the dwells at relative positions 0, step, ...
+    compared : (n,) array_like of bool, optional
+        Dwells that may be used (default all): positions outside the channel are not.
 
     Returns
     -------
@@ -223,18 +236,23 @@ def plan_selection(app, ring, reference: ReferenceDwells, plan_step_mm: float) -
     Raises
     ------
     RingQAError
-        The plan step is not a multiple of the reference step, or reference dwells lie beyond
-        the channel entry.
+        A multiple of the plan step (up to the most proximal position) without a reference
+        position (the message lists them), or reference dwells beyond the channel entry.
     """
-    rel, ref_step = reference.relative_position_mm, reference.step_mm
-    ratio = plan_step_mm / ref_step
-    if abs(ratio - round(ratio)) > 1e-6 or round(ratio) < 1:
+    rel = reference.relative_position_mm
+    on_grid = np.abs(rel / plan_step_mm - np.round(rel / plan_step_mm)) * plan_step_mm < 1e-6
+    wanted = np.arange(0.0, float(rel.max()) + 1e-9, plan_step_mm)
+    missing = [w for w in wanted if not np.any(np.abs(rel - w) < 1e-6)]
+    if missing:
+        listed = ", ".join(f"{x:g}" for x in missing[:6]) + (", ..." if len(missing) > 6 else "")
+        step = reference.step_mm
         raise RingQAError(
-            f"applicator {app.name}: the plan step {plan_step_mm:g} mm is not a multiple of the "
-            f"measured path's step {ref_step:g} mm (choose a plan step that is)"
-        )
-    in_plan = np.zeros(rel.size, dtype=bool)
-    in_plan[:: round(ratio)] = True
+            f"applicator {app.name}: the standard plan needs reference positions every "
+            f"{plan_step_mm:g} mm, but the path has none at {listed} mm"
+            + (f" (the plan step is not a multiple of the path's step {step:g} mm)" if step
+               else "") + ": choose a plan step that matches the path"
+        )  # fmt: skip
+    in_plan = on_grid & (np.ones(rel.size, bool) if compared is None else np.asarray(compared))
     s_ref_mm = m_to_mm(ring.s_ref_m)
     if np.any(rel > s_ref_mm + 1e-9):
         n_out = int(np.sum(rel > s_ref_mm + 1e-9))
@@ -253,7 +271,8 @@ def reference_note(reference: ReferenceDwells) -> str:
             "CENTRELINE, and the comparison is simulated vs centreline (no measurement involved)."
         )
     n, step = reference.relative_position_mm.size, reference.step_mm
-    return f"Reference: the measured source path ({n} positions, {step:g} mm apart)."
+    spacing = f"{step:g} mm apart" if step is not None else "unevenly spaced, as given"
+    return f"Reference: the supplied source path ({reference.source}; {n} positions, {spacing})."
 
 
 def ring_geometry(app, s_ref_mm: float) -> RingGeometry:

@@ -38,6 +38,9 @@ class Verdict:
         ``"FAIL"`` (position beyond 2 mm) or ``"ACTION"`` (dose beyond the action level).
     text : str
         One sentence for the report.
+    role : str
+        What kind of finding: ``"TPS model"`` (centreline vs reference), ``"simulation check"``
+        (simulated vs reference) or ``"numerics"`` (the simulation's numerical error).
     """
 
     check: str
@@ -46,6 +49,7 @@ class Verdict:
     limits: tuple[float, ...]
     status: str
     text: str
+    role: str = ""
 
     def as_dict(self) -> dict:
         """The ``results.json`` entry."""
@@ -56,6 +60,7 @@ class Verdict:
             "limits": [float(x) for x in self.limits],
             "status": self.status,
             "text": self.text,
+            "role": self.role,
         }
 
 
@@ -160,6 +165,10 @@ class RunSettings:
         Instrument preset simulated.
     channel : str
         The channel simulated.
+    register : str
+        Registration mode of the reference path.
+    stem_mm : float or None
+        Straight channel simulated before the first bend, mm (None: the whole channel).
     plan_step_mm : float
         Dwell spacing of the standard plan, mm.
     tandem_dwells : int
@@ -174,6 +183,8 @@ class RunSettings:
         The ``--set`` overrides (dotted keys, user units).
     scene : dict
         The simulated scene in user units (empty if it could not be written).
+    centreline_correction : str or None
+        The centreline correction file spliced over the channel, if any.
     """
 
     source: str
@@ -181,6 +192,8 @@ class RunSettings:
     prescription_gy: float
     cable: str
     channel: str
+    register: str
+    stem_mm: float | None
     plan_step_mm: float
     tandem_dwells: int
     position_limits_mm: tuple[float, float]
@@ -188,6 +201,7 @@ class RunSettings:
     dose_points: DosePointSpec
     scene_overrides: dict[str, Any]
     scene: dict[str, Any]
+    centreline_correction: str | None = None
 
     def as_dict(self) -> dict:
         """The ``results.json`` ``settings`` section (also the provenance's settings)."""
@@ -204,6 +218,9 @@ class RunSettings:
             "dose_points": self.dose_points.as_dict(),
             "scene_overrides": dict(self.scene_overrides),
             "scene": self.scene,
+            "register": self.register,
+            "stem_mm": self.stem_mm,
+            "centreline_correction": self.centreline_correction,
         }
 
 
@@ -268,9 +285,29 @@ class Summary:
     simulation_status : int
         The engine's status.
     solve_time_s : float
-        The engine's solve time, s.
+        The engine's solve time, s (both runs of the numerical check).
     verdict : str
         ``"PASS"``, ``"WARN"`` or ``"FAIL"`` (any FAIL or ACTION).
+    registration : str
+        Registration mode of the reference path (``none``, ``plane-height``, ``rigid``).
+    n_reference_infeasible : int
+        Reference positions (as compared, i.e. registered) that cannot lie in the lumen.
+    n_reference_infeasible_raw : int
+        The same for the path as supplied.
+    n_reference_outside : int
+        Reference positions not along the channel (left out of the checks).
+    simulated_registered, centreline_registered : PathNumbers or None
+        As ``simulated`` / ``centreline``, against the registered reference (equal to them with
+        registration ``none``).
+    max_abs_diff_registered_pct : dict
+        As ``max_abs_diff_pct``, against the same times on the registered reference path.
+    max_numerical_error_mm, median_numerical_error_mm : float
+        The simulation's numerical error over the dwells, mm.
+    median_radial : dict of str to float
+        Path (``reference``, ``sim``, ``centreline``) -> median signed in-plane radial offset
+        from the channel centreline on the ring's circle, mm (outward positive).
+    median_height : dict of str to float
+        The same for the height above the centreline (cranial positive), mm.
     """
 
     applicator: str
@@ -288,6 +325,17 @@ class Summary:
     simulation_status: int
     solve_time_s: float
     verdict: str
+    registration: str = "none"
+    n_reference_infeasible: int = 0
+    n_reference_infeasible_raw: int = 0
+    n_reference_outside: int = 0
+    simulated_registered: PathNumbers | None = None
+    centreline_registered: PathNumbers | None = None
+    max_abs_diff_registered_pct: dict[str, dict[str, float]] | None = None
+    max_numerical_error_mm: float = 0.0
+    median_numerical_error_mm: float = 0.0
+    median_radial: dict[str, float] | None = None
+    median_height: dict[str, float] | None = None
 
     def as_row(self) -> dict[str, Any]:
         """Column -> value of ``summary.csv`` (and ``results.json``'s ``summary``), in order."""
@@ -311,6 +359,23 @@ class Summary:
         row["simulation_status"] = self.simulation_status
         row["solve_time_s"] = self.solve_time_s
         row["verdict"] = self.verdict
+        row["registration"] = self.registration
+        row["n_reference_infeasible"] = self.n_reference_infeasible
+        row["n_reference_infeasible_raw"] = self.n_reference_infeasible_raw
+        row["n_reference_outside"] = self.n_reference_outside
+        for tag, numbers in (("sim", self.simulated_registered),
+                             ("centreline", self.centreline_registered)):  # fmt: skip
+            if numbers is not None:
+                row.update(numbers.columns(f"{tag}_registered"))
+        for plan, per_kind in (self.max_abs_diff_registered_pct or {}).items():
+            for kind, value in per_kind.items():
+                row[f"max_abs_diff_{kind}_{plan}_registered_pct"] = value
+        row["max_numerical_error_mm"] = self.max_numerical_error_mm
+        row["median_numerical_error_mm"] = self.median_numerical_error_mm
+        for tag, value in (self.median_radial or {}).items():
+            row[f"median_radial_{tag}_mm"] = value
+        for tag, value in (self.median_height or {}).items():
+            row[f"median_height_{tag}_mm"] = value
         return row
 
 
@@ -361,13 +426,19 @@ class CommissioningResult:
         ``"measured"`` (a measured source path) or ``"centreline"`` (none shipped: the comparison
         is simulated vs centreline).
     dwells : pandas.DataFrame
-        One row per dwell and path (``measured``/``simulated``/``centreline``): columns
-        ``applicator, dwell, relative_position_mm, path, x_mm, y_mm, z_mm, dir_x, dir_y, dir_z,
-        dist_to_measured_mm, dist_to_reference_mm, along_mm, radial_mm, out_of_plane_mm,
-        angle_deg, in_plan``.
+        One row per dwell and path (``measured``, ``registered`` when registration moved it,
+        ``simulated``, ``centreline``): columns ``applicator, dwell, relative_position_mm, path,
+        x_mm, y_mm, z_mm, dir_x, dir_y, dir_z, dist_to_measured_mm`` (to the path as supplied),
+        ``dist_to_reference_mm`` (to the reference as compared, i.e. registered),
+        ``along_mm, radial_mm, out_of_plane_mm`` (its components), ``angle_deg, in_plan,
+        radial_from_centreline_mm`` (signed in-plane offset from the channel centreline, outward
+        positive), ``height_mm`` (above the centreline along the ring normal),
+        ``numerical_error_mm`` (the simulation's; 0 on the other paths) and ``reference_flag``
+        (``""``, ``infeasible``, ``outside_channel``).
     doses : pandas.DataFrame
-        One row per dose point and plan: ``applicator, point, kind, plan, dose_gy, diff_pct,
-        x_mm, y_mm, z_mm, tps_dose_gy``.
+        One row per dose point and plan: ``applicator, point, kind, plan, dose_gy, diff_pct``
+        (vs the standard plan on the reference path as supplied), ``diff_registered_pct`` (vs
+        the same times on the registered path), ``x_mm, y_mm, z_mm, tps_dose_gy``.
     plan_dwells : pandas.DataFrame
         The three standard plans' dwells with their (equal) times.
     summary : Summary
@@ -383,6 +454,12 @@ class CommissioningResult:
         Statements the report must show (reference used, cable vs afterloader, ...).
     provenance : Provenance
     timings : Timings
+    reference_check : ReferenceReview
+        The reference path's checks and registration (report page 1).
+    numerics : NumericalCheck
+        The simulation's numerical error (commissioning vs refined run).
+    conclusion : str
+        One line: what the verdicts mean together.
     """
 
     applicator: str
@@ -400,6 +477,9 @@ class CommissioningResult:
     notes: tuple[str, ...]
     provenance: Provenance
     timings: Timings
+    reference_check: Any = None
+    numerics: Any = None
+    conclusion: str = ""
 
     @property
     def passed(self) -> bool:

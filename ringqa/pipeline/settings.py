@@ -11,12 +11,19 @@ import math
 import numbers
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 from ringqa.errors import RingQAError
+from ringqa.geometry.registration import REGISTER_MODES
+from ringqa.geometry.stem import DEFAULT_STEM_M
 from ringqa.pipeline.dwells import TANDEM_DWELLS
 from ringqa.pipeline.verdicts import DOSE_ACTION_PCT, POSITION_RECOMMENDED_MM, POSITION_REQUIRED_MM
 from ringqa.plan import PLAN_STEP_MM, PRESCRIPTION_GY, DosePointSpec
+from ringqa.units import m_to_mm
+
+#: Default straight channel simulated before the first bend, mm.
+DEFAULT_STEM_MM = float(m_to_mm(DEFAULT_STEM_M))
 
 
 def _is_number(x) -> bool:
@@ -38,8 +45,10 @@ class CommissionSettings:
         Mean Point A dose of the standard plan, Gy (7); > 0.
     sk_U : float or None
         Air-kerma strength, U (None: the RT Plan's, else 40820 U; doses do not depend on it).
-    cable : str
-        Instrument preset for the simulation (``"flexitron"``).
+    cable : str or None
+        Instrument preset for the simulation; None (default): the cable of the plan's source's
+        afterloader (:data:`~ringqa.pipeline.simulate.SOURCE_CABLE`: Flexisource -> flexitron,
+        mHDR-v2 -> microselectron), the Flexitron cable for other sources (said in the report).
     channel : str
         The applicator channel to simulate (``"ring"``).
     point_spec : DosePointSpec
@@ -52,6 +61,18 @@ class CommissionSettings:
         Recommended and required source-position tolerance, mm (1, 2).
     dose_action_pct : float
         Dose-difference action level, % (5); > 0.
+    register : str
+        How the reference path is registered to the CHANNEL before the comparison
+        (``--register``): ``"none"`` (default: compared as supplied), ``"plane-height"`` (a
+        planar path at constant height moved into the ring channel's plane) or ``"rigid"``
+        (see :mod:`ringqa.geometry.registration`). Raw and registered numbers are both reported.
+    stem_mm : float or None
+        Straight channel kept before the first bend in the simulation, mm (60, the shipped rings'
+        stem; None: the whole channel). See :mod:`ringqa.geometry.stem`.
+    centreline_correction : str, Path or None
+        A CT/film centreline segment (CSV/JSON, mm, proximal -> distal, in the applicator's frame)
+        spliced over the channel's library centreline (``--centreline-correction``;
+        :mod:`ringqa.io.correction`).
     require_measured : bool or None
         Refuse an applicator without a measured source path. None: refuse for user files
         (folder, JSON, RT Plan), accept shipped applicators and Applicator objects (compared
@@ -67,13 +88,16 @@ class CommissionSettings:
     source: Any = None
     prescription_gy: float = PRESCRIPTION_GY
     sk_U: float | None = None
-    cable: str = "flexitron"
+    cable: str | None = None
     channel: str = "ring"
     point_spec: DosePointSpec = field(default_factory=DosePointSpec)
     plan_step_mm: float = PLAN_STEP_MM
     tandem_dwells: int = TANDEM_DWELLS
     position_limits_mm: tuple[float, float] = (POSITION_RECOMMENDED_MM, POSITION_REQUIRED_MM)
     dose_action_pct: float = DOSE_ACTION_PCT
+    register: str = "none"
+    stem_mm: float | None = DEFAULT_STEM_MM
+    centreline_correction: str | Path | None = None
     require_measured: bool | None = None
 
     def __post_init__(self) -> None:
@@ -113,6 +137,8 @@ class CommissionSettings:
             )
         for name in ("cable", "channel"):
             value = getattr(self, name)
+            if name == "cable" and value is None:
+                continue
             if not (isinstance(value, str) and value.strip()):
                 raise RingQAError(
                     f"{name} {value!r}: must be a name, e.g. "
@@ -121,6 +147,21 @@ class CommissionSettings:
         if not isinstance(self.point_spec, DosePointSpec):
             raise RingQAError(
                 f"point_spec {self.point_spec!r}: must be a ringqa.plan.DosePointSpec"
+            )
+        if self.register not in REGISTER_MODES:
+            raise RingQAError(
+                f"--register {self.register!r}: unknown registration mode; choose one of "
+                f"{', '.join(REGISTER_MODES)} (none: the reference path as supplied)"
+            )
+        if self.stem_mm is not None and not (_is_number(self.stem_mm) and self.stem_mm > 0):
+            raise RingQAError(
+                f"--stem-mm {self.stem_mm!r}: must be a length in mm > 0 (the straight channel "
+                "simulated before the first bend, e.g. 60), or None for the whole channel"
+            )
+        corr = self.centreline_correction
+        if corr is not None and not isinstance(corr, str | Path):
+            raise RingQAError(
+                f"--centreline-correction {corr!r}: give the path of a CSV/JSON point file"
             )
         if self.require_measured not in (None, True, False):
             raise RingQAError(
@@ -141,3 +182,5 @@ class CommissionSettings:
         keep("tandem_dwells", int(n_tandem))
         if self.sk_U is not None:
             keep("sk_U", float(self.sk_U))
+        if self.stem_mm is not None:
+            keep("stem_mm", float(self.stem_mm))

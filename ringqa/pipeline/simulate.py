@@ -1,8 +1,21 @@
-"""The simulated source positions at the dwells: one run of the source-cable engine.
+"""The simulated source positions at the dwells, with their numerical error.
 
 The cable is pushed to the advances ``s_ref - p`` of the reference dwells; a lumen narrower than
 the cable is refused first, a run that fails to converge is repeated with a finer input
 increment, and a jam is reported as :class:`SimulationJammedError` with where it stopped.
+
+Every commissioning simulation is run twice (the accuracy study's rule, :mod:`ringqa.accuracy`):
+at the commissioning settings (:data:`COMMISSION_ELEMENT_MM`, :data:`COMMISSION_INCREMENT_MM`),
+and once more with every element length and the increment halved. The refined run's positions
+are reported; the distance between the two runs is each dwell's ``numerical_error_mm`` (for a
+first-order convergence it equals the refined run's error; the measured convergence is faster,
+so it over-estimates it: ``benchmarks/bench_commission_numerics.py``). When that distance exceeds
+:data:`NUMERICAL_ERROR_WARN_MM` the run is refined again (at most :data:`MAX_EXTRA_LEVELS` more
+times) and the last two runs give the positions and the error; the report says so.
+
+The channel simulated keeps :data:`~ringqa.geometry.stem.DEFAULT_STEM_M` of straight channel
+before its first bend (:func:`~ringqa.geometry.stem.trim_to_stem`; the dwells keep their place in
+space).
 
 The engine is reached through an :class:`Engine` (its four functions), so tests and other engines
 can stand in for :mod:`ringqa.simulation`: :func:`default_engine` is the real one.
@@ -18,18 +31,34 @@ from typing import Any
 import numpy as np
 
 from ringqa.errors import RingQAError, SimulationError
+from ringqa.geometry import Channel
+from ringqa.geometry.stem import trim_to_stem
 from ringqa.pipeline.dwells import PathDwells
 from ringqa.pipeline.result import SimulationInfo
-from ringqa.units import m_to_mm
+from ringqa.units import m_to_mm, mm_to_m
 
-#: Afterloader each TG-43 source belongs to (for the cable-model note).
-SOURCE_AFTERLOADER = {
-    "flexisource": "flexitron",
-    "mhdr-v2": "microselectron",
-    "gammamed-plus": "gammamed",
-    "vs2000": "varisource",
-    "m-19": "saginova/bebig",
+#: Cable preset simulated for each TG-43 source (its afterloader's cable); other sources get the
+#: Flexitron cable, and the report says so.
+SOURCE_CABLE = {"flexisource": "flexitron", "mhdr-v2": "microselectron"}
+#: The cable used when the source has none of its own.
+FALLBACK_CABLE = "flexitron"
+
+#: Element lengths of the commissioning runs per cable preset and section, mm (the refined run
+#: halves them): chosen from the measurements in docs/commissioning.md (numerical error <= 0.05 mm
+#: on the example and the six shipped rings; the paper's 3/10 mm gave up to 0.12 mm).
+COMMISSION_ELEMENT_MM: dict[str, dict[str, float]] = {
+    "flexitron": {"thin": 2.0, "thick": 5.0},
+    "microselectron": {"cable": 2.0},
 }
+#: Input increment of the commissioning runs (quasi-static), mm (the refined run halves it).
+COMMISSION_INCREMENT_MM = 1.0
+#: Refinement factor of the second run (element lengths and increment).
+REFINE_FACTOR = 0.5
+#: When the two runs differ by more than :data:`NUMERICAL_ERROR_WARN_MM`, refine (and run) again,
+#: at most this many more times.
+MAX_EXTRA_LEVELS = 2
+#: Numerical error (max over the dwells) above which the report warns, mm.
+NUMERICAL_ERROR_WARN_MM = 0.1
 
 
 class SimulationJammedError(RingQAError):
@@ -54,12 +83,25 @@ class Engine:
         ``scene_with_overrides(scene, {dotted key: value})`` -> a new scene.
     scene_to_dict : callable
         ``scene_to_dict(scene)`` -> the scene in user units (for provenance).
+    refine : callable or None
+        ``refine(scene, factor)`` -> the scene with every element length and the increment (or
+        time step) times ``factor``; None: :func:`refine_scene` (ringqa's scenes).
     """
 
     simulate: Callable[..., Any]
     scene_for_channel: Callable[..., Any]
     scene_with_overrides: Callable[[Any, Mapping[str, Any]], Any]
     scene_to_dict: Callable[[Any], dict]
+    refine: Callable[[Any, float], Any] | None = None
+
+
+def refine_scene(scene, factor: float):
+    """``scene`` with every flexible section's element length and the increment (or time step)
+    times ``factor`` (:func:`ringqa.accuracy.scaled_overrides`)."""
+    from ringqa.accuracy import scaled_overrides
+    from ringqa.simulation.scenefile import scene_with_overrides
+
+    return scene_with_overrides(scene, scaled_overrides(scene, factor, factor))
 
 
 def default_engine() -> Engine:
@@ -73,27 +115,158 @@ def default_engine() -> Engine:
 
 
 @dataclass(frozen=True, eq=False)
+class CableChoice:
+    """The cable simulated and why.
+
+    Attributes
+    ----------
+    preset : str
+        Instrument preset name.
+    note : str
+        For the report: which cable model, where its numbers come from, and whether they are
+        borrowed from another cable.
+    """
+
+    preset: str
+    note: str
+
+
+def choose_cable(cable: str | None, source_name: str) -> CableChoice:
+    """The cable preset: as given, else the one of the source's afterloader (Flexitron for a
+    source without its own cable model).
+
+    Parameters
+    ----------
+    cable : str or None
+        The user's choice (``--cable``); None: from the source.
+    source_name : str
+        The plan's TG-43 source name.
+    """
+    from ringqa.simulation.instruments import BORROWED_MECHANICS, PRESET_SOURCES
+
+    if cable is not None:
+        preset, why = cable, "chosen in the settings"
+    elif source_name in SOURCE_CABLE:
+        preset, why = SOURCE_CABLE[source_name], f"the cable of the {source_name} source"
+    else:
+        preset = FALLBACK_CABLE
+        why = (
+            f"the {source_name} source has no cable model in ringqa: the Flexitron cable is "
+            "BORROWED"
+        )
+    text = f"Cable model: {preset} ({why}). {PRESET_SOURCES.get(preset, 'custom instrument')}."
+    if preset in BORROWED_MECHANICS:
+        text += (
+            " Its mechanics are borrowed from another cable: the simulated positions assume them."
+        )
+    return CableChoice(preset, text)
+
+
+@dataclass(frozen=True, eq=False)
+class NumericalCheck:
+    """How far the simulated dwells are from converged: the commissioning run vs a refined run.
+
+    Attributes
+    ----------
+    error_mm : (n,) ndarray
+        Per dwell (the reference's order): distance between the two runs' source centres, mm.
+    max_mm, median_mm : float
+        Largest and median of ``error_mm``.
+    settings : dict
+        The numerical settings (dotted keys, user units) of the last-but-one run.
+    refined_settings : dict
+        The last (reported) run's.
+    solve_time_s, refined_solve_time_s : float
+        The two runs' solve times, s.
+    n_runs : int
+        Runs made: 2, or more when the error exceeded the warning level and the run was
+        refined again (at most ``2 + MAX_EXTRA_LEVELS``).
+    total_solve_time_s : float
+        Solve time of all runs, s.
+    stabilised_steps : int
+        Load steps of the reported (refined) run that needed the fallback stabilisation.
+    text : tuple of str
+        Plain-language statements for the report.
+    """
+
+    error_mm: np.ndarray
+    max_mm: float
+    median_mm: float
+    settings: dict
+    refined_settings: dict
+    solve_time_s: float
+    refined_solve_time_s: float
+    stabilised_steps: int
+    text: tuple[str, ...]
+    n_runs: int = 2
+    total_solve_time_s: float = 0.0
+
+    @property
+    def warns(self) -> bool:
+        """The largest error exceeds :data:`NUMERICAL_ERROR_WARN_MM`."""
+        return self.max_mm > NUMERICAL_ERROR_WARN_MM
+
+    def as_dict(self) -> dict:
+        """The ``results.json`` ``numerical_check`` section."""
+        return {
+            "max_numerical_error_mm": self.max_mm,
+            "median_numerical_error_mm": self.median_mm,
+            "warn_above_mm": NUMERICAL_ERROR_WARN_MM,
+            "settings": dict(self.settings),
+            "refined_settings": dict(self.refined_settings),
+            "solve_time_s": self.solve_time_s,
+            "refined_solve_time_s": self.refined_solve_time_s,
+            "stabilised_steps": self.stabilised_steps,
+            "n_runs": self.n_runs,
+            "total_solve_time_s": self.total_solve_time_s,
+            "text": list(self.text),
+        }
+
+
+@dataclass(frozen=True, eq=False)
 class SimulatedDwells:
     """The engine's source positions at the reference dwells, and how the run went.
 
     Attributes
     ----------
     dwells : PathDwells
-        Source centres (n, 3) in mm and unit directions (n, 3), in the reference's order.
+        Source centres (n, 3) in mm and unit directions (n, 3), in the reference's order (the
+        refined run).
     info : SimulationInfo
+        The refined run.
+    numerics : NumericalCheck
+        Commissioning run vs refined run.
     scene : dict
-        The scene simulated, in user units (empty if it could not be written).
+        The scene simulated (refined run), in user units (empty if it could not be written).
     afterloader : str
         The afterloader whose cable was simulated.
+    stem : TrimmedChannel or None
+        How the channel was shortened before simulating (None: not shortened).
     notes : tuple of str
-        For the report (a retry with a finer increment).
+        For the report (a retry with a finer increment, the modelled stem).
     """
 
     dwells: PathDwells
     info: SimulationInfo
+    numerics: NumericalCheck
     scene: dict
     afterloader: str
+    stem: Any
     notes: tuple[str, ...]
+
+
+def instrument_radii_m(engine: Engine | None, channel, preset: str) -> tuple[float, float]:
+    """``(capsule radius, largest radius)`` of the instrument ``preset``, m (the capsule is its
+    most distal section); ``engine`` (default :func:`default_engine`) builds the scene of a
+    preset ringqa does not ship."""
+    from ringqa.simulation.instruments import CABLE_PRESETS
+
+    if preset in CABLE_PRESETS:
+        sections = CABLE_PRESETS[preset].sections
+    else:
+        engine = engine or default_engine()
+        sections = engine.scene_for_channel(channel, preset).instrument.sections
+    return float(sections[0].r_o_m), max(float(s.r_o_m) for s in sections)
 
 
 def _cable_radius_m(scene) -> float | None:
@@ -104,9 +277,8 @@ def _cable_radius_m(scene) -> float | None:
     return max(float(s.r_o_m) for s in sections)
 
 
-def _check_clearance(app, channel, scene) -> None:
-    """Refuse a lumen narrower than the cable (or source capsule) before simulating."""
-    r_cable = _cable_radius_m(scene)
+def check_clearance(app, channel, r_cable: float | None) -> None:
+    """Refuse a lumen narrower than the cable (or source capsule) of radius ``r_cable`` (m)."""
     lumen = getattr(channel, "lumen", None)
     if r_cable is None or lumen is None or not hasattr(lumen, "kernel_arrays"):
         return
@@ -125,12 +297,155 @@ def _check_clearance(app, channel, scene) -> None:
 RETRY_INCREMENT_FACTORS = (0.5, 0.25)
 
 
+@dataclass(frozen=True, eq=False)
+class _Run:
+    """One engine run at the advances (retried with finer increments when it failed)."""
+
+    res: Any
+    status: int
+    pos_m: np.ndarray
+    ok: bool
+    scene: Any
+    wall_s: float
+    note: str
+
+
 def _run_engine(simulate, scene, advances, progress: bool = False):
     res = simulate(scene, advances_mm=advances, progress=progress)
     status = int(getattr(res, "status", 0))
     pos_m = np.asarray(res.source_pos_m, dtype=float).reshape(-1, 3)
     ok = status == 0 and pos_m.shape[0] >= advances.size and bool(np.all(np.isfinite(pos_m)))
     return res, status, pos_m, ok
+
+
+def _run_with_retries(engine: Engine, scene, advances, progress: bool) -> _Run:
+    """Run the engine; a run that FAILED to converge (status -1) is repeated with the increment
+    times :data:`RETRY_INCREMENT_FACTORS` (a jam, status 1, is a result and is not retried)."""
+    t0 = time.perf_counter()
+    res, status, pos_m, ok = _run_engine(engine.simulate, scene, advances, progress)
+    inc_m = getattr(getattr(scene, "solver", None), "increment_m", None)
+    note = ""
+    if not ok and status == -1 and inc_m:
+        first_message = str(getattr(res, "message", ""))
+        for factor in RETRY_INCREMENT_FACTORS:
+            inc_mm = m_to_mm(float(inc_m)) * factor
+            retry = engine.scene_with_overrides(scene, {"solver.increment_mm": inc_mm})
+            res, status, pos_m, ok = _run_engine(engine.simulate, retry, advances, progress)
+            if ok:
+                note = (
+                    f"The simulation did not converge with an input increment of "
+                    f"{m_to_mm(float(inc_m)):g} mm ({first_message}); it was repeated with "
+                    f"{inc_mm:g} mm, which converged (solver.increment_mm = {inc_mm:g})."
+                )
+                scene = retry
+                break
+    return _Run(res, status, pos_m, ok, scene, time.perf_counter() - t0, note)
+
+
+def _jammed(app, run: _Run, advances, s_ref_mm: float) -> SimulationJammedError:
+    got_adv = np.asarray(getattr(run.res, "advances_mm", advances), dtype=float).reshape(-1)
+    n = min(run.pos_m.shape[0], got_adv.size)
+    finite = np.all(np.isfinite(run.pos_m[:n]), axis=1)
+    reached = got_adv[:n][finite]
+    where = (
+        f"after advance {reached[-1]:.1f} mm (relative position "
+        f"{s_ref_mm - reached[-1]:.1f} mm; {reached.size} of {advances.size} dwells reached)"
+        if reached.size
+        else "before the first dwell"
+    )
+    kind = "jammed" if run.status == 1 else "failed"
+    return SimulationJammedError(
+        f"applicator {app.name}: the simulated source cable {kind} {where}: "
+        f"{getattr(run.res, 'message', '') or 'no message'} (check the lumen and the scene "
+        "settings, e.g. --set solver.increment_mm=0.25 or --set effects.friction=coulomb)"
+    )
+
+
+def _dwell_rows(run: _Run, advances, wanted_mm) -> np.ndarray:
+    """Row of each wanted advance (mm) in the run's output."""
+    got_adv = np.asarray(getattr(run.res, "advances_mm", advances), dtype=float).reshape(-1)
+    lookup = {round(float(a), 6): i for i, a in enumerate(got_adv)}
+    idx = []
+    for a in wanted_mm:
+        i = lookup.get(round(float(a), 6))
+        if i is None:  # tolerate rounding in the engine's echo of the advances
+            i = int(np.argmin(np.abs(got_adv - a)))
+            if abs(got_adv[i] - a) > 1e-3:
+                raise SimulationError(f"the simulation did not report advance {a:.3f} mm")
+        idx.append(i)
+    return np.asarray(idx, dtype=int)
+
+
+def _numeric_settings(scene_dict: dict) -> dict:
+    """The numerical settings of a scene (element lengths, increment or time step), user units."""
+    out: dict = {}
+    disc = scene_dict.get("discretisation", {})
+    if isinstance(disc, Mapping) and "element_length_mm" in disc:
+        out["discretisation.element_length_mm"] = disc["element_length_mm"]
+    solver = scene_dict.get("solver", {})
+    if isinstance(solver, Mapping):
+        for key in ("increment_mm", "time_step_s"):
+            if solver.get(key) is not None:
+                out[f"solver.{key}"] = solver[key]
+    for key, value in scene_dict.items():  # stand-in engines: flat dotted keys
+        if key.startswith(("discretisation.", "solver.increment_mm", "solver.time_step_s")):
+            out[key] = value
+    return out
+
+
+def _scene_dict(engine: Engine, scene) -> dict:
+    try:
+        return engine.scene_to_dict(scene)
+    except Exception:  # provenance must not break a run
+        return {}
+
+
+def commission_scene(engine: Engine, channel, cable: str, scene_overrides: Mapping[str, Any]):
+    """The scene of a commissioning run: the preset's scene for ``channel`` at the commissioning
+    element lengths and increment (:data:`COMMISSION_ELEMENT_MM`), then the user's overrides."""
+    scene = engine.scene_for_channel(channel, cable)
+    defaults: dict[str, Any] = {"solver.increment_mm": COMMISSION_INCREMENT_MM}
+    if cable in COMMISSION_ELEMENT_MM:
+        defaults["discretisation.element_length_mm"] = dict(COMMISSION_ELEMENT_MM[cable])
+    scene = engine.scene_with_overrides(scene, defaults)
+    if scene_overrides:
+        scene = engine.scene_with_overrides(scene, dict(scene_overrides))
+    return scene
+
+
+def numerical_text(error_mm: np.ndarray, stabilised: int, n_steps: int | None) -> tuple[str, ...]:
+    """The numerical check in plain words (report page 1).
+
+    Parameters
+    ----------
+    error_mm : (n,) ndarray
+        Per-dwell distance between the commissioning run and the refined run, mm.
+    stabilised : int
+        Load steps of the refined run that needed the fallback stabilisation.
+    n_steps : int or None
+        Load steps of that run, when known.
+    """
+    worst, median = float(np.max(error_mm)), float(np.median(error_mm))
+    out = [
+        f"Numerical error of the simulated positions: up to {worst:.3f} mm (median {median:.3f} "
+        "mm): how far each dwell moves when every cable link and the push increment are halved; "
+        "the refined positions are reported."
+    ]
+    if worst > NUMERICAL_ERROR_WARN_MM:
+        out.append(
+            f"WARNING: the simulated positions are uncertain by up to {worst:.2f} mm, more than "
+            f"{NUMERICAL_ERROR_WARN_MM:g} mm, because of the numerical settings; treat "
+            "simulated-vs-reference differences of that size as numerics, or refine the run "
+            "(--set discretisation.element_length_mm.<section>=..., --set solver.increment_mm=...)."
+        )
+    if stabilised:
+        of = f" of {n_steps}" if n_steps else ""
+        out.append(
+            f"In {stabilised}{of} push steps the cable jumped from one wall contact to another "
+            "(or stuck and slipped) and the solver damped the jump to follow it; the numerical "
+            "error above includes the effect of this on the dwells."
+        )
+    return tuple(out)
 
 
 def simulate_dwells(
@@ -142,8 +457,10 @@ def simulate_dwells(
     scene_overrides: Mapping[str, Any],
     engine: Engine | None = None,
     progress: bool = False,
+    stem_mm: float | None = None,
 ) -> SimulatedDwells:
-    """Simulate the cable to the dwells at ``relative_position_mm`` (results in their order).
+    """Simulate the cable to the dwells at ``relative_position_mm``, twice (commissioning and
+    refined settings); results in their order.
 
     Parameters
     ----------
@@ -155,11 +472,13 @@ def simulate_dwells(
     cable : str
         Instrument preset.
     scene_overrides : mapping
-        Dotted scene keys -> values (user units).
+        Dotted scene keys -> values (user units), applied over the commissioning settings.
     engine : Engine, optional
         Default :func:`default_engine`.
     progress : bool
         Show the engine's progress bar.
+    stem_mm : float or None
+        Straight channel kept before the first bend, mm (None: the whole channel).
 
     Returns
     -------
@@ -173,109 +492,114 @@ def simulate_dwells(
         The cable jammed, or the engine failed even with a finer increment.
     """
     engine = engine or default_engine()
-    rel_mm = relative_position_mm
+    rel_mm = np.asarray(relative_position_mm, dtype=float)
     notes: list[str] = []
-    scene = engine.scene_for_channel(channel, cable)
-    if scene_overrides:
-        scene = engine.scene_with_overrides(scene, dict(scene_overrides))
-    _check_clearance(app, channel, scene)
-    simulate = engine.simulate
+    stem = None
+    if stem_mm is not None and isinstance(channel, Channel):
+        stem = trim_to_stem(channel, mm_to_m(stem_mm))
+        if stem.dropped_m > 0:
+            channel = stem.channel
+            notes.append(
+                f"Modelled channel: the simulation keeps {stem_mm:g} mm of straight channel "
+                f"before the first bend and leaves out the {m_to_mm(stem.dropped_m):.1f} mm of "
+                "straight shaft before it (the cable there only passes the push force on; see "
+                "docs/commissioning.md for what this moves)."
+            )
+        else:
+            stem = None
+    scene = commission_scene(engine, channel, cable, scene_overrides)
+    check_clearance(app, channel, _cable_radius_m(scene))
     s_ref_mm = m_to_mm(channel.s_ref_m)
-    rel_sorted = np.sort(np.unique(np.round(np.asarray(rel_mm, dtype=float), 9)))[::-1]
+    rel_sorted = np.sort(np.unique(np.round(rel_mm, 9)))[::-1]
     advances = s_ref_mm - rel_sorted  # increasing: the cable is pushed in, proximal -> distal
     motion = getattr(scene, "motion", None)
     if getattr(motion, "backward", False) or getattr(motion, "kind", "") == "retract":
         advances = advances[::-1]  # backward stepping / retraction: most distal dwell first
-    t0 = time.perf_counter()
-    res, status, pos_m, ok = _run_engine(simulate, scene, advances, progress)
-    inc_m = getattr(getattr(scene, "solver", None), "increment_m", None)
-    if not ok and status == -1 and inc_m:
-        first_message = str(getattr(res, "message", ""))
-        for factor in RETRY_INCREMENT_FACTORS:
-            inc_mm = m_to_mm(float(inc_m)) * factor
-            retry = engine.scene_with_overrides(scene, {"solver.increment_mm": inc_mm})
-            res, status, pos_m, ok = _run_engine(simulate, retry, advances, progress)
-            if ok:
-                notes.append(
-                    f"The simulation did not converge with an input increment of "
-                    f"{m_to_mm(float(inc_m)):g} mm ({first_message}); it was repeated with "
-                    f"{inc_mm:g} mm, which converged (solver.increment_mm = {inc_mm:g})."
-                )
-                scene = retry
+    wanted = s_ref_mm - rel_mm
+    refine = engine.refine or refine_scene
+    runs = [_run_with_retries(engine, scene, advances, progress)]
+    while True:
+        if not runs[-1].ok:
+            raise _jammed(app, runs[-1], advances, s_ref_mm)
+        if len(runs) >= 2:
+            coarse, fine = runs[-2], runs[-1]
+            idx_c, idx_f = (
+                _dwell_rows(coarse, advances, wanted),
+                _dwell_rows(fine, advances, wanted),
+            )
+            error_mm = m_to_mm(np.linalg.norm(fine.pos_m[idx_f] - coarse.pos_m[idx_c], axis=1))
+            if (
+                float(np.max(error_mm)) <= NUMERICAL_ERROR_WARN_MM
+                or len(runs) > MAX_EXTRA_LEVELS + 1
+            ):
                 break
-    wall = time.perf_counter() - t0
-    got_adv = np.asarray(getattr(res, "advances_mm", advances), dtype=float).reshape(-1)
-    dirs = np.asarray(res.source_dir, dtype=float).reshape(-1, 3)
-    if not ok:
-        n = min(pos_m.shape[0], got_adv.size)
-        finite = np.all(np.isfinite(pos_m[:n]), axis=1)
-        reached = got_adv[:n][finite]
-        where = (
-            f"after advance {reached[-1]:.1f} mm (relative position "
-            f"{s_ref_mm - reached[-1]:.1f} mm; {reached.size} of {advances.size} dwells reached)"
-            if reached.size
-            else "before the first dwell"
+        runs.append(_run_with_retries(engine, refine(runs[-1].scene, REFINE_FACTOR), advances,
+                                      progress))  # fmt: skip
+    notes += [r.note for r in runs if r.note]
+    if len(runs) > 2:
+        notes.append(
+            f"The commissioning settings left a numerical error above {NUMERICAL_ERROR_WARN_MM:g} "
+            f"mm, so the run was refined {len(runs) - 2} more time(s) (every link and the push "
+            "increment halved each time); the numbers below come from the last two runs."
         )
-        kind = "jammed" if status == 1 else "failed"
-        raise SimulationJammedError(
-            f"applicator {app.name}: the simulated source cable {kind} {where}: "
-            f"{getattr(res, 'message', '') or 'no message'} (check the lumen and the scene "
-            "settings, e.g. --set solver.increment_mm=0.25 or --set effects.friction=coulomb)"
-        )
-    lookup = {round(float(a), 6): i for i, a in enumerate(got_adv)}
-    idx = []
-    for a in s_ref_mm - np.asarray(rel_mm, dtype=float):
-        i = lookup.get(round(float(a), 6))
-        if i is None:  # tolerate rounding in the engine's echo of the advances
-            i = int(np.argmin(np.abs(got_adv - a)))
-            if abs(got_adv[i] - a) > 1e-3:
-                raise SimulationError(f"the simulation did not report advance {a:.3f} mm")
-        idx.append(i)
-    idx = np.asarray(idx)
-    d = dirs[idx]
+    res = fine.res
+    run_settings = dict(getattr(res, "settings", {}) or {})
+    stabilised = int(run_settings.get("n_stabilised_steps", 0) or 0)
+    n_steps = getattr(getattr(res, "stats", None), "n_steps", None)
+    coarse_dict, fine_dict = _scene_dict(engine, coarse.scene), _scene_dict(engine, fine.scene)
+    numerics = NumericalCheck(
+        error_mm=error_mm,
+        max_mm=float(np.max(error_mm)),
+        median_mm=float(np.median(error_mm)),
+        settings=_numeric_settings(coarse_dict),
+        refined_settings=_numeric_settings(fine_dict),
+        solve_time_s=float(getattr(coarse.res, "solve_time_s", coarse.wall_s)),
+        refined_solve_time_s=float(getattr(res, "solve_time_s", fine.wall_s)),
+        stabilised_steps=stabilised,
+        text=numerical_text(error_mm, stabilised, n_steps),
+        n_runs=len(runs),
+        total_solve_time_s=sum(float(getattr(r.res, "solve_time_s", r.wall_s)) for r in runs),
+    )
+    dirs = np.asarray(res.source_dir, dtype=float).reshape(-1, 3)[idx_f]
     info = SimulationInfo(
-        status=status,
+        status=fine.status,
         message=str(getattr(res, "message", "")),
         warnings=tuple(str(w) for w in getattr(res, "warnings", ())),
-        solve_time_s=float(getattr(res, "solve_time_s", wall)),
-        wall_time_s=wall,
+        solve_time_s=numerics.total_solve_time_s,
+        wall_time_s=sum(r.wall_s for r in runs),
         n_elements=int(getattr(res, "n_elements", 0) or 0),
-        settings=dict(getattr(res, "settings", {}) or {}),
+        settings=run_settings,
     )
-    try:
-        scene_dict = engine.scene_to_dict(scene)
-    except Exception:  # provenance must not break a run
-        scene_dict = {}
-    afterloader = getattr(getattr(scene, "instrument", None), "afterloader", "") or cable
+    afterloader = getattr(getattr(fine.scene, "instrument", None), "afterloader", "") or cable
     return SimulatedDwells(
-        dwells=PathDwells(m_to_mm(pos_m[idx]), d / np.linalg.norm(d, axis=1)[:, None]),
+        dwells=PathDwells(m_to_mm(fine.pos_m[idx_f]), dirs / np.linalg.norm(dirs, axis=1)[:, None]),
         info=info,
-        scene=scene_dict,
+        numerics=numerics,
+        scene=fine_dict,
         afterloader=afterloader,
+        stem=stem,
         notes=tuple(notes),
     )
 
 
-def simulation_notes(info: SimulationInfo, source, afterloader: str) -> list[str]:
-    """The report's notes on a run: the engine's warnings, and a cable from another afterloader.
+#: Engine warnings about the fallback stabilisation start with a count and contain this; the
+#: report states them in plain words (:func:`numerical_text`) instead.
+_STABILISATION_WARNING = "needed the fallback stabilisation"
+
+
+def simulation_notes(info: SimulationInfo, cable: CableChoice) -> list[str]:
+    """The report's notes on a run: the cable model, and the engine's warnings (those on the
+    fallback stabilisation are said in plain words by :func:`numerical_text` instead).
 
     Parameters
     ----------
     info : SimulationInfo
         The run (from :func:`simulate_dwells`).
-    source : tg43.Source
-        The plan's TG-43 source.
-    afterloader : str
-        The afterloader whose cable was simulated.
+    cable : CableChoice
+        The cable simulated and why.
     """
-    notes = []
-    if info.warnings:
-        notes.append("Simulation warnings: " + "; ".join(info.warnings))
-    src_afterloader = SOURCE_AFTERLOADER.get(getattr(source, "name", ""), "")
-    if src_afterloader and afterloader and src_afterloader != afterloader:
-        notes.append(
-            f"The cable model is the {afterloader} cable (the only published cable data), while "
-            f"the source ({source.name}) belongs to a {src_afterloader} afterloader: the simulated "
-            "positions assume the Flexitron cable's mechanics."
-        )
+    notes = [cable.note]
+    other = [w for w in info.warnings if _STABILISATION_WARNING not in w]
+    if other:
+        notes.append("Simulation warnings: " + "; ".join(other))
     return notes

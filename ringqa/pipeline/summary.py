@@ -42,6 +42,28 @@ def _overall_verdict(verdicts) -> str:
     )  # fmt: skip
 
 
+def _max_diffs(std: pd.DataFrame, plans: StandardPlans, column: str) -> dict:
+    out: dict[str, dict[str, float]] = {}
+    for plan in (plans.simulated, plans.centreline):
+        if plan is None:
+            continue
+        sub = std[std["plan"] == plan.name]
+        out[plan.name] = {
+            kind: _maxabs(sub.loc[sub["kind"] == kind, column].to_numpy()) for kind in POINT_KINDS
+        }
+    return out
+
+
+def _masked(comp: DeviationComponents, mask: np.ndarray) -> DeviationComponents:
+    return DeviationComponents(comp.dist_mm[mask], comp.along_mm[mask], comp.radial_mm[mask],
+                               comp.out_of_plane_mm[mask])  # fmt: skip
+
+
+def _median(a) -> float:
+    a = np.asarray(a, dtype=float)
+    return float(np.median(a)) if a.size else 0.0
+
+
 def summarise(
     app_name: str,
     source_name: str,
@@ -49,10 +71,16 @@ def summarise(
     selection: PlanSelection,
     n_tandem: int,
     dev: Deviations,
+    dev_raw: Deviations,
     doses: pd.DataFrame,
     plans: StandardPlans,
     simulation: SimulationInfo,
     verdicts: tuple[Verdict, ...],
+    *,
+    review,
+    numerical_error_mm: np.ndarray,
+    offsets: dict,
+    on_ring: np.ndarray,
 ) -> Summary:
     """The summary row of one commissioning run.
 
@@ -62,33 +90,57 @@ def summarise(
     source_name : str
         TG-43 source name.
     reference : ReferenceDwells
+        The reference as supplied.
     selection : PlanSelection
         Which dwells the ring's standard plan uses, and s_ref.
     n_tandem : int
         Tandem dwells in the standard plan.
-    dev : Deviations
+    dev, dev_raw : Deviations
+        Against the compared (registered) and the supplied reference.
     doses : pandas.DataFrame
         The dose table (TPS points are left out).
     plans : StandardPlans
-        Each plan but the reference gets its dose differences.
+        The simulated and centreline plans get their dose differences.
     simulation : SimulationInfo
         The simulation's status and solve time.
     verdicts : tuple of Verdict
+    review : ReferenceReview
+        Registration mode and flags (dwells outside the channel are left out of the numbers).
+    numerical_error_mm : (n,) ndarray
+        The simulation's numerical error per dwell.
+    offsets : dict of str to CentrelineOffsets
+        Signed offsets from the centreline per path (``measured``/``registered``/``simulated``/
+        ``centreline``).
+    on_ring : (n,) ndarray of bool
+        Dwells on the ring's circle (their medians are reported).
 
     Returns
     -------
     Summary
     """
     ref_kind = reference.kind
+    keep = review.compared
     std = doses[doses["kind"] != "tps"]
-    diffs: dict[str, dict[str, float]] = {}
-    for plan in plans.in_order[1:]:
-        sub = std[std["plan"] == plan.name]
-        diffs[plan.name] = {
-            kind: _maxabs(sub.loc[sub["kind"] == kind, "diff_pct"].to_numpy())
-            for kind in POINT_KINDS
-        }
     a_ref = std[(std["plan"] == ref_kind) & (std["kind"] == "point_a")]["dose_gy"]
+    measured = ref_kind == "measured"
+
+    def numbers(d: Deviations, which: str):
+        comp = d.simulated if which == "sim" else d.centreline
+        ang = d.angle_simulated_deg if which == "sim" else d.angle_centreline_deg
+        return _path_numbers(_masked(comp, keep), ang[keep])
+
+    ref_path = "registered" if "registered" in offsets else ref_kind
+    ring = on_ring & keep
+    radial = {
+        "reference": _median(offsets[ref_path].radial_mm[ring]),
+        "sim": _median(offsets["simulated"].radial_mm[ring]),
+        "centreline": _median(offsets["centreline"].radial_mm[ring]),
+    }
+    height = {
+        "reference": _median(offsets[ref_path].height_mm[ring]),
+        "sim": _median(offsets["simulated"].height_mm[ring]),
+        "centreline": _median(offsets["centreline"].height_mm[ring]),
+    }
     return Summary(
         applicator=app_name,
         reference=ref_kind,
@@ -97,16 +149,23 @@ def summarise(
         n_plan_dwells_ring=int(selection.in_plan.sum()),
         n_plan_dwells_tandem=int(n_tandem),
         s_ref_mm=float(selection.s_ref_mm),
-        simulated=_path_numbers(dev.simulated, dev.angle_simulated_deg),
-        max_angle_sim_vs_centreline_deg=float(np.max(dev.angle_sim_vs_centreline_deg)),
-        centreline=(
-            _path_numbers(dev.centreline, dev.angle_centreline_deg)
-            if ref_kind == "measured"
-            else None
-        ),
-        max_abs_diff_pct=diffs,
+        simulated=numbers(dev_raw, "sim"),
+        max_angle_sim_vs_centreline_deg=float(np.max(dev.angle_sim_vs_centreline_deg[keep])),
+        centreline=numbers(dev_raw, "centreline") if measured else None,
+        max_abs_diff_pct=_max_diffs(std, plans, "diff_pct"),
         point_a_mean_gy=float(a_ref.mean()),
         simulation_status=simulation.status,
         solve_time_s=simulation.solve_time_s,
         verdict=_overall_verdict(verdicts),
+        registration=review.mode,
+        n_reference_infeasible=review.count("infeasible"),
+        n_reference_infeasible_raw=review.count("infeasible", raw=True),
+        n_reference_outside=review.count("outside_channel"),
+        simulated_registered=numbers(dev, "sim"),
+        centreline_registered=numbers(dev, "centreline") if measured else None,
+        max_abs_diff_registered_pct=_max_diffs(std, plans, "diff_registered_pct"),
+        max_numerical_error_mm=float(np.max(numerical_error_mm)),
+        median_numerical_error_mm=float(np.median(numerical_error_mm)),
+        median_radial=radial,
+        median_height=height,
     )

@@ -1,7 +1,13 @@
 """The tolerance checks: position and dose limits, the verdicts, and what each one means.
 
 Positions: 1 mm recommended / 2 mm required (AAPM MPPG 13.a, 2023; TG-56); doses: an action
-level on the largest dose difference at the standard dose points (default 5 %).
+level on the largest dose difference at the standard dose points (default 5 %); the simulation's
+numerical error: a warning above 0.1 mm.
+
+Two kinds of finding are kept apart in the wording: "centreline vs reference" is a finding about
+the TPS's source-path model (planning on the channel centreline); "simulated vs reference" is a
+check of the simulation. One conclusion line sums them up (:func:`conclusion`). Reference
+positions outside the channel are left out of the checks; infeasible ones are named.
 """
 
 from __future__ import annotations
@@ -19,8 +25,20 @@ POSITION_REQUIRED_MM = 2.0
 #: Default dose-difference action level, %.
 DOSE_ACTION_PCT = 5.0
 
+#: Verdict roles.
+ROLE_TPS = "TPS model"
+ROLE_SIMULATION = "simulation check"
+ROLE_NUMERICS = "numerics"
 
-def _position_verdict(check: str, dist_mm: np.ndarray, rec: float, req: float) -> Verdict:
+#: Check names (results.json ``check``).
+CHECK_CENTRELINE = "position: centreline vs reference"
+CHECK_SIMULATED = "position: simulated vs reference"
+CHECK_SIM_VS_CENTRELINE = "position: simulated vs centreline"
+CHECK_NUMERICS = "numerics: simulated positions"
+
+
+def _position_verdict(check: str, role: str, what_is: str, dist_mm: np.ndarray, rec: float,
+                      req: float, extra: str) -> Verdict:  # fmt: skip
     worst = float(np.max(dist_mm)) if dist_mm.size else 0.0
     if worst <= rec:
         status, what = "PASS", f"within the recommended {rec:g} mm"
@@ -31,16 +49,32 @@ def _position_verdict(check: str, dist_mm: np.ndarray, rec: float, req: float) -
         )
     else:
         status, what = "FAIL", f"beyond the required {req:g} mm"
-    return Verdict(check, worst, "mm", (rec, req), status, f"{check}: max {worst:.2f} mm, {what}")
+    text = f"{what_is}: max {worst:.2f} mm over {dist_mm.size} positions, {what}.{extra}"
+    return Verdict(check, worst, "mm", (rec, req), status, text, role)
 
 
-def _dose_verdict(check: str, diff_pct: np.ndarray, action: float) -> Verdict:
+def _dose_verdict(check: str, role: str, what_is: str, diff_pct: np.ndarray,
+                  action: float) -> Verdict:  # fmt: skip
     worst = float(np.max(np.abs(diff_pct))) if diff_pct.size else 0.0
     status = "PASS" if worst <= action else "ACTION"
     word = "within" if status == "PASS" else "beyond"
     return Verdict(
         check, worst, "%", (action,), status,
-        f"{check}: max |difference| {worst:.2f} %, {word} the {action:g} % action level",
+        f"{what_is}: max |dose difference| {worst:.2f} %, {word} the {action:g} % action level.",
+        role,
+    )  # fmt: skip
+
+
+def numerics_verdict(max_error_mm: float, warn_mm: float) -> Verdict:
+    """PASS when the simulation's numerical error (max over the dwells) is at most ``warn_mm``,
+    else WARN."""
+    status = "PASS" if max_error_mm <= warn_mm else "WARN"
+    word = "within" if status == "PASS" else "above"
+    return Verdict(
+        CHECK_NUMERICS, max_error_mm, "mm", (warn_mm,), status,
+        f"Numerical error of the simulated positions: max {max_error_mm:.3f} mm, {word} "
+        f"{warn_mm:g} mm.",
+        ROLE_NUMERICS,
     )  # fmt: skip
 
 
@@ -50,23 +84,29 @@ def verdict_meanings(verdicts) -> list[str]:
     for v in verdicts:
         if v.status == "PASS":
             continue
-        if v.check == "position: centreline vs measured":
+        if v.check == CHECK_CENTRELINE:
             out.append(
-                f"Centreline vs measured {v.status}: planning on the channel centreline would "
-                f"misplace dwells by up to {v.value:.1f} mm in this applicator; plan on the "
-                "measured source path (or a validated source-path model) instead."
+                f"Centreline vs reference {v.status} (a finding about the TPS model): planning on "
+                f"the channel centreline would misplace dwells by up to {v.value:.1f} mm in this "
+                "applicator; plan on the reference source path (or a validated source-path "
+                "model) instead."
             )
-        elif v.check == "position: simulated vs measured":
+        elif v.check == CHECK_SIMULATED:
             out.append(
-                f"Simulated vs measured {v.status}: the simulation does not reproduce the "
-                f"measured path within tolerance (max {v.value:.1f} mm); it cannot replace the "
-                "measurement for this applicator."
+                f"Simulated vs reference {v.status} (a check of the simulation): the simulation "
+                f"does not reproduce the reference path within tolerance (max {v.value:.1f} mm); "
+                "it cannot stand in for the reference path of this applicator."
             )
-        elif v.check.startswith("position: simulated vs centreline"):
+        elif v.check == CHECK_SIM_VS_CENTRELINE:
             out.append(
                 f"Simulated vs centreline {v.status}: the simulated source deviates from the "
                 f"centreline by up to {v.value:.1f} mm; measure the source path of this "
                 "applicator before planning on its centreline."
+            )
+        elif v.check == CHECK_NUMERICS:
+            out.append(
+                f"Numerics {v.status}: the simulated positions carry a numerical error of up to "
+                f"{v.value:.2f} mm; simulated-vs-reference differences of that size are numerics."
             )
         elif v.check.startswith("dose:"):
             out.append(
@@ -77,6 +117,50 @@ def verdict_meanings(verdicts) -> list[str]:
     return out
 
 
+def conclusion(verdicts) -> str:
+    """One line: what the run says about the TPS model and about the simulation."""
+    by = {v.check: v for v in verdicts}
+    parts = []
+    cl = by.get(CHECK_CENTRELINE)
+    if cl is not None:
+        parts.append(
+            "planning on the centreline is within tolerance"
+            if cl.status == "PASS"
+            else f"planning on the centreline misplaces dwells by up to {cl.value:.1f} mm "
+            f"({cl.status})"
+        )
+    sim = by.get(CHECK_SIMULATED) or by.get(CHECK_SIM_VS_CENTRELINE)
+    if sim is not None:
+        against = "reference path" if sim.check == CHECK_SIMULATED else "centreline"
+        parts.append(
+            f"the simulation reproduces the {against} within tolerance"
+            if sim.status == "PASS"
+            else f"the simulation departs from the {against} by up to {sim.value:.1f} mm "
+            f"({sim.status})"
+        )
+    num = by.get(CHECK_NUMERICS)
+    if num is not None and num.status != "PASS":
+        parts.append(f"but its numerical error ({num.value:.2f} mm) is not negligible")
+    doses = [v for v in verdicts if v.unit == "%" and v.status != "PASS"]
+    if doses:
+        worst = max(doses, key=lambda v: v.value)
+        parts.append(f"dose differences reach {worst.value:.1f} % ({worst.check})")
+    return "Conclusion: " + "; ".join(parts) + "." if parts else "Conclusion: nothing checked."
+
+
+def _flag_text(rel_mm: np.ndarray, flags: np.ndarray, compared: np.ndarray) -> str:
+    out = ""
+    n_out = int(np.count_nonzero(~compared))
+    if n_out:
+        listed = ", ".join(f"{x:g}" for x in rel_mm[~compared])
+        out += f" Left out: {n_out} reference position(s) outside the channel ({listed} mm)."
+    bad = flags == "infeasible"
+    if bad.any():
+        listed = ", ".join(f"{x:g}" for x in rel_mm[bad])
+        out += f" Reference positions that cannot lie in the lumen: {listed} mm."
+    return out
+
+
 def check_tolerances(
     ref_kind: str,
     dev: Deviations,
@@ -84,44 +168,72 @@ def check_tolerances(
     plans: StandardPlans,
     position_limits_mm: tuple[float, float],
     dose_action_pct: float,
+    *,
+    relative_position_mm: np.ndarray,
+    flags: np.ndarray,
+    numerical_error_mm: float,
+    numerical_warn_mm: float,
 ) -> tuple[Verdict, ...]:
-    """The position verdicts of the compared paths, then one dose verdict per compared plan.
+    """The position verdicts, one dose verdict per compared plan, and the numerics verdict.
 
     Parameters
     ----------
     ref_kind : str
         ``"measured"`` or ``"centreline"``: the reference path and plan.
     dev : Deviations
-        The simulated and centreline dwells' deviations from the reference.
+        The simulated and centreline dwells' deviations from the (registered) reference.
     doses : pandas.DataFrame
-        The dose table (TPS points are left out of the dose verdicts).
+        The dose table (TPS points are left out of the dose verdicts; ``diff_registered_pct``
+        is judged).
     plans : StandardPlans
-        Each plan but the reference gets a dose verdict, in table order.
+        The simulated and centreline plans get a dose verdict, in table order.
     position_limits_mm : (float, float)
         Recommended and required position tolerance, mm.
     dose_action_pct : float
         Dose-difference action level, %.
+    relative_position_mm : (n,) ndarray
+        The dwells' relative positions (named in the texts).
+    flags : (n,) ndarray of str
+        ``reference_flag`` per dwell: ``"outside_channel"`` dwells are left out, ``"infeasible"``
+        ones named.
+    numerical_error_mm : float
+        The simulation's numerical error, max over the dwells, mm.
+    numerical_warn_mm : float
+        Its warning level, mm.
 
     Returns
     -------
     tuple of Verdict
     """
     rec, req = position_limits_mm
+    flags = np.asarray(flags, dtype=object)
+    compared = flags != "outside_channel"
+    extra = _flag_text(np.asarray(relative_position_mm), flags, compared)
     verdicts = []
     if ref_kind == "measured":
-        verdicts.append(_position_verdict("position: centreline vs measured",
-                                          dev.centreline.dist_mm, rec, req))  # fmt: skip
-        verdicts.append(_position_verdict("position: simulated vs measured",
-                                          dev.simulated.dist_mm, rec, req))  # fmt: skip
+        verdicts.append(_position_verdict(
+            CHECK_CENTRELINE, ROLE_TPS, "Centreline (the TPS model) vs reference path",
+            dev.centreline.dist_mm[compared], rec, req, extra))  # fmt: skip
+        verdicts.append(_position_verdict(
+            CHECK_SIMULATED, ROLE_SIMULATION, "Simulated vs reference path (simulation check)",
+            dev.simulated.dist_mm[compared], rec, req, extra))  # fmt: skip
     else:
-        verdicts.append(_position_verdict("position: simulated vs centreline",
-                                          dev.simulated.dist_mm, rec, req))  # fmt: skip
+        verdicts.append(_position_verdict(
+            CHECK_SIM_VS_CENTRELINE, ROLE_SIMULATION, "Simulated vs centreline",
+            dev.simulated.dist_mm, rec, req, ""))  # fmt: skip
     std = doses[doses["kind"] != "tps"]
-    for plan in plans.in_order[1:]:
-        pname = plan.name
-        sub = std[std["plan"] == pname]
-        verdicts.append(
-            _dose_verdict(f"dose: {pname} vs {ref_kind} plan", sub["diff_pct"].to_numpy(),
-                          float(dose_action_pct))
-        )  # fmt: skip
+    reference_plan = (
+        "the standard plan on the reference path" if ref_kind == "measured"
+        else "the standard plan on the centreline"
+    )  # fmt: skip
+    for plan in (plans.simulated, plans.centreline):
+        if plan is None:
+            continue
+        sub = std[std["plan"] == plan.name]
+        role = ROLE_SIMULATION if plan is plans.simulated else ROLE_TPS
+        verdicts.append(_dose_verdict(
+            f"dose: {plan.name} plan vs reference plan", role,
+            f"Same dwell times on the {plan.name} positions vs {reference_plan}",
+            sub["diff_registered_pct"].to_numpy(), float(dose_action_pct)))  # fmt: skip
+    verdicts.append(numerics_verdict(numerical_error_mm, numerical_warn_mm))
     return tuple(verdicts)

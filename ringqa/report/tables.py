@@ -51,6 +51,11 @@ def results_dict(result: CommissioningResult) -> dict:
             "timings_s": result.timings.as_dict(),
             "provenance": result.provenance.as_dict(),
             "files": ["dwells.csv", "doses.csv", "plan_dwells.csv", "summary.csv", "report.pdf"],
+            "conclusion": result.conclusion,
+            "reference_check": (
+                result.reference_check.as_dict() if result.reference_check is not None else None
+            ),
+            "numerical_check": result.numerics.as_dict() if result.numerics is not None else None,
         }
     )
 

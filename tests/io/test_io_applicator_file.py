@@ -110,26 +110,71 @@ def test_round_trip_is_exact(tmp_path):
     assert np.abs(np.array(c1) - np.array(c2)).max() < 1e-12
 
 
-def test_folder_with_csv_files(tmp_path):
-    """A folder: centreline.csv + measured_path.csv + applicator.json (lumen, step; no s_ref and
-    no ring frame): s_ref comes from the path's first point, the frame from a circle fit
-    (radius 13 mm, normal +z because the stem comes from below)."""
-    app = ring_applicator(26, 60)
-    ring = app.channel("ring")
+def _ring_folder(tmp_path, rel_m, spec_extra, with_rel_column=False):
+    """A folder with the ring26x60 centreline, a path on it at s_ref - rel, applicator.json."""
+    ring = ring_applicator(26, 60).channel("ring")
     write_points(tmp_path / "centreline.csv", ring.centreline.points_m)
-    rel = np.arange(0.0, 0.0301, 0.0025)
-    write_points(tmp_path / "measured_path.csv", ring.centreline.position(ring.s_ref_m - rel))
+    path = ring.centreline.position(ring.s_ref_m - rel_m)
+    write_points(
+        tmp_path / "measured_path.csv", path,
+        relative_position_mm=rel_m * 1e3 if with_rel_column else None,
+    )  # fmt: skip
     spec = {"name": "my ring", "lumen": {"kind": "circular", "r_b_mm": 1.5, "r_a_mm": 1.4},
-            "measured_step_mm": 2.5}  # fmt: skip
+            **spec_extra}  # fmt: skip
     (tmp_path / "applicator.json").write_text(json.dumps(spec))
+    return ring
+
+
+def test_folder_with_csv_files(tmp_path):
+    """A folder: centreline.csv + measured_path.csv + applicator.json (lumen, step, s_ref asked
+    for from the path; no ring frame): s_ref is the arc length of the path's first point, the
+    frame a circle fit (radius 13 mm, normal +z because the stem comes from below); the path's
+    provenance is the user's file."""
+    rel = np.arange(0.0, 0.0301, 0.0025)
+    ring = _ring_folder(tmp_path, rel, {"measured_step_mm": 2.5, "s_ref_mm": "from_measured_path"})
     got = load_applicator(tmp_path)
     ch = got.channel("ring")
     assert ch.s_ref_m == pytest.approx(ring.s_ref_m, abs=1e-6)
     assert ch.measured_path_m.shape == (13, 3) and ch.measured_step_m == pytest.approx(0.0025)
+    assert ch.measured_source == "user file measured_path.csv"
     assert got.ring_radius_m == pytest.approx(0.013, abs=1e-6)
     assert np.allclose(got.ring_normal, [0, 0, 1], atol=1e-6)
     assert np.allclose(got.ring_centre_m, 0, atol=1e-6)
     assert np.allclose(got.ring_lateral, [1, 0, 0], atol=1e-6)
+
+
+def test_missing_s_ref_is_refused_not_guessed(tmp_path):
+    """Without s_ref_mm / tip_to_first_dwell_mm the folder is refused, naming the field and the
+    explicit way to estimate it (s_ref shifts every along-channel deviation)."""
+    _ring_folder(tmp_path, np.arange(0.0, 0.0301, 0.0025), {"measured_step_mm": 2.5})
+    with pytest.raises(ApplicatorFileError, match=r"s_ref_mm: missing.*from_measured_path"):
+        load_applicator(tmp_path)
+
+
+def test_uneven_user_path_keeps_its_relative_positions(tmp_path):
+    """A path CSV with a relative_position_mm column 0, 2.5, 6, 7, 12.5 mm (uneven): the channel
+    keeps exactly these (no renumbering to a nominal step) and has no step."""
+    rel = np.array([0.0, 2.5, 6.0, 7.0, 12.5]) * 1e-3
+    _ring_folder(tmp_path, rel, {"s_ref_mm": 94.9}, with_rel_column=True)
+    ch = load_applicator(tmp_path).channel("ring")
+    np.testing.assert_allclose(ch.measured_relative_m, rel, atol=1e-12)
+    np.testing.assert_allclose(ch.measured_relative_positions_m, rel, atol=1e-12)
+    assert ch.measured_step_m is None
+
+
+@pytest.mark.parametrize(
+    ("extra", "with_rel", "fragment"),
+    [
+        ({"s_ref_mm": 94.9}, False, r"measured_step_mm: missing"),
+        ({"s_ref_mm": 94.9, "measured_step_mm": 2.0}, True, r"contradicts the relative"),
+    ],
+)
+def test_path_spacing_must_be_known_and_consistent(tmp_path, extra, with_rel, fragment):
+    """A path needs its relative positions or a step; a step that contradicts the relative
+    positions given (2.5 mm apart) is refused."""
+    _ring_folder(tmp_path, np.arange(0.0, 0.0101, 0.0025), extra, with_rel_column=with_rel)
+    with pytest.raises(ApplicatorFileError, match=fragment):
+        load_applicator(tmp_path)
 
 
 def _valid_doc():

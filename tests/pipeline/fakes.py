@@ -18,6 +18,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
+from ringqa.geometry import Applicator, Centreline, Channel, Lumen
 from ringqa.pipeline import Engine, default_engine
 
 R = 0.013
@@ -27,12 +28,18 @@ LENGTH = STEM + ARC
 S_REF = LENGTH - 0.005
 
 
-class FakeCentreline:
-    """Stem + circle, analytic."""
+class FakeCentreline(Centreline):
+    """Stem + circle, evaluated analytically (a real :class:`Centreline` underneath, so the
+    geometry API's type checks and tables work; positions, tangents and closest points are
+    exact)."""
 
-    length_m = LENGTH
+    def __init__(self):
+        s = np.linspace(0.0, LENGTH, int(LENGTH / 0.25e-3) + 1)
+        base = Centreline.from_points(self.position(s))
+        super().__init__(base._spl, base._points, LENGTH, base.table)
 
-    def position(self, s):
+    @staticmethod
+    def position(s):
         s = np.atleast_1d(np.asarray(s, dtype=float))
         phi = np.clip(s - STEM, 0, None) / R
         on_arc = s > STEM
@@ -41,28 +48,29 @@ class FakeCentreline:
         out = np.column_stack([x, y, np.zeros_like(s)])
         return out if out.shape[0] > 1 else out[0]
 
-    def tangent(self, s):
+    @staticmethod
+    def tangent(s):
         s = np.atleast_1d(np.asarray(s, dtype=float))
         phi = np.clip(s - STEM, 0, None) / R
         out = np.column_stack([-np.sin(phi), np.cos(phi), np.zeros_like(s)])
         return out if out.shape[0] > 1 else out[0]
 
     def closest(self, points, s_hint_m=None, window_m=None):
-        s = np.linspace(0, LENGTH, 20001)
-        pos = self.position(s)
+        """Exact closest points: on the stem (and its extension before the entry), on the arc,
+        or on the straight extension beyond the tip."""
         p = np.asarray(points, dtype=float).reshape(-1, 3)
-        d = np.linalg.norm(p[:, None, :] - pos[None, :, :], axis=2)
+        s_stem = np.minimum(p[:, 1] + STEM, STEM)
+        phi = np.mod(np.arctan2(p[:, 1], p[:, 0]), 2 * np.pi)
+        s_arc = STEM + R * np.clip(phi, 0.0, ARC / R)
+        tip, t_tip = self.position(LENGTH), self.tangent(LENGTH)
+        s_tip = LENGTH + np.maximum((p - tip) @ t_tip, 0.0)
+        cands = np.column_stack([s_stem, s_arc, s_tip])
+        pos = np.where(cands[..., None] > LENGTH, tip + (cands[..., None] - LENGTH) * t_tip,
+                       self.position(cands.ravel()).reshape(-1, 3, 3))  # fmt: skip
+        d = np.linalg.norm(p[:, None, :] - pos, axis=2)
         k = np.argmin(d, axis=1)
-        return s[k], d[np.arange(len(k)), k]
-
-
-class FakeLumen:
-    def __init__(self, r_b=1.5e-3):
-        self.r_b = r_b
-
-    def kernel_arrays(self):
-        return (np.array([0.0, LENGTH]), np.array([self.r_b]), np.array([self.r_b - 1e-4]),
-                np.array([np.inf]))  # fmt: skip
+        rows = np.arange(p.shape[0])
+        return cands[rows, k], d[rows, k]
 
 
 def outward(pos):
@@ -73,39 +81,29 @@ def outward(pos):
 
 
 def make_applicator(*, measured_offset_m=0.5e-3, n_measured=30, step=2.5e-3, tandem=False,
-                    r_b=1.5e-3, name="fake26"):  # fmt: skip
+                    r_b=1.5e-3, name="fake26", relative_m=None):  # fmt: skip
+    """The stand-in ring (a real :class:`Applicator`): measured path ``measured_offset_m``
+    outside the centreline at relative positions ``relative_m`` (default 0, step, ...)."""
     cl = FakeCentreline()
     path = None
     if n_measured:
-        s = S_REF - np.arange(n_measured) * step
-        pos = cl.position(s)
+        rel = np.arange(n_measured) * step if relative_m is None else np.asarray(relative_m)
+        pos = cl.position(S_REF - rel)
         path = pos + measured_offset_m * outward(pos)
-    ring = SimpleNamespace(
-        name="ring",
-        centreline=cl,
-        lumen=FakeLumen(r_b),
-        s_ref_m=S_REF,
-        measured_path_m=path,
-        measured_step_m=step if n_measured else None,
-    )
+    ring = Channel(
+        "ring", cl, Lumen.circular(r_b, r_b - 1e-4), S_REF, measured_path_m=path,
+        measured_step_m=step if n_measured and relative_m is None else None,
+        measured_relative_m=relative_m if n_measured else None,
+        measured_source="stand-in path" if n_measured else "",
+    )  # fmt: skip
     channels = [ring]
     if tandem:
-        tcl = SimpleNamespace(
-            length_m=0.06,
-            position=lambda s: np.column_stack(
-                [np.zeros(np.size(s)), np.zeros(np.size(s)), 0.005 + np.atleast_1d(s)]
-            ).squeeze(),
-            tangent=lambda s: np.tile([0.0, 0.0, 1.0], (np.size(s), 1)).squeeze(),
-            closest=None,
-        )
-        channels.append(SimpleNamespace(name="tandem", centreline=tcl, lumen=FakeLumen(1.25e-3),
-                                        s_ref_m=0.055, measured_path_m=None,
-                                        measured_step_m=None))  # fmt: skip
-    by_name = {c.name: c for c in channels}
-    return SimpleNamespace(
-        name=name, channels=tuple(channels), channel=by_name.__getitem__,
-        ring_centre_m=np.zeros(3), ring_normal=np.array([0.0, 0, 1]),
-        ring_lateral=np.array([1.0, 0, 0]), ring_radius_m=R, metadata={},
+        z = np.linspace(0.005, 0.065, 61)
+        tcl = Centreline.from_points(np.column_stack([np.zeros_like(z), np.zeros_like(z), z]))
+        channels.append(Channel("tandem", tcl, Lumen.circular(1.25e-3, 1.15e-3), 0.055))
+    return Applicator(
+        name=name, channels=tuple(channels), ring_centre_m=np.zeros(3),
+        ring_normal=np.array([0.0, 0, 1]), ring_lateral=np.array([1.0, 0, 0]), ring_radius_m=R,
     )  # fmt: skip
 
 
@@ -135,6 +133,13 @@ def fake_scene_to_dict(scene):
     return {"instrument": {"preset": scene.cable}, **scene.overrides}
 
 
+def fake_refine(scene, factor):
+    """``refine`` of the fake engine: a copy of the scene that records the refinement factor."""
+    new = SimpleNamespace(**vars(scene))
+    new.overrides = {**scene.overrides, "refined": factor}
+    return new
+
+
 def fake_engine(simulator=None, scene_factory=None) -> Engine:
     """The fake engine: fake scenes (:func:`fake_scene_factory`) and a fake simulator."""
     return Engine(
@@ -142,6 +147,7 @@ def fake_engine(simulator=None, scene_factory=None) -> Engine:
         scene_for_channel=scene_factory or fake_scene_factory(),
         scene_with_overrides=fake_with_overrides,
         scene_to_dict=fake_scene_to_dict,
+        refine=fake_refine,
     )
 
 
@@ -151,10 +157,13 @@ def stand_in_engine(simulator) -> Engine:
     return dataclasses.replace(default_engine(), simulate=simulator)
 
 
-def fake_simulator(offset_m=0.3e-3, z_m=0.0, jam_after=None, along_m=0.0, exact=None, warnings=()):
+def fake_simulator(offset_m=0.3e-3, z_m=0.0, jam_after=None, along_m=0.0, exact=None, warnings=(),
+                   coarse_z_m=0.0):  # fmt: skip
     """Source centre = centreline point at the advance (+ along_m further), offset_m outward
     in the ring plane and z_m cranially; direction = centreline tangent. ``exact`` = (positions
-    (n, 3) m, directions (n, 3)) in advance order replaces them."""
+    (n, 3) m, directions (n, 3)) in advance order replaces them. A scene that was not refined
+    (the commissioning run before the refined one) puts the source ``coarse_z_m`` further
+    cranially: the numerical error is then ``coarse_z_m``."""
     cl = FakeCentreline()
     calls = []
 
@@ -168,6 +177,9 @@ def fake_simulator(offset_m=0.3e-3, z_m=0.0, jam_after=None, along_m=0.0, exact=
         dirs = np.atleast_2d(cl.tangent(s))
         if exact is not None:
             pos, dirs = exact[0].copy(), exact[1].copy()
+        if "refined" not in getattr(scene, "overrides", {"refined": True}):
+            pos = pos.copy()
+            pos[:, 2] += coarse_z_m
         status, msg = 0, "ok"
         if jam_after is not None:
             pos, dirs, status, msg = pos[:jam_after], dirs[:jam_after], 1, "push force above 50 N"

@@ -212,8 +212,10 @@ def test_engine_warnings_reach_the_notes(fakes):
 
 def test_non_convergence_is_retried_with_a_finer_increment(fakes):
     """The engine fails (status -1, NaN rows) unless the increment is <= 0.5 mm: the pipeline
-    repeats the run at 0.5 mm (default 1 mm x 0.5), succeeds, and says so in the notes. With an
-    engine that never converges the error names the dwells reached."""
+    repeats the run at 0.5 mm (default 1 mm x 0.5), succeeds, and says so in the notes; the
+    refined run of the numerical check starts from that converged scene (the stand-in's refine
+    keeps its increment: 0.5 mm again). With an engine that never converges the error names the
+    dwells reached."""
     base, good = fakes.scene_factory(), fakes.simulator()
 
     def factory(channel, cable):
@@ -240,7 +242,7 @@ def test_non_convergence_is_retried_with_a_finer_increment(fakes):
     engine = dataclasses.replace(fakes.engine(picky, factory), scene_with_overrides=with_overrides)
     picky.never = False
     res = commission(fakes.applicator(), engine=engine)
-    assert tried == [1e-3, 0.5e-3]
+    assert tried == [1e-3, 0.5e-3, 0.5e-3]
     assert any("repeated with 0.5 mm" in n for n in res.notes)
     picky.never = True
     with pytest.raises(SimulationJammedError, match=r"failed after .* 26 of 30 dwells reached"):

@@ -43,7 +43,8 @@ def test_oncentra_point_a_and_tps_points(oncentra):
     """Point A mean of the measured-path standard plan = 7 Gy within 0.1 %; the RT Plan's own
     dwells give, with the mHDR-v2 consensus data, the TPS doses at A1, A2, Bladder, ICRU within
     2 % (the usual TPS criterion; orientations are not in the plan, so they come from the
-    centreline tangents)."""
+    centreline tangents). The cable simulated is the mHDR-v2's (microselectron), and the notes
+    say that its mechanics are borrowed from the Flexitron cable."""
     doses = oncentra.doses
     a = doses[(doses.plan == "measured") & (doses.kind == "point_a")]["dose_gy"]
     assert a.mean() == pytest.approx(7.0, rel=1e-3)
@@ -53,7 +54,9 @@ def test_oncentra_point_a_and_tps_points(oncentra):
         assert own.loc[name, "tps_dose_gy"] == pytest.approx(tps)
         assert own.loc[name, "dose_gy"] == pytest.approx(tps, rel=0.02)
     assert oncentra.settings.source == "mhdr-v2"
-    assert any("flexitron" in n and "microselectron" in n for n in oncentra.notes)
+    assert oncentra.settings.cable == "microselectron"  # the plan's source's cable
+    assert any("microselectron" in n and "borrowed" in n and "Flexitron" in n
+               for n in oncentra.notes)  # fmt: skip
 
 
 def test_oncentra_point_a_near_the_tps_point_a(oncentra):

@@ -11,10 +11,12 @@ from ringqa.plan import DosePointSpec
 
 
 def test_defaults_are_the_command_lines():
-    """7 Gy, 1 / 2 mm, 5 %, 5 mm plan step, 7 tandem dwells, Flexitron cable, ring channel."""
+    """7 Gy, 1 / 2 mm, 5 %, 5 mm plan step, 7 tandem dwells, the cable of the plan's source
+    (None), ring channel, no registration, a 60 mm modelled stem."""
     s = CommissionSettings()
     assert (s.prescription_gy, s.position_limits_mm, s.dose_action_pct) == (7.0, (1.0, 2.0), 5.0)
-    assert (s.plan_step_mm, s.tandem_dwells, s.cable, s.channel) == (5.0, 7, "flexitron", "ring")
+    assert (s.plan_step_mm, s.tandem_dwells, s.cable, s.channel) == (5.0, 7, None, "ring")
+    assert (s.register, s.stem_mm, s.centreline_correction) == ("none", 60.0, None)
     assert s.scene_overrides == {} and s.sk_U is None and s.require_measured is None
 
 
@@ -55,6 +57,14 @@ def test_values_are_normalised():
         ("point_spec", {"depth_mm": 5}, r"point_spec .*: must be a ringqa.plan.DosePointSpec"),
         ("require_measured", "yes", r"require_measured 'yes': must be True, False or None"),
         ("scene_overrides", ["solver.tol"], r"scene_overrides \['solver.tol'\]: must map"),
+        (
+            "register",
+            "affine",
+            r"--register 'affine': unknown registration mode; choose one of "
+            r"none, plane-height, rigid",
+        ),
+        ("stem_mm", 0.0, r"--stem-mm 0.0: must be a length in mm > 0"),
+        ("centreline_correction", 3, r"--centreline-correction 3: give the path"),
     ],
 )
 def test_bad_values_name_the_field_and_the_fix(field, value, message):

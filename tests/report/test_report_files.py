@@ -16,7 +16,8 @@ DWELL_COLUMNS = {"applicator", "dwell", "path", "x_mm", "y_mm", "z_mm", "dir_x",
 DOSE_COLUMNS = {"applicator", "point", "plan", "dose_gy", "diff_pct"}
 JSON_KEYS = {"schema", "applicator", "input", "input_kind", "reference", "passed", "verdicts",
              "summary", "notes", "settings", "simulation", "dose_points", "doses", "geometry",
-             "timings_s", "provenance", "files"}  # fmt: skip
+             "timings_s", "provenance", "files", "conclusion", "reference_check",
+             "numerical_check"}  # fmt: skip
 
 
 #: The column order of summary.csv and the key order of results.json's typed sections, as
@@ -32,10 +33,19 @@ SUMMARY_COLUMNS = (
     "max_abs_diff_surface_centreline_pct,max_abs_diff_depth5_centreline_pct,point_a_mean_gy,"
     "simulation_status,solve_time_s,verdict"
 ).split(",")
+#: Issue 13's contract columns, appended after them.
+SUMMARY_CONTRACT_13 = [
+    "registration", "n_reference_infeasible", "median_dist_sim_registered_mm",
+    "max_dist_sim_registered_mm", "median_dist_centreline_registered_mm",
+    "max_dist_centreline_registered_mm", "max_numerical_error_mm", "median_radial_reference_mm",
+    "median_radial_sim_mm", "median_radial_centreline_mm",
+]  # fmt: skip
+DWELL_CONTRACT_13 = {"radial_from_centreline_mm", "height_mm", "numerical_error_mm",
+                     "reference_flag"}  # fmt: skip
 SECTION_KEYS = {
     "settings": ["source", "sk_U", "prescription_gy", "cable", "channel", "plan_step_mm",
                  "tandem_dwells", "position_limits_mm", "dose_action_pct", "dose_points",
-                 "scene_overrides", "scene"],
+                 "scene_overrides", "scene", "register", "stem_mm", "centreline_correction"],
     "simulation": ["status", "message", "warnings", "solve_time_s", "wall_time_s", "n_elements",
                    "settings"],
     "geometry": ["ring_centre_mm", "ring_normal", "ring_lateral", "ring_radius_mm", "s_ref_mm",
@@ -63,8 +73,11 @@ def test_contract_files(result, tmp_path):
     assert len(pd.read_csv(out / "summary.csv")) == 1
     data = json.loads((out / "results.json").read_text())
     assert set(data) == JSON_KEYS
-    assert (out / "summary.csv").read_text().splitlines()[0].split(",") == SUMMARY_COLUMNS
-    assert list(data["summary"]) == SUMMARY_COLUMNS
+    header = (out / "summary.csv").read_text().splitlines()[0].split(",")
+    assert header[: len(SUMMARY_COLUMNS)] == SUMMARY_COLUMNS  # old readers index by position
+    assert set(SUMMARY_CONTRACT_13) <= set(header[len(SUMMARY_COLUMNS) :])
+    assert DWELL_CONTRACT_13 <= set(dwells.columns)
+    assert list(data["summary"]) == header
     for section, keys in SECTION_KEYS.items():
         assert list(data[section]) == keys, section
     assert data["schema"] == SCHEMA
