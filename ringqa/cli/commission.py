@@ -5,6 +5,15 @@
     ringqa commission --all-shipped --out out/all          # the six shipped rings + summary
     ringqa commission a/ b/ c.json --out out/batch         # several inputs = batch
     ringqa commission my_rings/ --out out/batch            # a folder of applicator folders/files
+    ringqa commission plan.dcm --register plane-height --out out/reg   # a 2D reference path
+    ringqa commission plan.dcm --centreline-correction ct_ring.csv --out out/ct
+
+The reference path is checked against the channel (positions that cannot lie in the lumen, or
+not along the channel; a planar path stored in 2D) and registered to the CHANNEL as --register
+says (none: as supplied; plane-height: a planar path at constant height moved into the ring
+channel's plane; rigid: a rigid fit to the centreline). Raw and registered numbers are reported
+side by side. Every simulation is run twice (commissioning settings and refined) and each dwell's
+numerical error is reported.
 
 Writes DIR/dwells.csv, doses.csv, plan_dwells.csv, summary.csv, results.json and report.pdf (one
 subfolder per applicator in batch mode, plus the cross-applicator summary.csv, batch.json and
@@ -51,6 +60,37 @@ def add_parser(subparsers) -> None:
     )
     p.add_argument(
         "--dose-action-pct", type=float, default=5.0, help="dose-difference action level, %% (5)"
+    )
+    p.add_argument(
+        "--register",
+        default="none",
+        metavar="MODE",
+        help="registration of the reference path to the channel: none (default), plane-height "
+        "or rigid",
+    )
+    p.add_argument(
+        "--cable",
+        default=None,
+        help="cable model (flexitron, microselectron; default: the cable of the plan's source)",
+    )
+    p.add_argument(
+        "--stem-mm",
+        type=float,
+        default=60.0,
+        help="straight channel simulated before the first bend, mm (60)",
+    )
+    p.add_argument(
+        "--whole-channel",
+        action="store_true",
+        help="simulate the whole channel (however long its straight shaft)",
+    )
+    p.add_argument(
+        "--centreline-correction",
+        type=Path,
+        default=None,
+        metavar="FILE",
+        help="CT/film centreline segment (CSV x_mm,y_mm,z_mm, proximal -> distal, in the "
+        "applicator/plan frame) spliced over the ring centreline (single applicator only)",
     )
     add_set_option(p)
     p.add_argument(
@@ -124,10 +164,21 @@ def run(args: argparse.Namespace) -> int:
         source=args.source,
         prescription_gy=args.prescription_gy,
         dose_action_pct=args.dose_action_pct,
+        cable=args.cable,
+        register=args.register,
+        stem_mm=None if args.whole_channel else args.stem_mm,
+        centreline_correction=args.centreline_correction,
         require_measured=False if args.centreline_reference else None,
     )
     items = _inputs(args)
-    if len(items) == 1 and not args.all_shipped and expand_folder(Path(args.inputs[0])) is None:
+    single = len(items) == 1 and not args.all_shipped
+    single = single and expand_folder(Path(args.inputs[0])) is None
+    if args.centreline_correction is not None and not single:
+        raise RingQAError(
+            "--centreline-correction: give one applicator (each applicator has its own frame; "
+            "a correction segment belongs to one)"
+        )
+    if single:
         res = commission(items[0], settings, progress=not args.quiet)
         write_report(res, args.out, pdf=not args.no_pdf, accuracy_csv=args.accuracy_csv)
         verdicts = "; ".join(f"{v.status} {v.check}" for v in res.verdicts)

@@ -124,8 +124,20 @@ def _arc_lengths(spl, breaks: np.ndarray) -> np.ndarray:
 def _fit_arclength(pts: np.ndarray, degree: int, rtol: float = 1e-9, max_iter: int = 60):
     """Interpolating spline whose parameter equals arc length at the data points."""
     t = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(pts, axis=0), axis=1))])
+    with np.errstate(over="ignore", invalid="ignore"):
+        return _fit_arclength_loop(pts, degree, t, rtol, max_iter)
+
+
+def _fit_arclength_loop(pts, degree, t, rtol, max_iter):
+    """The fixed-point iteration of :func:`_fit_arclength` (GeometryError when it fails)."""
+    err = float("nan")
     for _ in range(max_iter):
-        spl = make_interp_spline(t, pts, k=degree)
+        if not (np.isfinite(t).all() and np.all(np.diff(t) > 0)):
+            break  # the spline between the points has a cusp (zero speed): no arc length
+        try:
+            spl = make_interp_spline(t, pts, k=degree)
+        except (ValueError, np.linalg.LinAlgError):
+            break
         knots = np.unique(spl.t[(spl.t >= t[0]) & (spl.t <= t[-1])])
         breaks = np.unique(np.concatenate([knots, t]))
         seg = _arc_lengths(spl, breaks)

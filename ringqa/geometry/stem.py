@@ -33,6 +33,9 @@ DEFAULT_STEM_M = 0.060
 
 #: Point spacing of the trimmed centreline (m): the centreline table's own spacing.
 _RESAMPLE_M = 0.25e-3
+#: Less than this (m) is not worth dropping (the bend's detected start wanders by a fraction of a
+#: millimetre with the curvature threshold; the centreline is not refitted for that).
+MIN_DROP_M = 1.0e-3
 
 
 @dataclass(frozen=True, eq=False)
@@ -95,7 +98,7 @@ def trim_to_stem(channel: Channel, stem_m: float | None = DEFAULT_STEM_M) -> Tri
             "before the first bend, e.g. 60 mm (or none to keep the whole channel)"
         )
     s0 = s_bend - stem
-    if s0 <= _RESAMPLE_M:  # nothing (worth) dropping
+    if s0 < MIN_DROP_M:  # nothing (worth) dropping
         return TrimmedChannel(channel, 0.0, s_bend, s_bend)
     length = channel.length_m
     s = np.arange(s0, length, _RESAMPLE_M)

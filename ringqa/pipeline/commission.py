@@ -57,6 +57,7 @@ from ringqa.pipeline.inputs import (
     channel_of,
     check_measured_path,
     choose_source,
+    kink_notes,
     load_input,
     loaded_text,
 )
@@ -197,6 +198,7 @@ def commission(
         *src.notes,
         loaded_text(app, ring, loaded.kind),
         *correction_notes,
+        *kink_notes(app, ring),
         reference_note(reference),
         *simulated.notes,
         *simulation_notes(simulated.info, cable),

@@ -180,6 +180,29 @@ def choose_source(source, sk_U: float | None, rtplan) -> SourceChoice:
     return SourceChoice(tg43.load_source("flexisource"), float(sk_U), notes)
 
 
+def kink_notes(app, channel) -> tuple[str, ...]:
+    """One sentence per kink of ``channel``'s centreline (:mod:`ringqa.geometry.kinks`)."""
+    from ringqa.geometry import Channel
+    from ringqa.geometry.kinks import find_kinks
+
+    if not isinstance(channel, Channel):
+        return ()
+    out = []
+    for k in find_kinks(channel, float(app.ring_radius_m)):
+        rel = m_to_mm(channel.s_ref_m - k.s_m)
+        out.append(
+            f"The {channel.name} channel's centreline bends sharply at arc length "
+            f"{m_to_mm(k.s_m):.1f} mm (relative position {rel:.1f} mm): curvature "
+            f"{k.curvature_per_m:.0f} 1/m (radius {m_to_mm(1.0 / k.curvature_per_m):.1f} mm) over "
+            f"{m_to_mm(k.length_m):.1f} mm, against {k.median_per_m:.0f} 1/m around it. This "
+            "looks like a kink in the channel model, not the channel: a stiff cable sticks there "
+            "and the dwells beyond it may settle in more than one place (see the numerical "
+            "error). Straathof et al. corrected the library centreline from CT at the proximal "
+            "ring: --centreline-correction."
+        )
+    return tuple(out)
+
+
 def loaded_text(app, ring, kind: str) -> str:
     """One sentence: what was loaded (channels, lengths, lumen, measured path)."""
     parts = []

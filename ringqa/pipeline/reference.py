@@ -20,6 +20,7 @@ from ringqa.geometry.registration import (
     FLAG_INFEASIBLE,
     FLAG_OUTSIDE,
     MIN_POSITIONS,
+    PLANAR_TOL_M,
     ReferencePathCheck,
     Registration,
     RegistrationError,
@@ -140,7 +141,8 @@ class ReferenceReview:
                 f"{n_out} reference position(s) are not along the channel (relative "
                 f"{self.named(FLAG_OUTSIDE)}): left out of the plan and the verdicts."
             )
-        if self.raw.planar and self.raw.constant_height and self.mode == "none":
+        lifted = abs(self.raw.height_m) > PLANAR_TOL_M
+        if self.raw.planar and self.raw.constant_height and lifted and self.mode == "none":
             out.append(
                 "The path is planar at a constant height above the ring plane: it was stored in "
                 "2D. --register plane-height moves it into the ring channel's plane (one "

@@ -57,6 +57,11 @@ REFINE_FACTOR = 0.5
 #: When the two runs differ by more than :data:`NUMERICAL_ERROR_WARN_MM`, refine (and run) again,
 #: at most this many more times.
 MAX_EXTRA_LEVELS = 2
+#: When a run needed the fallback stabilisation (the cable stuck and snapped), the quasi-static
+#: path can branch, and where it branches depends on the settings: two more runs at these
+#: factors of the commissioning settings (the refined run's x 0.8 and x 0.7) probe it; each
+#: dwell's error is the largest distance of any of them from the refined run.
+PROBE_FACTORS = (0.4, 0.35)
 #: Numerical error (max over the dwells) above which the report warns, mm.
 NUMERICAL_ERROR_WARN_MM = 0.1
 
@@ -142,8 +147,14 @@ def choose_cable(cable: str | None, source_name: str) -> CableChoice:
     source_name : str
         The plan's TG-43 source name.
     """
-    from ringqa.simulation.instruments import BORROWED_MECHANICS, PRESET_SOURCES
+    from ringqa.simulation.instruments import BORROWED_MECHANICS, CABLE_PRESETS, PRESET_SOURCES
 
+    cables = [name for name in CABLE_PRESETS if name != "catheter"]
+    if cable is not None and cable not in cables:
+        raise RingQAError(
+            f"--cable {cable!r}: unknown cable model; choose one of {', '.join(cables)} (or "
+            "leave it out: the cable of the plan's source)"
+        )
     if cable is not None:
         preset, why = cable, "chosen in the settings"
     elif source_name in SOURCE_CABLE:
@@ -180,7 +191,10 @@ class NumericalCheck:
         The two runs' solve times, s.
     n_runs : int
         Runs made: 2, or more when the error exceeded the warning level and the run was
-        refined again (at most ``2 + MAX_EXTRA_LEVELS``).
+        refined again (at most ``2 + MAX_EXTRA_LEVELS``), plus the probes.
+    n_probes : int
+        Runs that probed where a stalling path branches (:data:`PROBE_FACTORS`; 0 when no run
+        needed the fallback stabilisation).
     total_solve_time_s : float
         Solve time of all runs, s.
     stabilised_steps : int
@@ -200,6 +214,7 @@ class NumericalCheck:
     text: tuple[str, ...]
     n_runs: int = 2
     total_solve_time_s: float = 0.0
+    n_probes: int = 0
 
     @property
     def warns(self) -> bool:
@@ -218,6 +233,7 @@ class NumericalCheck:
             "refined_solve_time_s": self.refined_solve_time_s,
             "stabilised_steps": self.stabilised_steps,
             "n_runs": self.n_runs,
+            "n_probes": self.n_probes,
             "total_solve_time_s": self.total_solve_time_s,
             "text": list(self.text),
         }
@@ -413,30 +429,64 @@ def commission_scene(engine: Engine, channel, cable: str, scene_overrides: Mappi
     return scene
 
 
-def numerical_text(error_mm: np.ndarray, stabilised: int, n_steps: int | None) -> tuple[str, ...]:
+def _stabilised(run: _Run) -> int:
+    """Load steps of a run that needed the fallback stabilisation."""
+    settings = getattr(run.res, "settings", {}) or {}
+    return int(settings.get("n_stabilised_steps", 0) or 0)
+
+
+def numerical_text(
+    error_mm: np.ndarray,
+    stabilised: int,
+    n_steps: int | None,
+    pair_mm: np.ndarray | None = None,
+    n_probes: int = 0,
+) -> tuple[str, ...]:
     """The numerical check in plain words (report page 1).
 
     Parameters
     ----------
     error_mm : (n,) ndarray
-        Per-dwell distance between the commissioning run and the refined run, mm.
+        Per-dwell numerical error, mm.
     stabilised : int
         Load steps of the refined run that needed the fallback stabilisation.
     n_steps : int or None
         Load steps of that run, when known.
+    pair_mm : (n,) ndarray, optional
+        Per-dwell distance between the commissioning and the refined run (default ``error_mm``).
+    n_probes : int
+        Extra runs that probed where the path branches.
     """
     worst, median = float(np.max(error_mm)), float(np.median(error_mm))
+    pair = error_mm if pair_mm is None else pair_mm
     out = [
         f"Numerical error of the simulated positions: up to {worst:.3f} mm (median {median:.3f} "
-        "mm): how far each dwell moves when every cable link and the push increment are halved; "
-        "the refined positions are reported."
+        "mm): how far each dwell moves when every cable link and the push increment are halved"
+        + (" or changed slightly" if n_probes else "")
+        + "; the refined positions are reported."
     ]
+    if n_probes and worst > float(np.max(pair)) + 1e-9:
+        out.append(
+            f"Halving the settings alone moves the dwells by up to {float(np.max(pair)):.3f} mm, "
+            f"but {n_probes} runs with slightly different settings put some dwells up to "
+            f"{worst:.3f} mm apart: the cable sticks and snaps over to another wall contact, and "
+            "where it does so depends on small changes, in the model as in the real applicator "
+            "(several cable positions are possible there; a finer run does not remove this)."
+        )
     if worst > NUMERICAL_ERROR_WARN_MM:
+        branching = float(np.max(pair)) <= NUMERICAL_ERROR_WARN_MM
         out.append(
             f"WARNING: the simulated positions are uncertain by up to {worst:.2f} mm, more than "
-            f"{NUMERICAL_ERROR_WARN_MM:g} mm, because of the numerical settings; treat "
-            "simulated-vs-reference differences of that size as numerics, or refine the run "
-            "(--set discretisation.element_length_mm.<section>=..., --set solver.increment_mm=...)."
+            f"{NUMERICAL_ERROR_WARN_MM:g} mm"
+            + (
+                ", because the cable can settle in more than one position there; treat "
+                "simulated-vs-reference differences of that size at those dwells as undecided "
+                "by the simulation."
+                if branching
+                else ", because of the numerical settings; treat simulated-vs-reference "
+                "differences of that size as numerics, or refine the run (--set "
+                "discretisation.element_length_mm.<section>=..., --set solver.increment_mm=...)."
+            )
         )
     if stabilised:
         of = f" of {n_steps}" if n_steps else ""
@@ -535,8 +585,20 @@ def simulate_dwells(
                 break
         runs.append(_run_with_retries(engine, refine(runs[-1].scene, REFINE_FACTOR), advances,
                                       progress))  # fmt: skip
+    pair_mm = error_mm
+    probes: list[_Run] = []
+    if any(_stabilised(r) for r in (coarse, fine)):
+        # stalls and snaps make the path branch; probe where with two more refined runs
+        for factor in PROBE_FACTORS:
+            probe = _run_with_retries(engine, refine(coarse.scene, factor), advances, progress)
+            if probe.ok:
+                probes.append(probe)
+                idx_p = _dwell_rows(probe, advances, wanted)
+                error_mm = np.maximum(error_mm, m_to_mm(
+                    np.linalg.norm(probe.pos_m[idx_p] - fine.pos_m[idx_f], axis=1)))  # fmt: skip
+    runs += probes
     notes += [r.note for r in runs if r.note]
-    if len(runs) > 2:
+    if len(runs) - len(probes) > 2:
         notes.append(
             f"The commissioning settings left a numerical error above {NUMERICAL_ERROR_WARN_MM:g} "
             f"mm, so the run was refined {len(runs) - 2} more time(s) (every link and the push "
@@ -544,7 +606,7 @@ def simulate_dwells(
         )
     res = fine.res
     run_settings = dict(getattr(res, "settings", {}) or {})
-    stabilised = int(run_settings.get("n_stabilised_steps", 0) or 0)
+    stabilised = _stabilised(fine)
     n_steps = getattr(getattr(res, "stats", None), "n_steps", None)
     coarse_dict, fine_dict = _scene_dict(engine, coarse.scene), _scene_dict(engine, fine.scene)
     numerics = NumericalCheck(
@@ -556,8 +618,9 @@ def simulate_dwells(
         solve_time_s=float(getattr(coarse.res, "solve_time_s", coarse.wall_s)),
         refined_solve_time_s=float(getattr(res, "solve_time_s", fine.wall_s)),
         stabilised_steps=stabilised,
-        text=numerical_text(error_mm, stabilised, n_steps),
+        text=numerical_text(error_mm, stabilised, n_steps, pair_mm, len(probes)),
         n_runs=len(runs),
+        n_probes=len(probes),
         total_solve_time_s=sum(float(getattr(r.res, "solve_time_s", r.wall_s)) for r in runs),
     )
     dirs = np.asarray(res.source_dir, dtype=float).reshape(-1, 3)[idx_f]

@@ -81,15 +81,21 @@ def outward(pos):
 
 
 def make_applicator(*, measured_offset_m=0.5e-3, n_measured=30, step=2.5e-3, tandem=False,
-                    r_b=1.5e-3, name="fake26", relative_m=None):  # fmt: skip
+                    r_b=1.5e-3, name="fake26", relative_m=None, measured_z_m=0.0,
+                    moved=None):  # fmt: skip
     """The stand-in ring (a real :class:`Applicator`): measured path ``measured_offset_m``
-    outside the centreline at relative positions ``relative_m`` (default 0, step, ...)."""
+    outside the centreline and ``measured_z_m`` above the ring plane, at relative positions
+    ``relative_m`` (default 0, step, ...); ``moved`` maps path indices to extra displacements
+    (m, (3,))."""
     cl = FakeCentreline()
     path = None
     if n_measured:
         rel = np.arange(n_measured) * step if relative_m is None else np.asarray(relative_m)
-        pos = cl.position(S_REF - rel)
+        pos = np.atleast_2d(cl.position(S_REF - rel))
         path = pos + measured_offset_m * outward(pos)
+        path[:, 2] += measured_z_m
+        for k, d in (moved or {}).items():
+            path[k] += np.asarray(d, dtype=float)
     ring = Channel(
         "ring", cl, Lumen.circular(r_b, r_b - 1e-4), S_REF, measured_path_m=path,
         measured_step_m=step if n_measured and relative_m is None else None,
