@@ -62,6 +62,13 @@ MAX_EXTRA_LEVELS = 2
 #: factors of the commissioning settings (the refined run's x 0.8 and x 0.7) probe it; each
 #: dwell's error is the largest distance of any of them from the refined run.
 PROBE_FACTORS = (0.4, 0.35)
+#: When the probes put dwells more than :data:`NUMERICAL_ERROR_WARN_MM` apart (the path branches
+#: at these settings), two much finer runs at these factors of the commissioning settings settle
+#: it: below about 1/5 the branch the cable takes stops depending on the settings (measured on
+#: the Oncentra example with the microSelectron cable: links 0.4 -> 0.3 -> 0.2 -> 0.15 mm at
+#: half-link increments move the dwells 0.03, 0.03, 0.01 mm, coarser runs hop between branches
+#: 0.3 mm apart; docs/commissioning.md). Their distance is the reported error.
+RESOLVE_FACTORS = (0.2, 0.1)
 #: Numerical error (max over the dwells) above which the report warns, mm.
 NUMERICAL_ERROR_WARN_MM = 0.1
 
@@ -195,6 +202,12 @@ class NumericalCheck:
     n_probes : int
         Runs that probed where a stalling path branches (:data:`PROBE_FACTORS`; 0 when no run
         needed the fallback stabilisation).
+    branch_mm : float
+        Largest distance the probes found between runs at the commissioning settings' scale, mm
+        (0 without probes). When it exceeded the warning level the run was resolved with two
+        much finer runs (:data:`RESOLVE_FACTORS`; ``resolved``) and ``error_mm`` is theirs.
+    resolved : bool
+        The reported positions come from the resolving runs.
     total_solve_time_s : float
         Solve time of all runs, s.
     stabilised_steps : int
@@ -215,6 +228,8 @@ class NumericalCheck:
     n_runs: int = 2
     total_solve_time_s: float = 0.0
     n_probes: int = 0
+    branch_mm: float = 0.0
+    resolved: bool = False
 
     @property
     def warns(self) -> bool:
@@ -236,6 +251,8 @@ class NumericalCheck:
             "n_probes": self.n_probes,
             "total_solve_time_s": self.total_solve_time_s,
             "text": list(self.text),
+            "branch_mm": self.branch_mm,
+            "resolved": self.resolved,
         }
 
 
@@ -441,6 +458,8 @@ def numerical_text(
     n_steps: int | None,
     pair_mm: np.ndarray | None = None,
     n_probes: int = 0,
+    branch_mm: float = 0.0,
+    resolved: bool = False,
 ) -> tuple[str, ...]:
     """The numerical check in plain words (report page 1).
 
@@ -449,39 +468,58 @@ def numerical_text(
     error_mm : (n,) ndarray
         Per-dwell numerical error, mm.
     stabilised : int
-        Load steps of the refined run that needed the fallback stabilisation.
+        Load steps of the reported run that needed the fallback stabilisation.
     n_steps : int or None
         Load steps of that run, when known.
     pair_mm : (n,) ndarray, optional
         Per-dwell distance between the commissioning and the refined run (default ``error_mm``).
     n_probes : int
         Extra runs that probed where the path branches.
+    branch_mm : float
+        Largest distance the probes found, mm.
+    resolved : bool
+        The branching was settled by two much finer runs (:data:`RESOLVE_FACTORS`), whose
+        distance is ``error_mm``.
     """
     worst, median = float(np.max(error_mm)), float(np.median(error_mm))
     pair = error_mm if pair_mm is None else pair_mm
-    out = [
-        f"Numerical error of the simulated positions: up to {worst:.3f} mm (median {median:.3f} "
-        "mm): how far each dwell moves when every cable link and the push increment are halved"
-        + (" or changed slightly" if n_probes else "")
-        + "; the refined positions are reported."
-    ]
-    if n_probes and worst > float(np.max(pair)) + 1e-9:
+    if resolved:
+        f_coarse, f_fine = RESOLVE_FACTORS
+        out = [
+            f"Numerical error of the simulated positions: up to {worst:.3f} mm (median "
+            f"{median:.3f} mm): how far each dwell moves between two fine runs (every cable link "
+            f"and the push increment at 1/{1 / f_coarse:.0f} and 1/{1 / f_fine:.0f} of the "
+            "commissioning settings); the finer run's positions are reported.",
+            f"They were needed because at the commissioning settings the cable sticks and snaps "
+            f"over to another wall contact, and runs with slightly different settings put some "
+            f"dwells up to {branch_mm:.2f} mm apart (several cable positions are nearly in "
+            "balance there); at the fine settings the runs agree on one of them.",
+        ]
+    else:
+        out = [
+            f"Numerical error of the simulated positions: up to {worst:.3f} mm (median "
+            f"{median:.3f} mm): how far each dwell moves when every cable link and the push "
+            "increment are halved"
+            + (" or changed slightly" if n_probes else "")
+            + "; the refined positions are reported."
+        ]
+    if n_probes and not resolved and worst > float(np.max(pair)) + 1e-9:
         out.append(
             f"Halving the settings alone moves the dwells by up to {float(np.max(pair)):.3f} mm, "
             f"but {n_probes} runs with slightly different settings put some dwells up to "
             f"{worst:.3f} mm apart: the cable sticks and snaps over to another wall contact, and "
-            "where it does so depends on small changes, in the model as in the real applicator "
-            "(several cable positions are possible there; a finer run does not remove this)."
+            "where it does so depends on small changes."
         )
     if worst > NUMERICAL_ERROR_WARN_MM:
-        branching = float(np.max(pair)) <= NUMERICAL_ERROR_WARN_MM
+        branching = n_probes and not resolved and float(np.max(pair)) <= NUMERICAL_ERROR_WARN_MM
         out.append(
             f"WARNING: the simulated positions are uncertain by up to {worst:.2f} mm, more than "
             f"{NUMERICAL_ERROR_WARN_MM:g} mm"
             + (
                 ", because the cable can settle in more than one position there; treat "
                 "simulated-vs-reference differences of that size at those dwells as undecided "
-                "by the simulation."
+                "at these settings, or run much finer ones (--set "
+                "discretisation.element_length_mm.<section>=..., --set solver.increment_mm=...)."
                 if branching
                 else ", because of the numerical settings; treat simulated-vs-reference "
                 "differences of that size as numerics, or refine the run (--set "
@@ -586,6 +624,7 @@ def simulate_dwells(
         runs.append(_run_with_retries(engine, refine(runs[-1].scene, REFINE_FACTOR), advances,
                                       progress))  # fmt: skip
     pair_mm = error_mm
+    n_levels = len(runs)
     probes: list[_Run] = []
     if any(_stabilised(r) for r in (coarse, fine)):
         # stalls and snaps make the path branch; probe where with two more refined runs
@@ -597,11 +636,27 @@ def simulate_dwells(
                 error_mm = np.maximum(error_mm, m_to_mm(
                     np.linalg.norm(probe.pos_m[idx_p] - fine.pos_m[idx_f], axis=1)))  # fmt: skip
     runs += probes
+    branch_mm = float(np.max(error_mm)) if probes else 0.0
+    resolved = False
+    if probes and branch_mm > NUMERICAL_ERROR_WARN_MM:
+        # the path branches at these settings: settle it with two much finer runs
+        base = runs[0].scene
+        pair = [_run_with_retries(engine, refine(base, f), advances, progress)
+                for f in RESOLVE_FACTORS]  # fmt: skip
+        runs += pair
+        if all(r.ok for r in pair):
+            coarse, fine = pair
+            idx_c, idx_f = (
+                _dwell_rows(coarse, advances, wanted),
+                _dwell_rows(fine, advances, wanted),
+            )
+            error_mm = m_to_mm(np.linalg.norm(fine.pos_m[idx_f] - coarse.pos_m[idx_c], axis=1))
+            resolved = True
     notes += [r.note for r in runs if r.note]
-    if len(runs) - len(probes) > 2:
+    if n_levels > 2:
         notes.append(
             f"The commissioning settings left a numerical error above {NUMERICAL_ERROR_WARN_MM:g} "
-            f"mm, so the run was refined {len(runs) - 2} more time(s) (every link and the push "
+            f"mm, so the run was refined {n_levels - 2} more time(s) (every link and the push "
             "increment halved each time); the numbers below come from the last two runs."
         )
     res = fine.res
@@ -618,9 +673,13 @@ def simulate_dwells(
         solve_time_s=float(getattr(coarse.res, "solve_time_s", coarse.wall_s)),
         refined_solve_time_s=float(getattr(res, "solve_time_s", fine.wall_s)),
         stabilised_steps=stabilised,
-        text=numerical_text(error_mm, stabilised, n_steps, pair_mm, len(probes)),
+        text=numerical_text(
+            error_mm, stabilised, n_steps, pair_mm, len(probes), branch_mm, resolved
+        ),
         n_runs=len(runs),
         n_probes=len(probes),
+        branch_mm=branch_mm,
+        resolved=resolved,
         total_solve_time_s=sum(float(getattr(r.res, "solve_time_s", r.wall_s)) for r in runs),
     )
     dirs = np.asarray(res.source_dir, dtype=float).reshape(-1, 3)[idx_f]

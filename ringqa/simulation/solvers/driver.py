@@ -152,7 +152,7 @@ def run(scene, advances_m: np.ndarray, progress: bool = False) -> SimResult:
             if du == 0.0:
                 dwell_left -= dt
             if bar is not None:
-                bar.update(round(abs(du) * 1e3, 3))
+                bar.update(min(round(abs(du) * 1e3, 3), max(bar.total - bar.n, 0.0)))
             recorder.step(q, u, time_s, monitor.push)
             schedule.adapt(out.sub, out.last_iters)
             status, message = monitor.jam(u, du)
