@@ -62,6 +62,13 @@ def add_parser(subparsers) -> None:
         "--dose-action-pct", type=float, default=5.0, help="dose-difference action level, %% (5)"
     )
     p.add_argument(
+        "--sk-u",
+        type=float,
+        default=None,
+        help="source air-kerma strength, U (default: the RT Plan's; needed to check a plan "
+        "without one against its TPS doses)",
+    )
+    p.add_argument(
         "--register",
         default="none",
         metavar="MODE",
@@ -164,6 +171,7 @@ def run(args: argparse.Namespace) -> int:
         source=args.source,
         prescription_gy=args.prescription_gy,
         dose_action_pct=args.dose_action_pct,
+        sk_U=args.sk_u,
         cable=args.cable,
         register=args.register,
         stem_mm=None if args.whole_channel else args.stem_mm,

@@ -174,7 +174,7 @@ def commission(
         reference, registered, selection, simulated.dwells, centreline, tandem, points,
         src.source, prescription_gy=cfg.prescription_gy, sk_U=src.sk_U,
     )  # fmt: skip
-    tables = dose_tables(app, loaded.rtplan, plans, points, src.source, src.sk_U)
+    tables = dose_tables(app, loaded.rtplan, plans, points, src.source, src.sk_U, src.sk_given)
     dose_s = time.perf_counter() - t0
 
     numerics = simulated.numerics
@@ -194,7 +194,9 @@ def commission(
         f"The standard plan includes {n_tandem} tandem dwells ({cfg.plan_step_mm:g} mm apart); "
         "the tandem is not simulated, so its dwells are the same in all plans."
     )
+    plan_warnings = tuple(f"RT Plan: {w}" for w in getattr(loaded.rtplan, "warnings", ()) or ())
     notes = (
+        *plan_warnings,
         *src.notes,
         loaded_text(app, ring, loaded.kind),
         *correction_notes,

@@ -182,7 +182,13 @@ def standard_plans(
 
 
 def dose_tables(
-    app, rtplan, plans: StandardPlans, points: DosePoints, source, sk_U: float
+    app,
+    rtplan,
+    plans: StandardPlans,
+    points: DosePoints,
+    source,
+    sk_U: float,
+    sk_given: bool = True,
 ) -> DoseTables:
     """The dose table (every plan at every point; the RT Plan's own doses) and the plan table.
 
@@ -196,6 +202,9 @@ def dose_tables(
     source : tg43.Source
     sk_U : float
         Air-kerma strength, U (the RT Plan's own when it has one).
+    sk_given : bool
+        ``sk_U`` came from the user or the plan; without it the plan's own dwells are not dosed
+        (their doses scale with S_K, so a default would fake the TPS check).
 
     Returns
     -------
@@ -203,7 +212,7 @@ def dose_tables(
     """
     doses = _dose_table(app.name, plans, points.all)
     notes: list[str] = []
-    if rtplan is not None:
+    if rtplan is not None and sk_given:
         doses = _with_rtplan_doses(doses, rtplan, app, source, sk_U, notes)
     return DoseTables(doses, _plan_table(app.name, plans), tuple(notes))
 
@@ -251,7 +260,7 @@ def _dose_table(app_name: str, plans: StandardPlans, points) -> pd.DataFrame:
 
 def _with_rtplan_doses(doses, rtplan, app, source, sk_U, notes: list[str]) -> pd.DataFrame:
     """``doses`` with the RT Plan's own doses at its TPS points appended (their notes added)."""
-    own, own_notes = _rtplan_own_doses(rtplan, app, source, float(rtplan.source.sk_U or sk_U))
+    own, own_notes = _rtplan_own_doses(rtplan, app, source, float(sk_U))
     notes += own_notes
     if not own.empty:
         own.insert(0, "applicator", app.name)

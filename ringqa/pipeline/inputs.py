@@ -53,12 +53,17 @@ class SourceChoice:
     sk_U : float
         Air-kerma strength, U.
     notes : tuple of str
-        For the report (the RT Plan's source has no TG-43 data).
+        For the report (the RT Plan's source has no TG-43 data; S_K not given).
+    sk_given : bool
+        S_K came from the option or the RT Plan, not from :data:`DEFAULT_SK_U`. The standard
+        plans do not depend on it (their times are scaled to the prescription), but the check of
+        the plan's own dwells against the TPS does, and is skipped without it.
     """
 
     source: Any
     sk_U: float
     notes: tuple[str, ...]
+    sk_given: bool = True
 
 
 def load_input(item) -> LoadedInput:
@@ -147,7 +152,8 @@ def check_measured_path(input, ring, channel: str, kind: str, require_measured) 
 
 
 def choose_source(source, sk_U: float | None, rtplan) -> SourceChoice:
-    """The TG-43 source and S_K: as given, else the RT Plan's, else Flexisource and 40820 U.
+    """The TG-43 source and S_K: as given, else the RT Plan's, else Flexisource and 40820 U
+    (then ``sk_given`` is False and, for an RT Plan, a note says what it means).
 
     Parameters
     ----------
@@ -162,22 +168,32 @@ def choose_source(source, sk_U: float | None, rtplan) -> SourceChoice:
     """
     import tg43
 
-    if sk_U is None:
-        sk_U = float(getattr(getattr(rtplan, "source", None), "sk_U", 0.0) or DEFAULT_SK_U)
+    sk_given = True
     notes: tuple[str, ...] = ()
+    if sk_U is None:
+        sk_U = getattr(getattr(rtplan, "source", None), "sk_U", None)
+        if not sk_U:
+            sk_given, sk_U = False, DEFAULT_SK_U
+            if rtplan is not None:
+                notes = (
+                    "The RT Plan gives no source strength (ReferenceAirKermaRate): the standard "
+                    "plans do not depend on it, but the plan's own dwells could not be dosed "
+                    "against the TPS (give the strength with --sk-u).",
+                )
     if isinstance(source, tg43.Source):
-        return SourceChoice(source, float(sk_U), notes)
+        return SourceChoice(source, float(sk_U), notes, sk_given)
     if source is not None:
-        return SourceChoice(tg43.load_source(source), float(sk_U), notes)
+        return SourceChoice(tg43.load_source(source), float(sk_U), notes, sk_given)
     if rtplan is not None:
         name = getattr(rtplan.source, "tg43_name", None)
         if name:
-            return SourceChoice(tg43.load_source(name), float(sk_U), notes)
+            return SourceChoice(tg43.load_source(name), float(sk_U), notes, sk_given)
         notes = (
+            *notes,
             f"The RT Plan's source ({getattr(rtplan.source, 'model', '?')}) has no TG-43 data in "
             "ringqa; the Flexisource data were used (choose one with --source).",
         )
-    return SourceChoice(tg43.load_source("flexisource"), float(sk_U), notes)
+    return SourceChoice(tg43.load_source("flexisource"), float(sk_U), notes, sk_given)
 
 
 def kink_notes(app, channel) -> tuple[str, ...]:

@@ -2,7 +2,9 @@
 
 Positions: 1 mm recommended / 2 mm required (AAPM MPPG 13.a, 2023; TG-56); doses: an action
 level on the largest dose difference at the standard dose points (default 5 %); the simulation's
-numerical error: a warning above 0.1 mm.
+numerical error: a warning above 0.1 mm; for an RT Plan, its own dwells and times dosed by ringqa
+against the TPS's doses at the plan's points: an action level of 5 % (an input check: a wrong
+source strength, channel time or source model shows here first).
 
 Two kinds of finding are kept apart in the wording: "centreline vs reference" is a finding about
 the TPS's source-path model (planning on the channel centreline); "simulated vs reference" is a
@@ -25,16 +27,24 @@ POSITION_REQUIRED_MM = 2.0
 #: Default dose-difference action level, %.
 DOSE_ACTION_PCT = 5.0
 
+#: Action level of the RT Plan's own doses against the TPS's, %: the independent dose check of
+#: an HDR plan (AAPM TG-56 asks for a secondary check; 5 % is the usual action level). ringqa and
+#: the TPS use the same TG-43 formalism and consensus data, so they agree within about 1 % when
+#: the plan was read right (the shipped example: 0.3-1.0 %).
+TPS_CHECK_ACTION_PCT = 5.0
+
 #: Verdict roles.
 ROLE_TPS = "TPS model"
 ROLE_SIMULATION = "simulation check"
 ROLE_NUMERICS = "numerics"
+ROLE_INPUT = "input check"
 
 #: Check names (results.json ``check``).
 CHECK_CENTRELINE = "position: centreline vs reference"
 CHECK_SIMULATED = "position: simulated vs reference"
 CHECK_SIM_VS_CENTRELINE = "position: simulated vs centreline"
 CHECK_NUMERICS = "numerics: simulated positions"
+CHECK_TPS = "dose: plan's own dwells vs TPS"
 
 
 def _position_verdict(check: str, role: str, what_is: str, dist_mm: np.ndarray, rec: float,
@@ -65,6 +75,34 @@ def _dose_verdict(check: str, role: str, what_is: str, diff_pct: np.ndarray,
     )  # fmt: skip
 
 
+def tps_verdict(doses: pd.DataFrame, action_pct: float = TPS_CHECK_ACTION_PCT) -> Verdict | None:
+    """The RT Plan's own dwells and times, dosed by ringqa, against the TPS's doses at the plan's
+    points (rows ``plan == "rtplan"`` with a TPS dose); None without such rows.
+
+    Parameters
+    ----------
+    doses : pandas.DataFrame
+        The dose table (``plan``, ``point``, ``diff_pct``, ``tps_dose_gy``).
+    action_pct : float
+        Action level on the largest |difference|, %.
+    """
+    own = doses[(doses["plan"] == "rtplan") & np.isfinite(doses["tps_dose_gy"].astype(float))]
+    if own.empty:
+        return None
+    diff = own["diff_pct"].to_numpy(dtype=float)
+    k = int(np.argmax(np.abs(diff)))
+    worst = float(abs(diff[k]))
+    status = "PASS" if worst <= action_pct else "ACTION"
+    word = "within" if status == "PASS" else "beyond"
+    return Verdict(
+        CHECK_TPS, worst, "%", (action_pct,), status,
+        f"The plan's own dwells and times, dosed by ringqa, vs the TPS's doses at the plan's "
+        f"{len(own)} points: max |difference| {worst:.2f} % (at {own['point'].iloc[k]}), {word} "
+        f"the {action_pct:g} % action level.",
+        ROLE_INPUT,
+    )  # fmt: skip
+
+
 def numerics_verdict(max_error_mm: float, warn_mm: float) -> Verdict:
     """PASS when the simulation's numerical error (max over the dwells) is at most ``warn_mm``,
     else WARN."""
@@ -84,7 +122,14 @@ def verdict_meanings(verdicts) -> list[str]:
     for v in verdicts:
         if v.status == "PASS":
             continue
-        if v.check == CHECK_CENTRELINE:
+        if v.check == CHECK_TPS:
+            out.append(
+                f"TPS check {v.status}: the plan's own dwells and times, dosed with ringqa's "
+                f"TG-43 data, differ from the TPS's doses by up to {v.value:.1f} %. Check the "
+                "plan's source strength (S_K), channel times and source model before trusting any "
+                "dose number in this report."
+            )
+        elif v.check == CHECK_CENTRELINE:
             out.append(
                 f"Centreline vs reference {v.status} (a finding about the TPS model): planning on "
                 f"the channel centreline would misplace dwells by up to {v.value:.1f} mm in this "
@@ -141,7 +186,11 @@ def conclusion(verdicts) -> str:
     num = by.get(CHECK_NUMERICS)
     if num is not None and num.status != "PASS":
         parts.append(f"but its numerical error ({num.value:.2f} mm) is not negligible")
-    doses = [v for v in verdicts if v.unit == "%" and v.status != "PASS"]
+    tps = by.get(CHECK_TPS)
+    if tps is not None and tps.status != "PASS":
+        parts.insert(0, f"the plan's own doses differ from the TPS's by {tps.value:.0f} % "
+                        "(check S_K, times and source first)")  # fmt: skip
+    doses = [v for v in verdicts if v.unit == "%" and v.status != "PASS" and v.check != CHECK_TPS]
     if doses:
         worst = max(doses, key=lambda v: v.value)
         parts.append(f"dose differences reach {worst.value:.1f} % ({worst.check})")
@@ -173,8 +222,10 @@ def check_tolerances(
     flags: np.ndarray,
     numerical_error_mm: float,
     numerical_warn_mm: float,
+    tps_action_pct: float = TPS_CHECK_ACTION_PCT,
 ) -> tuple[Verdict, ...]:
-    """The position verdicts, one dose verdict per compared plan, and the numerics verdict.
+    """The position verdicts, one dose verdict per compared plan, the RT Plan's own doses vs the
+    TPS (when there are any) and the numerics verdict (last).
 
     Parameters
     ----------
@@ -200,6 +251,8 @@ def check_tolerances(
         The simulation's numerical error, max over the dwells, mm.
     numerical_warn_mm : float
         Its warning level, mm.
+    tps_action_pct : float
+        Action level of the RT Plan's own doses against the TPS's, %.
 
     Returns
     -------
@@ -235,5 +288,8 @@ def check_tolerances(
             f"dose: {plan.name} plan vs reference plan", role,
             f"Same dwell times on the {plan.name} positions vs {reference_plan}",
             sub["diff_registered_pct"].to_numpy(), float(dose_action_pct)))  # fmt: skip
+    tps = tps_verdict(doses, tps_action_pct)
+    if tps is not None:
+        verdicts.append(tps)
     verdicts.append(numerics_verdict(numerical_error_mm, numerical_warn_mm))
     return tuple(verdicts)

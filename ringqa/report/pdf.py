@@ -76,7 +76,7 @@ FLAG_EDGES = {"infeasible": "#c62828", "outside_channel": "#546e7a"}
 #: The dwell table's column of the flags of the reference path as supplied (when registered).
 SUPPLIED_FLAG_COLUMN = "reference\nas\nsupplied"
 #: Verdict roles in page-1 order (:mod:`ringqa.pipeline.verdicts`).
-ROLE_ORDER = ("TPS model", "simulation check", "numerics")
+ROLE_ORDER = ("input check", "TPS model", "simulation check", "numerics")
 #: Point kinds of the comparison table, in the order the issue names them.
 DOSE_KINDS = (("surface", "surface"), ("depth5", "5 mm deeper"), ("point_a", "Point A"))
 #: Page-1 wording: what the pipeline's notes call the reference, and the report's words for it.
