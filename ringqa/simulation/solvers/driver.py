@@ -41,6 +41,32 @@ from ringqa.units import m_to_mm
 
 #: pseudo-time steps of the initial equilibrium's tethered walk before giving up
 INITIAL_WALK_STEPS = 300
+#: A run that would take more load or time steps than this is refused before it starts: at the
+#: engine's 2-10 ms per step it would run for 3-15 minutes without a useful answer (the accuracy
+#: study shows 0.1 mm needs a few thousand steps on a ring).
+MAX_STEPS = 100_000
+
+
+def check_budget(schedule: Schedule, scene) -> None:
+    """Refuse a run whose schedule needs more than :data:`MAX_STEPS` steps (names the number, the
+    setting that causes it and a value that fits)."""
+    n = schedule.estimated_steps()
+    if n <= MAX_STEPS:
+        return
+    from ringqa.simulation.scene import SceneError
+
+    travel_mm = m_to_mm(schedule.travel_m())
+    if schedule.dynamic:
+        setting, value, unit = "solver.time_step_s", scene.solver.time_step_s, "s"
+        fits = value * n / MAX_STEPS
+    else:
+        setting, value, unit = "solver.increment_mm", m_to_mm(scene.solver.increment_m), "mm"
+        fits = value * n / MAX_STEPS
+    raise SceneError(
+        f"{setting} = {value:g} {unit}: the run would take about {n:,} steps over {travel_mm:.0f} "
+        f"mm of input (at most {MAX_STEPS:,} are allowed, several minutes of solving); use "
+        f"{setting} >= {fits:.2g} (the accuracy study, ringqa accuracy, says what a setting buys)"
+    )
 
 
 def initial_equilibrium(model: Model, q: np.ndarray, v: np.ndarray, dt: float) -> tuple[int, int]:
@@ -110,6 +136,7 @@ def run(scene, advances_m: np.ndarray, progress: bool = False) -> SimResult:
     )
     integrator = integrator_for(model)
     schedule = Schedule(model, advances_m, history_free)
+    check_budget(schedule, scene)
     monitor = Monitor(model, history_free)
     recorder = Recorder(model, advances_m, bool(scene.outputs.trajectory))
     stepper = Stepper(model, integrator, monitor)

@@ -77,6 +77,23 @@ class Schedule:
                 self.scene.motion.dwell_s if stepwise_pause else 0.0,
             )  # fmt: skip
 
+    def travel_m(self) -> float:
+        """Total input travel along the waypoints from the start (m)."""
+        points = [self.model.u_start] + [p[0] for p in self.path]
+        return float(np.sum(np.abs(np.diff(points))))
+
+    def estimated_steps(self) -> int:
+        """Steps the run will take at least: travel / increment quasi-statically; travel / speed
+        / time step plus the simulated pauses dynamically (sub-steps come on top)."""
+        travel = self.travel_m()
+        if not self.dynamic:
+            return int(np.ceil(travel / self.model.increment))
+        n_pauses = sum(1 for leg in self.legs() if leg.dwell_s > 0)
+        moving_s = travel / self.model.speed + MOTION_RAMP_S * len(self.path)
+        return int(
+            np.ceil((moving_s + n_pauses * self.scene.motion.dwell_s) / self.model.time_step)
+        )
+
     def next_step(self, u: float, leg: Leg, dwell_left: float) -> tuple[float, float]:
         """(du (m), dt (s)) of the next step from input advance ``u`` on ``leg``."""
         target = leg.target_m
