@@ -174,6 +174,13 @@ def _build(spec: Mapping, kind: str, where: str, side: FlatSide, source: str) ->
             raise _fail(where, "s_breaks_mm", "missing for a stepped lumen",
                         "give the arc lengths (mm) where the cross-section changes")  # fmt: skip
         breaks = _numbers(spec, "s_breaks_mm", where)
+        bad = np.flatnonzero(np.diff(breaks) <= 0)
+        if bad.size:
+            k = int(bad[0])
+            raise _fail(where, "s_breaks_mm",
+                        f"{breaks[k]:g} then {breaks[k + 1]:g} mm: the breaks do not increase",
+                        "list the arc lengths from the channel entry, increasing, each once, "
+                        "with r_b_mm (and r_a_mm, flat_mm) in the same order")  # fmt: skip
         bounds = np.concatenate([[-np.inf], breaks, [np.inf]])
     rb = _numbers(spec, "r_b_mm", where)
     ra = _numbers(spec, "r_a_mm", where) if "r_a_mm" in spec else rb - R_A_BELOW_R_B_MM

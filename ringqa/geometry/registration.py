@@ -68,11 +68,13 @@ __all__ = [
     "OUTSIDE_DISTANCE_M",
     "PLANAR_TOL_M",
     "REGISTER_MODES",
+    "PathPlacement",
     "ReferencePathCheck",
     "ReferencePositions",
     "Registration",
     "RegistrationError",
     "check_reference_path",
+    "path_placement",
     "reference_positions",
     "register_reference",
 ]
@@ -499,6 +501,63 @@ def _which(idx, relative_m: np.ndarray | None) -> str:
 def _closest(channel: Channel, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     s, d = channel.centreline.closest(points)
     return np.asarray(s, dtype=float), np.asarray(d, dtype=float)
+
+
+@dataclass(frozen=True)
+class PathPlacement:
+    """Where a path lies along its channel, in gross terms (:func:`path_placement`).
+
+    Attributes
+    ----------
+    median_offset_m : float
+        Median distance of the positions from the centreline (m).
+    n_off : int
+        Positions farther than :data:`OUTSIDE_DISTANCE_M` from the centreline.
+    n_along : int
+        Positions along the channel (closest point within ``[0, length]`` and not farther than
+        :data:`OUTSIDE_DISTANCE_M`): the only ones whose arc length means anything.
+    direction : int
+        -1: arc length falls along the list (most distal first, as a reference path must be);
+        +1: it rises (proximal first, i.e. reversed); 0: fewer than 2 positions along the
+        channel, or no clear trend.
+    median_step_m : float
+        Median change of arc length between consecutive positions along the channel (m,
+        signed; nan when undetermined).
+    """
+
+    median_offset_m: float
+    n_off: int
+    n_along: int
+    direction: int
+    median_step_m: float
+
+
+def path_placement(points_m, channel: Channel) -> PathPlacement:
+    """The gross placement of a path (m, in list order) along ``channel``: how far it lies from
+    the centreline and which way its positions run. Readers use it to refuse a path shifted off
+    its channel or listed proximal first before anything else is computed from it; the
+    per-position flags are :func:`check_reference_path`'s."""
+    ch = _channel(channel)
+    p = np.asarray(points_m, dtype=float).reshape(-1, 3)
+    s, d = _closest(ch, p)
+    along = (s >= 0.0) & (s <= ch.length_m) & (d <= OUTSIDE_DISTANCE_M)
+    ds = np.diff(s[along])
+    direction = 0
+    step = float("nan")
+    if ds.size:
+        step = float(np.median(ds))
+        rising, falling = int(np.count_nonzero(ds > 0)), int(np.count_nonzero(ds < 0))
+        if rising > 2 * falling and step > 0:
+            direction = 1
+        elif falling > 2 * rising and step < 0:
+            direction = -1
+    return PathPlacement(
+        float(np.median(d)),
+        int(np.count_nonzero(d > OUTSIDE_DISTANCE_M)),
+        int(np.count_nonzero(along)),
+        direction,
+        step,
+    )
 
 
 # --------------------------------------------------------------------------------------------

@@ -37,11 +37,18 @@ key, default "ring") with the top-level ``lumen``, ``s_ref_mm`` / ``tip_to_first
 ``measured_step_mm`` and optional ``ring_frame`` (fitted to the distal 40 mm of the centreline
 when absent).
 
-Every problem raises :class:`ApplicatorFileError` naming the file, the field and the fix.
+Every problem raises :class:`ApplicatorFileError` naming the file, the field and the fix. An
+unknown (misspelt) key is refused with the nearest known one (:data:`CHANNEL_KEYS` and its
+siblings are the one list of known keys); inline points are checked as point files are
+(:func:`ringqa.io.points.check_points`); a ring radius outside :data:`RING_RADIUS_MM`, a
+centreline listed tip first, and a measured path shifted off its channel, listed proximal first
+or spaced unlike its declared step are refused (:func:`path_problem`). CSV files read in another
+encoding than UTF-8 leave a note in ``metadata["notes"]``. Table: ``docs/input_checks.md``.
 """
 
 from __future__ import annotations
 
+import difflib
 import json
 import math
 import os
@@ -61,7 +68,8 @@ from ringqa.geometry import (
     fit_ring_frame,
 )
 from ringqa.geometry.lumen_spec import lumen_from_spec, lumen_to_spec
-from ringqa.io.points import PointSet, read_point_set
+from ringqa.geometry.registration import OUTSIDE_DISTANCE_M, path_placement
+from ringqa.io.points import PointSet, PointsFileError, check_points, read_point_set
 from ringqa.jsonio import json_text, to_jsonable
 from ringqa.outdir import atomic_write_text
 from ringqa.paths import data_dir
@@ -71,6 +79,33 @@ FORMAT = "ringqa-applicator"
 FORMAT_VERSION = 1
 SHIPPED_DIR = "applicators"
 FOLDER_FILE = "applicator.json"
+
+# The keys this reader knows: the ONE list each level is checked against (unknown keys are
+# refused with the nearest known one suggested; a misspelt key must not be silently ignored).
+#: keys of a channel object
+CHANNEL_KEYS = ("name", "centreline_mm", "centreline_file", "lumen", "s_ref_mm",
+                "tip_to_first_dwell_mm", "measured_path_mm", "measured_path_file",
+                "measured_relative_mm", "measured_step_mm", "measured_path_source",
+                "length_mm")  # fmt: skip
+#: keys of ``ring_frame``
+RING_FRAME_KEYS = ("centre_mm", "normal", "lateral", "radius_mm")
+#: top-level keys of an applicator file
+TOP_KEYS = ("format", "format_version", "name", "units", "conventions", "metadata",
+            "ring_frame", "channels")  # fmt: skip
+#: channel keys a folder's applicator.json gives at the top level (one channel beside
+#: centreline.csv), and the key naming that channel
+FOLDER_CHANNEL_KEYS = ("lumen", "s_ref_mm", "tip_to_first_dwell_mm", "measured_step_mm",
+                       "measured_path_source")  # fmt: skip
+FOLDER_KEYS = (*TOP_KEYS, "channel", *FOLDER_CHANNEL_KEYS)
+#: A ring applicator's radius (mm; the shipped rings are 13-17 mm): outside, another unit.
+RING_RADIUS_MM = (5.0, 50.0)
+#: The measured positions' median spacing may differ from the declared spacing by this factor
+#: (positions off the centreline in a 13 mm ring are spaced up to ~10 % more or less).
+SPACING_FACTOR = 1.25
+#: A measured path is refused as shifted off its channel when at least this share of its
+#: positions lie beyond ``OUTSIDE_DISTANCE_M`` (fewer: the commissioning run flags and leaves out
+#: single positions, see :mod:`ringqa.geometry.registration`).
+OFF_CHANNEL_SHARE = 0.75
 
 
 class ApplicatorFileError(InputFileError):
@@ -218,6 +253,23 @@ class _Reader:
     def __init__(self, path: Path, base: Path | None = None):
         self.path = path
         self.base = base if base is not None else path.parent
+        self.notes: list[str] = []  # for the user (e.g. a CSV read as Latin-1)
+
+    def known_keys(self, d, known: tuple[str, ...], where: str, also: str = "") -> None:
+        """Refuse a key of ``d`` not in ``known``, suggesting the nearest known key."""
+        if not isinstance(d, dict):
+            return
+        for key in d:
+            if key in known:
+                continue
+            field = f"{where}.{key}" if where else str(key)
+            near = difflib.get_close_matches(str(key), known, n=1, cutoff=0.6)
+            hint = f"did you mean {near[0]!r}?" if near else "remove or rename it."
+            if "diameter" in str(key):
+                hint += " The lumen is given by its radius: lumen.r_b_mm = diameter / 2."
+            raise self.fail(
+                field, f"unknown key{also}", f"{hint} Known keys here: {', '.join(known)}"
+            )
 
     def fail(self, field: str, problem: str, fix: str = "") -> ApplicatorFileError:
         return ApplicatorFileError(self.path, f"{field}: {problem}", fix)
@@ -282,7 +334,7 @@ class _Reader:
 
 def _load_json_file(path: Path) -> Applicator:
     try:
-        doc = json.loads(path.read_text())
+        doc = json.loads(path.read_text(encoding="utf-8-sig"))
     except UnicodeDecodeError:
         raise ApplicatorFileError(
             path, "not a text (JSON) file", "give an applicator .json"
@@ -306,11 +358,12 @@ def _load_folder(folder: Path) -> Applicator:
             "(see data/applicators/README.md)",
         )
     try:
-        doc = json.loads(spec.read_text())
+        doc = json.loads(spec.read_text(encoding="utf-8-sig"))
     except (json.JSONDecodeError, UnicodeDecodeError) as exc:
         raise ApplicatorFileError(spec, f"invalid JSON ({exc})", "fix the file") from None
     rd = _Reader(spec, folder)
     if isinstance(doc, dict) and "channels" not in doc:
+        rd.known_keys(doc, FOLDER_KEYS, "")
         cl_file = folder / "centreline.csv"
         if not cl_file.is_file():
             raise ApplicatorFileError(
@@ -321,19 +374,19 @@ def _load_folder(folder: Path) -> Applicator:
             "name": doc.get("channel", "ring"),
             "centreline_file": "centreline.csv",
         }
-        for key in ("lumen", "s_ref_mm", "tip_to_first_dwell_mm", "measured_step_mm",
-                    "measured_path_source"):  # fmt: skip
+        for key in FOLDER_CHANNEL_KEYS:
             if key in doc:
                 ch[key] = doc[key]
         if (folder / "measured_path.csv").is_file():
             ch["measured_path_file"] = "measured_path.csv"
-        doc = {**doc, "channels": [ch]}
+        doc = {k: v for k, v in doc.items() if k in TOP_KEYS} | {"channels": [ch]}
     return _from_dict(doc, rd)
 
 
 def _from_dict(doc, rd: _Reader) -> Applicator:
     if not isinstance(doc, dict):
         raise rd.fail("(top level)", "expected a JSON object", "see data/applicators/README.md")
+    rd.known_keys(doc, TOP_KEYS, "")
     fmt = doc.get("format", FORMAT)
     if fmt != FORMAT:
         raise rd.fail("format", f"{fmt!r} is not {FORMAT!r}", "is this an applicator file?")
@@ -352,6 +405,10 @@ def _from_dict(doc, rd: _Reader) -> Applicator:
     raw_channels = rd.get(doc, "channels", "")
     if not isinstance(raw_channels, list) or not raw_channels:
         raise rd.fail("channels", "expected a non-empty list of channel objects")
+    for i, c in enumerate(raw_channels):
+        name_i = c.get("name") if isinstance(c, dict) else None
+        rd.known_keys(c, CHANNEL_KEYS, f"channels[{i}]",
+                      f" in channel {name_i!r}" if isinstance(name_i, str) else "")  # fmt: skip
     metadata = doc.get("metadata", {})
     if not isinstance(metadata, dict):
         raise rd.fail("metadata", "expected a JSON object")
@@ -367,10 +424,12 @@ def _from_dict(doc, rd: _Reader) -> Applicator:
             for i, (c, p, ch) in enumerate(zip(raw_channels, plain, channels, strict=True))
         )
     else:
+        rd.known_keys(frame, RING_FRAME_KEYS, "ring_frame")
         centre = mm_to_m(rd.vector(frame, "centre_mm", "ring_frame"))
         normal = rd.vector(frame, "normal", "ring_frame")
         lateral = rd.vector(frame, "lateral", "ring_frame")
         radius = mm_to_m(rd.number(frame, "radius_mm", "ring_frame", positive=True))
+        _check_radius(m_to_mm(radius), "ring_frame.radius_mm", rd)
         for key, v in (("normal", normal), ("lateral", lateral)):
             n = float(np.linalg.norm(v))
             if n == 0:
@@ -380,6 +439,10 @@ def _from_dict(doc, rd: _Reader) -> Applicator:
         channels = tuple(
             _channel(c, f"channels[{i}]", rd, (centre, normal)) for i, c in enumerate(raw_channels)
         )
+    if rd.notes:
+        notes = metadata.get("notes", [])
+        notes = list(notes) if isinstance(notes, list | tuple) else [str(notes)]
+        metadata = {**metadata, "notes": list(dict.fromkeys([*notes, *rd.notes]))}
     try:
         return Applicator(
             name=name,
@@ -411,12 +474,61 @@ def _fit_frame(channels, rd: _Reader) -> RingFrame:
     s = np.linspace(max(0.0, cl.length_m - 0.04), cl.length_m, 81)
     frame = fit_ring_frame(cl.position(s), caudal_point_m=cl.position(0.0))
     if frame.rms_m > 0.5e-3:
+        if _is_circle(cl, proximal=True):
+            raise _tip_first_error(rd, f"channels[0] ({ch.name})")
         raise rd.fail(
             "ring_frame", f"missing, and the distal 40 mm of channel {ch.name!r} is not a circle "
             f"(rms {frame.rms_m * 1e3:.2f} mm)",
             "give ring_frame {centre_mm, normal, lateral, radius_mm}",
         )  # fmt: skip
+    _check_radius(m_to_mm(frame.radius_m), f"ring_frame (fitted to channel {ch.name!r})", rd)
     return frame
+
+
+def _check_radius(radius_mm: float, field: str, rd: _Reader) -> None:
+    lo, hi = RING_RADIUS_MM
+    if not lo <= radius_mm <= hi:
+        raise rd.fail(
+            field, f"ring radius {radius_mm:.4g} mm is implausible (ring applicators: {lo:g}-"
+            f"{hi:g} mm; the shipped rings 13-17 mm)",
+            "give millimetres (centimetres: multiply by 10) and the RADIUS, not the diameter",
+        )  # fmt: skip
+
+
+#: arc length (m) of a centreline end tested for being the ring's circle
+_END_M = 40.0e-3
+
+
+def _is_circle(cl: Centreline, proximal: bool) -> bool:
+    """Whether the proximal (else distal) 40 mm of ``cl`` are a ring-sized circular arc."""
+    if cl.length_m < 2 * _END_M:
+        return False
+    a, b = (0.0, _END_M) if proximal else (cl.length_m - _END_M, cl.length_m)
+    try:
+        frame = fit_ring_frame(cl.position(np.linspace(a, b, 81)))
+    except (GeometryError, np.linalg.LinAlgError, ValueError):
+        return False
+    lo, hi = RING_RADIUS_MM
+    return frame.rms_m < 0.5e-3 and lo <= m_to_mm(frame.radius_m) <= hi
+
+
+def _tip_first_error(rd: _Reader, where: str) -> ApplicatorFileError:
+    return rd.fail(
+        f"{where}.centreline", "runs from the tip to the entry: its FIRST 40 mm are the ring's "
+        "circle and its last 40 mm are not",
+        "list the centreline points PROXIMAL (channel entry) first and the lumen tip last "
+        "(reverse the rows)",
+    )  # fmt: skip
+
+
+def _inline_points(rd: _Reader, v, field: str, kind: str) -> np.ndarray:
+    """Points (mm) given in the applicator file, checked as a point file's are."""
+    pts = rd.points(v, field)
+    try:
+        check_points(rd.path, pts, None, [f"{field}[{i}]" for i in range(len(pts))], kind)
+    except PointsFileError as exc:
+        raise ApplicatorFileError(rd.path, f"{field}: {exc.problem}", exc.fix) from None
+    return pts
 
 
 def _read_csv_points(rd: _Reader, field: str, name, kind: str) -> np.ndarray:
@@ -427,7 +539,9 @@ def _read_csv_point_set(rd: _Reader, field: str, name, kind: str) -> PointSet:
     if not isinstance(name, str):
         raise rd.fail(field, f"expected a file name, got {name!r}")
     p = (rd.base / name).resolve()
-    return read_point_set(p, kind=kind)  # raises PointsFileError naming the file
+    pset = read_point_set(p, kind=kind)  # raises PointsFileError naming the file
+    rd.notes.extend(pset.notes)
+    return pset
 
 
 def _channel(c, where: str, rd: _Reader, ring_frame=None) -> Channel:
@@ -438,7 +552,8 @@ def _channel(c, where: str, rd: _Reader, ring_frame=None) -> Channel:
         raise rd.fail(f"{where}.name", "expected a non-empty string")
     where = f"{where} ({name})"
     if "centreline_mm" in c:
-        pts_m = mm_to_m(rd.points(c["centreline_mm"], f"{where}.centreline_mm"))
+        pts_m = mm_to_m(_inline_points(rd, c["centreline_mm"], f"{where}.centreline_mm",
+                                       "centreline"))  # fmt: skip
     elif "centreline_file" in c:
         pts_m = _read_csv_points(rd, f"{where}.centreline_file", c["centreline_file"], "centreline")
     else:
@@ -449,6 +564,8 @@ def _channel(c, where: str, rd: _Reader, ring_frame=None) -> Channel:
         cl = Centreline.from_points(pts_m)
     except GeometryError as exc:
         raise rd.fail(f"{where}.centreline_mm", str(exc)) from None
+    if _is_circle(cl, proximal=True) and not _is_circle(cl, proximal=False):
+        raise _tip_first_error(rd, where)
     lumen = _lumen(rd.get(c, "lumen", where), f"{where}.lumen", rd, ring_frame)
     path_m, rel_m, origin = _measured_path(c, where, rd)
     step = rd.number(c, "measured_step_mm", where, default=None, positive=True)
@@ -457,7 +574,7 @@ def _channel(c, where: str, rd: _Reader, ring_frame=None) -> Channel:
         step_m = _path_spacing(path_m, rel_m, step_m, where, rd)
     s_ref = _s_ref(c, where, rd, cl, path_m)
     try:
-        return Channel(
+        channel = Channel(
             name=name,
             centreline=cl,
             lumen=lumen,
@@ -469,6 +586,57 @@ def _channel(c, where: str, rd: _Reader, ring_frame=None) -> Channel:
         )
     except GeometryError as exc:
         raise rd.fail(where, str(exc)) from None
+    if path_m is not None:
+        problem = path_problem(channel, path_m, rel_m, step)
+        if problem:
+            raise rd.fail(f"{where}.measured_path", *problem)
+    return channel
+
+
+def path_problem(channel: Channel, path_m, rel_m=None, step_mm=None) -> tuple[str, str] | None:
+    """``(problem, fix)`` when a measured path (m, most distal first) is grossly wrong for its
+    channel, else None: shifted off the channel (farther from the centreline than
+    :data:`~ringqa.geometry.registration.OUTSIDE_DISTANCE_M`), listed proximal first, or spaced
+    unlike its declared step / relative positions (by more than :data:`SPACING_FACTOR`); shifted
+    means at least :data:`OFF_CHANNEL_SHARE` of the positions off the channel. The
+    per-position checks are :func:`ringqa.geometry.registration.check_reference_path`'s."""
+    path = np.asarray(path_m, dtype=float)
+    place = path_placement(path, channel)
+    if place.n_off >= OFF_CHANNEL_SHARE * len(path):
+        return (
+            f"the positions lie a median {m_to_mm(place.median_offset_m):.1f} mm from the "
+            f"centreline of channel {channel.name!r}, {place.n_off} of {len(path)} farther than "
+            f"{m_to_mm(OUTSIDE_DISTANCE_M):g} mm (a source centre lies within a lumen radius of "
+            "it): the path as a whole is not along the channel",
+            "give the path in the same coordinates as the centreline (is it shifted, or in "
+            "another frame or unit?)",
+        )
+    if place.direction > 0:
+        return (
+            "the positions run from the entry towards the tip (arc length rises by "
+            f"{m_to_mm(place.median_step_m):.2f} mm per position), but a measured path lists "
+            "source positions MOST DISTAL FIRST",
+            "reverse the order of the rows (most distal position, relative position 0, first)",
+        )
+    if len(path) >= 2:
+        gaps = np.linalg.norm(np.diff(path, axis=0), axis=1)
+        if rel_m is not None:
+            declared = np.diff(np.asarray(rel_m, dtype=float))
+            what = "the relative positions step by"
+        elif step_mm is not None:
+            declared = np.full(gaps.size, mm_to_m(step_mm))
+            what = "measured_step_mm says"
+        else:
+            return None
+        ratio = float(np.median(gaps / declared))
+        if not 1 / SPACING_FACTOR <= ratio <= SPACING_FACTOR:
+            return (
+                f"consecutive positions are {m_to_mm(float(np.median(gaps))):.3g} mm apart "
+                f"(median) but {what} {m_to_mm(float(np.median(declared))):.3g} mm",
+                "correct measured_step_mm (or the relative positions) to the path's spacing, "
+                "or check that every position is listed once",
+            )
+    return None
 
 
 #: ``s_ref_mm`` value asking for s_ref at the measured path's first position (an estimate).
@@ -485,7 +653,8 @@ def _measured_path(c: dict, where: str, rd: _Reader):
         )  # fmt: skip
     rel_mm = None
     if c.get("measured_path_mm") is not None:
-        path_m = mm_to_m(rd.points(c["measured_path_mm"], f"{where}.measured_path_mm"))
+        path_m = mm_to_m(_inline_points(rd, c["measured_path_mm"], f"{where}.measured_path_mm",
+                                        "path"))  # fmt: skip
         if c.get("measured_relative_mm") is not None:
             rel_mm = rd.numbers(c["measured_relative_mm"], f"{where}.measured_relative_mm")
         default_origin = f"user file {rd.path.name}"

@@ -324,7 +324,14 @@ def address_transform(lib: OncentraLibrary, address: str) -> np.ndarray:
         a = ".".join(parts[:k])
         if a not in lib.transforms:
             raise LibraryFormatError(f"no transform for joint address {a!r}")
-        m = m @ lib.transforms[a]
+        t = lib.transforms[a]
+        if not np.all(np.isfinite(t)):
+            bad = [f"{v:g}" for v in t.ravel() if not np.isfinite(v)]
+            raise LibraryFormatError(
+                f"the transform for joint address {a!r} has non-finite entries "
+                f"({', '.join(sorted(set(bad)))}): every point of the part would be undefined"
+            )
+        m = m @ t
     return m
 
 
@@ -382,7 +389,17 @@ def library_channel(
         in_part = (sp.positions - c_path) @ rot.T + c_part
         measured, name, step = to_patient(in_part), sp.path_id, sp.step
         origin = sp.origin
+        if step is not None and not (np.isfinite(step) and step > 0):
+            raise LibraryFormatError(
+                f"source path {name!r}: stepsize {step:g} is not a positive finite spacing (mm)"
+            )
         break
+    for what, value in (("lumen diameter", part.lumen_diameter), ("tipLength", part.tip_length)):
+        if value is not None and not np.isfinite(value):
+            raise LibraryFormatError(f"part {part_id}: {what} is {value:g}, not a finite number")
+    for what, pts in (("centre curve", centreline), ("marker1", marker), ("source path", measured)):
+        if pts is not None and not np.all(np.isfinite(pts)):
+            raise LibraryFormatError(f"part {part_id}: {what} has non-finite coordinates")
     return LibraryChannel(
         name=label,
         role=_role(part.description, label),

@@ -33,6 +33,7 @@ from ringqa.errors import InputFileError
 from ringqa.geometry import Applicator, Centreline, Channel, Lumen, fit_ring_frame
 from ringqa.geometry.lumen import FlatSide
 from ringqa.geometry.parametric import FLAT_MM, LUMEN_SOURCE
+from ringqa.io.applicator_file import RING_RADIUS_MM, path_problem
 from ringqa.units import m_to_mm, mm_to_m
 
 #: Contact-transition radius below the wall radius (paper: r_b 1.5 mm, r_a 1.4 mm).
@@ -41,6 +42,12 @@ RA_BELOW_RB_MM = 0.1
 MARKER_FROM_TIP_MM = 5.0
 #: Points within this distance (mm) of the fitted circle belong to the ring's circular part.
 ON_CIRCLE_MM = 0.02
+#: A library lumen diameter above this (mm) is not a brachytherapy channel.
+MAX_LUMEN_DIAMETER_MM = 20.0
+#: Notices of :func:`ringqa.io.rtplan.read_rtplan` meaning the library could not be used: the
+#: applicator is refused with them rather than built from what is left.
+_LIBRARY_UNUSABLE = "library not usable"
+_LIBRARY_UNREADABLE = "applicator library (300B,100D) not readable"
 
 
 @dataclass(frozen=True)
@@ -153,6 +160,14 @@ def applicator_from_rtplan(plan):
     InputFileError
         The plan has no applicator library (other TPSs) or no ring channel in it.
     """
+    unusable = [w for w in plan.warnings if _LIBRARY_UNUSABLE in w or _LIBRARY_UNREADABLE in w]
+    if unusable:
+        raise InputFileError(
+            plan.path,
+            "the embedded Oncentra applicator library cannot be used: " + "; ".join(unusable),
+            "export the plan again from Oncentra, or give the applicator instead (a shipped name "
+            "such as ring26x60, or a folder with the centreline and measured path CSV files)",
+        )
     if not plan.library:
         raise InputFileError(
             plan.path,
@@ -177,6 +192,15 @@ def applicator_from_rtplan(plan):
     ring_cl_mm = roles["ring"].centreline_mm
     tandem_tip = roles["tandem"].centreline_mm[-1] if "tandem" in roles else None
     circle = fit_ring_circle(ring_cl_mm, tandem_tip_mm=tandem_tip)
+    lo, hi = RING_RADIUS_MM
+    if not lo <= circle.radius_mm <= hi:
+        raise InputFileError(
+            plan.path,
+            f"library part {roles['ring'].part_id} (ring): the fitted ring radius "
+            f"{circle.radius_mm:.4g} mm is implausible (ring applicators: {lo:g}-{hi:g} mm)",
+            "the library is not in millimetres or its ring is damaged: export the plan again, or "
+            "give the applicator instead",
+        )
     for number, lc in sorted(plan.library.items()):
         name = lc.role if lc.role in ("ring", "tandem") else lc.name or f"channel {number}"
         if any(c.name == name for c in channels):
@@ -187,6 +211,14 @@ def applicator_from_rtplan(plan):
         if diam is None:
             raise InputFileError(
                 plan.path, f"library part {lc.part_id} (channel {number}) has no lumen diameter"
+            )
+        if not 2 * RA_BELOW_RB_MM < diam <= MAX_LUMEN_DIAMETER_MM:
+            raise InputFileError(
+                plan.path,
+                f"library part {lc.part_id} (channel {number}): <lumen diameter> is {diam:g} mm, "
+                f"not a lumen (a diameter is positive, at most {MAX_LUMEN_DIAMETER_MM:g} mm; "
+                "ring and tandem lumens are 2-4 mm)",
+                "the library is damaged: export the plan again, or give the applicator instead",
             )
         r_b = 0.5 * diam
         r_a = r_b - RA_BELOW_RB_MM
@@ -222,17 +254,26 @@ def applicator_from_rtplan(plan):
             notes.append(f"channel {name}: no marker in the library; s_ref = {how}")
         path_m = None if lc.measured_path_mm is None else mm_to_m(lc.measured_path_mm)
         step_m = None if lc.measured_step_mm is None else mm_to_m(lc.measured_step_mm)
-        channels.append(
-            Channel(
-                name=name,
-                centreline=centreline,
-                lumen=lumen,
-                s_ref_m=mm_to_m(s_ref_mm),
-                measured_path_m=path_m,
-                measured_step_m=step_m,
-                measured_source=lc.measured_path_origin if path_m is not None else "",
-            )
+        channel = Channel(
+            name=name,
+            centreline=centreline,
+            lumen=lumen,
+            s_ref_m=mm_to_m(s_ref_mm),
+            measured_path_m=path_m,
+            measured_step_m=step_m,
+            measured_source=lc.measured_path_origin if path_m is not None else "",
         )
+        if path_m is not None:
+            problem = path_problem(channel, path_m, None, lc.measured_step_mm)
+            if problem:
+                raise InputFileError(
+                    plan.path,
+                    f"library source path {lc.measured_path_name!r} (part {lc.part_id}, channel "
+                    f"{number}): {problem[0]}",
+                    problem[1].replace("the rows", "the positions")
+                    + "; or give the applicator with a corrected measured path",
+                )
+        channels.append(channel)
         info[name] = {
             "plan_channel": number,
             "library_part": lc.part_id,

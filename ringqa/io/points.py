@@ -6,6 +6,8 @@ CSV
     A header row with the columns ``x_mm, y_mm, z_mm`` (any order, extra columns ignored) and
     optionally ``relative_position_mm``. Blank lines and lines starting with ``#`` are skipped.
     Separator: comma (else ``;`` or tab, as found in the header); decimal point ``.``.
+    Encoding: UTF-8 (with or without BOM), UTF-16 with its BOM, else Latin-1 (a German Excel's
+    comment); :attr:`PointSet.encoding` records it, :attr:`PointSet.notes` says when not UTF-8.
 JSON
     ``{"units": "mm", "points": [[x, y, z], ...], "relative_position_mm": [...]}`` (the last key
     optional), or the column form ``{"x_mm": [...], "y_mm": [...], "z_mm": [...]}``.
@@ -17,9 +19,9 @@ Ordering conventions
     positions MOST DISTAL FIRST (relative positions 0, step, 2 step, ...), as afterloaders and
     TPSs number them.
 
-Every problem (missing file or column, metres instead of millimetres, NaN, duplicated or
-unordered points, too few points) raises :class:`PointsFileError` naming the file, the row or
-column and the fix.
+Every problem (missing file or column, metres, centimetres or micrometres instead of
+millimetres, a huge offset, NaN, duplicated or unordered points, too few points) raises
+:class:`PointsFileError` naming the file, the row or column and the fix.
 """
 
 from __future__ import annotations
@@ -50,6 +52,13 @@ DUPLICATE_TOL_MM = 1.0e-3
 METRE_SPAN_MM = 1.0
 #: Consecutive segments turning by more than this (deg) mean the points are out of order.
 TURN_BACK_DEG = 100.0
+#: No applicator point lies farther than this (mm) from the origin of any patient or applicator
+#: frame (DICOM patient coordinates stay within about 1 m): larger values are another unit.
+MAX_COORDINATE_MM = 1.0e4
+#: A centreline shorter or longer than this (mm) is in another unit (cm, m, um) or not a channel.
+CENTRELINE_LENGTH_MM = (20.0, 5000.0)
+#: Encodings tried, in order, for CSV files (name used in notes, codec). UTF-16 only with its BOM.
+CSV_ENCODINGS = (("UTF-8", "utf-8"), ("Latin-1", "latin-1"))
 
 
 class PointsFileError(InputFileError):
@@ -73,6 +82,13 @@ class PointSet:
     labels : tuple of str
         Where each point is in the file (``"line 7"`` in a CSV, ``"point 3"`` in JSON), for
         messages about single points found later (e.g. by the centreline correction).
+    encoding : str
+        The text encoding the file was read with: ``"UTF-8"``, ``"UTF-8 with BOM"``,
+        ``"UTF-16"`` or ``"Latin-1"`` (the fallback when the file is not UTF-8, e.g. a comment
+        written by a German Excel).
+    notes : tuple of str
+        Things the caller should show the user (e.g. the Latin-1 fallback); empty when the file
+        was plain UTF-8.
     """
 
     points_m: np.ndarray
@@ -80,6 +96,8 @@ class PointSet:
     kind: str
     path: str
     labels: tuple[str, ...] = ()
+    encoding: str = "UTF-8"
+    notes: tuple[str, ...] = ()
 
 
 def read_points(path: str | Path, kind: str = "centreline") -> np.ndarray:
@@ -115,22 +133,58 @@ def read_point_set(path: str | Path, kind: str = "centreline") -> PointSet:
     if not p.is_file():
         raise PointsFileError(p, "file not found", "check the path")
     suffix = p.suffix.lower()
+    encoding = "UTF-8"
     if suffix == ".csv":
-        pts, rel, labels = _read_csv(p)
+        text, encoding = read_text_any(p)
+        pts, rel, labels = _read_csv(p, text)
     elif suffix == ".json":
         pts, rel, labels = _read_json(p)
     else:
         raise PointsFileError(
             p, f"unknown file type {p.suffix!r}", "use a .csv (x_mm,y_mm,z_mm) or .json file"
         )
-    _check(p, pts, rel, labels, kind)
+    check_points(p, pts, rel, labels, kind)
+    notes = ()
+    if encoding in ("Latin-1", "UTF-16"):
+        notes = (
+            f"{p.name}: not UTF-8, read as {encoding}; the numbers are unaffected, but check any "
+            "non-ASCII text (comments, labels) and save the file as UTF-8 to silence this note",
+        )
     return PointSet(
         points_m=np.ascontiguousarray(mm_to_m(pts)),
         relative_position_mm=None if rel is None else np.ascontiguousarray(rel),
         kind=kind,
         path=str(p),
         labels=tuple(labels),
+        encoding=encoding,
+        notes=notes,
     )
+
+
+def read_text_any(p: Path) -> tuple[str, str]:
+    """The text of ``p`` and the encoding used: UTF-8 (with or without BOM), UTF-16 (with its
+    BOM, as Excel's "Unicode text" writes it), else Latin-1 (which decodes any bytes: the
+    fallback for files from a non-UTF-8 Excel or editor)."""
+    try:
+        raw = p.read_bytes()
+    except OSError as exc:
+        raise PointsFileError(p, f"cannot be read ({exc.strerror})", "check the path") from None
+    if raw.startswith(b"\xef\xbb\xbf"):
+        try:
+            return raw[3:].decode("utf-8"), "UTF-8 with BOM"
+        except UnicodeDecodeError:
+            pass
+    if raw.startswith((b"\xff\xfe", b"\xfe\xff")):
+        try:
+            return raw.decode("utf-16"), "UTF-16"
+        except UnicodeDecodeError:
+            pass
+    for name, codec in CSV_ENCODINGS:
+        try:
+            return raw.decode(codec), name
+        except UnicodeDecodeError:
+            continue
+    raise PointsFileError(p, "not a text file", "save it as a CSV")  # unreachable: Latin-1
 
 
 def write_points(
@@ -200,11 +254,9 @@ def _metre_columns_error(p: Path, header: list[str]) -> PointsFileError | None:
     return None
 
 
-def _read_csv(p: Path) -> tuple[np.ndarray, np.ndarray | None, list[str]]:
-    try:
-        text = p.read_text(encoding="utf-8-sig")
-    except (UnicodeDecodeError, OSError) as exc:
-        raise PointsFileError(p, f"cannot read as UTF-8 text ({exc})", "save it as a CSV") from None
+def _read_csv(p: Path, text: str) -> tuple[np.ndarray, np.ndarray | None, list[str]]:
+    if "\x00" in text:
+        raise PointsFileError(p, "contains NUL bytes: not a text (CSV) file", "save it as a CSV")
     lines = [
         (n, line)
         for n, line in enumerate(text.splitlines(), start=1)
@@ -336,7 +388,13 @@ def _json_number(p: Path, where: str, v) -> float:
 # checks
 
 
-def _check(p: Path, pts: np.ndarray, rel: np.ndarray | None, labels, kind: str) -> None:
+def check_points(p, pts: np.ndarray, rel: np.ndarray | None, labels, kind: str) -> None:
+    """Refuse points (mm, file order) that cannot be what ``kind`` says: too few, in another unit
+    (metres, centimetres, micrometres, a huge offset), duplicated or out of order.
+
+    ``p`` names the file in messages, ``labels`` each point (``"line 7"``); used for CSV and
+    JSON point files and for points given inline in an applicator file.
+    """
     n = len(pts)
     name = KIND_NAMES[kind]
     if n < MIN_POINTS[kind]:
@@ -351,6 +409,16 @@ def _check(p: Path, pts: np.ndarray, rel: np.ndarray | None, labels, kind: str) 
             p,
             f"all points lie within {span:.3g} mm of each other: this looks like metres",
             "write coordinates in millimetres (multiply by 1000)",
+        )
+    far = np.abs(pts).max(axis=1)
+    if float(far.max()) > MAX_COORDINATE_MM:
+        k = int(np.argmax(far))
+        raise PointsFileError(
+            p,
+            f"{labels[k]} has a coordinate of {pts[k][np.argmax(np.abs(pts[k]))]:.6g} mm: no "
+            f"applicator lies {MAX_COORDINATE_MM / 1000:g} m from the origin",
+            "write coordinates in millimetres (micrometres: divide by 1000) in the patient or "
+            "applicator frame, without a large offset",
         )
     steps = np.linalg.norm(np.diff(pts, axis=0), axis=1)
     dup = np.flatnonzero(steps < DUPLICATE_TOL_MM)
@@ -398,3 +466,20 @@ def _check(p: Path, pts: np.ndarray, rel: np.ndarray | None, labels, kind: str) 
         raise PointsFileError(
             p, f"{labels[j]} repeats the point of {labels[i]}", "remove duplicated points"
         )
+    if kind == "centreline":
+        length = float(steps.sum())
+        lo, hi = CENTRELINE_LENGTH_MM
+        if length < lo:
+            raise PointsFileError(
+                p,
+                f"the centreline is only {length:.4g} mm long (an applicator channel is "
+                f"{lo:g}-{hi:g} mm): this looks like centimetres",
+                "write coordinates in millimetres (centimetres: multiply by 10)",
+            )
+        if length > hi:
+            raise PointsFileError(
+                p,
+                f"the centreline is {length:.6g} mm long (an applicator channel is "
+                f"{lo:g}-{hi:g} mm): this looks like micrometres or another unit",
+                "write coordinates in millimetres (micrometres: divide by 1000)",
+            )

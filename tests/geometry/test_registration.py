@@ -507,3 +507,20 @@ def test_example_registrations(oncentra):
     assert free.converged and free.rotation_deg > 20.0
     slide = np.mean(free.after.s_m[free.used] - free.before.s_m[free.used])
     assert slide > 4.0 * MM
+
+
+def test_path_placement_direction_and_offset():
+    """path_placement (the readers' gross check): a path on ring26x60's ring channel, most distal
+    first, runs -1 with a median step of -2.5 mm; reversed +1; moved 20 mm, every position off."""
+    from ringqa.geometry import ring_applicator
+    from ringqa.geometry.registration import path_placement
+
+    ring = ring_applicator(26, 60).channel("ring")
+    path = ring.centreline.position(ring.s_ref_m - np.arange(20) * 2.5e-3)
+    place = path_placement(path, ring)
+    assert place.direction == -1 and place.n_off == 0 and place.n_along == 20
+    assert place.median_step_m == pytest.approx(-2.5e-3, abs=1e-6)
+    assert place.median_offset_m < 1e-6
+    assert path_placement(path[::-1], ring).direction == 1
+    shifted = path_placement(path + np.array([0.0, 0.0, 0.02]), ring)
+    assert shifted.n_off == 20 and shifted.median_offset_m == pytest.approx(0.02, abs=1e-4)

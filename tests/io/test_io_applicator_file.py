@@ -264,3 +264,165 @@ def test_parametric_26x60_reproduces_the_oncentra_library(repo_root):
     assert dev_mm[b <= 0.060].max() < 0.1
     assert dev_mm[(b > 0.060) & (b <= 0.090)].max() < 1.2
     assert dev_mm[b > 0.090].max() < 1.5
+
+
+# --------------------------------------------------------------------------------------------
+# plausibility (issue 18: nothing wrong passes silently). Bad inputs are built from the shipped
+# ring26x60 (data/applicators) one change at a time; every refusal names the file, the field,
+# the value and the fix.
+
+
+def _shipped_doc(repo_root, name="ring26x60"):
+    return json.loads((repo_root / "data" / "applicators" / f"{name}.json").read_text())
+
+
+def _write(tmp_path, doc, name="bad.json"):
+    p = tmp_path / name
+    p.write_text(json.dumps(doc))
+    return p
+
+
+def _refused(path, *words):
+    """Load ``path`` (a file, or a folder: its applicator.json is named), expect an
+    ApplicatorFileError naming the file and every word."""
+    with pytest.raises(ApplicatorFileError) as info:
+        load_applicator(path)
+    msg = str(info.value)
+    name = "applicator.json" if Path(path).is_dir() else Path(path).name
+    for w in (name, *words):
+        assert w in msg, (w, msg)
+    return msg
+
+
+@pytest.mark.parametrize(
+    ("mutate", "field", "suggestion"),
+    [
+        (lambda d: d["channels"][0].update(sref_mm=d["channels"][0].pop("s_ref_mm")),
+         "channels[0].sref_mm", "did you mean 's_ref_mm'"),
+        (lambda d: d["channels"][1].update(lumen_diameter_mm=2.5),
+         "channels[1].lumen_diameter_mm", "r_b_mm = diameter / 2"),
+        (lambda d: d["ring_frame"].update(radius=13.0), "ring_frame.radius",
+         "did you mean 'radius_mm'"),
+        (lambda d: d.update(chanels=[]), "chanels", "did you mean 'channels'"),
+        (lambda d: d["channels"][0]["lumen"].update(rb_mm=1.5), "lumen.rb_mm",
+         "did you mean 'r_b_mm'"),
+    ],
+)  # fmt: skip
+def test_unknown_or_misspelt_key_is_refused_with_the_nearest_key(
+    tmp_path, repo_root, mutate, field, suggestion
+):
+    doc = _shipped_doc(repo_root)
+    mutate(doc)
+    msg = _refused(_write(tmp_path, doc), field, "unknown", suggestion)
+    assert "keys" in msg  # the known keys are listed
+
+
+def test_unknown_key_in_a_folder_applicator_json(tmp_path):
+    """The folder form's top level (lumen, s_ref_mm, ... beside centreline.csv) is checked too."""
+    rel = np.arange(0.0, 0.0301, 0.0025)
+    _ring_folder(tmp_path, rel, {"measured_step_mm": 2.5, "sref_mm": 142.9})
+    _refused(tmp_path, "sref_mm", "unknown", "did you mean 's_ref_mm'")
+
+
+def test_centreline_csv_with_a_latin1_comment_is_read_with_a_note(tmp_path):
+    """A centreline.csv saved by a German Excel (Latin-1 comment) loads; the applicator's notes
+    say it was read as Latin-1."""
+    rel = np.arange(0.0, 0.0301, 0.0025)
+    _ring_folder(tmp_path, rel, {"measured_step_mm": 2.5, "s_ref_mm": "from_measured_path"})
+    cl = tmp_path / "centreline.csv"
+    cl.write_bytes("# Länge gemessen, Ø 26 mm, Bögen geprüft\n".encode("latin-1") + cl.read_bytes())
+    app = load_applicator(tmp_path)
+    notes = app.metadata["notes"]
+    assert any("centreline.csv" in n and "Latin-1" in n for n in notes), notes
+
+
+def test_coordinates_in_centimetres_inline_are_refused(tmp_path, repo_root):
+    """The ring centreline divided by 10 (cm): 28 mm long in 'mm' is plausible, so the tandem (12
+    mm in cm) names the unit; the ring frame's radius in cm too."""
+    doc = _shipped_doc(repo_root)
+    doc["channels"][1]["centreline_mm"] = [
+        [v / 10 for v in p] for p in doc["channels"][1]["centreline_mm"]
+    ]
+    _refused(_write(tmp_path, doc), "channels[1] (tandem).centreline_mm", "centimetres",
+             "multiply by 10")  # fmt: skip
+    doc = _shipped_doc(repo_root)
+    doc["ring_frame"]["radius_mm"] = 1.3
+    _refused(_write(tmp_path, doc), "ring_frame.radius_mm", "1.3 mm", "implausible",
+             "multiply by 10")  # fmt: skip
+
+
+def test_huge_coordinates_are_refused(tmp_path, repo_root):
+    doc = _shipped_doc(repo_root)
+    doc["channels"][0]["centreline_mm"][3][0] = 2.5e6
+    _refused(_write(tmp_path, doc), "channels[0] (ring).centreline_mm[3]", "2.5e+06 mm",
+             "micrometres")  # fmt: skip
+
+
+def test_tip_first_centreline_is_named(tmp_path, repo_root):
+    """The ring centreline listed tip first: with the ring frame given and without it (where the
+    frame fit used to say 'not a circle'), the message names the order and the fix."""
+    doc = _shipped_doc(repo_root)
+    doc["channels"][0]["centreline_mm"].reverse()
+    _refused(_write(tmp_path, doc), "channels[0] (ring).centreline", "tip to the entry",
+             "reverse the rows")  # fmt: skip
+    del doc["ring_frame"]
+    _refused(_write(tmp_path, doc), "channels[0] (ring).centreline", "tip to the entry",
+             "reverse the rows")  # fmt: skip
+
+
+def test_decreasing_s_breaks_and_negative_radius_are_named(tmp_path, repo_root):
+    doc = _shipped_doc(repo_root)
+    doc["channels"][0]["lumen"] = {"kind": "stepped", "s_breaks_mm": [100.0, 60.0],
+                                   "r_b_mm": [1.5, 1.6, 1.5]}  # fmt: skip
+    _refused(_write(tmp_path, doc), "lumen.s_breaks_mm", "100 then 60 mm", "do not increase",
+             "increasing")  # fmt: skip
+    doc = _shipped_doc(repo_root)
+    doc["channels"][1]["lumen"]["r_b_mm"] = -1.25
+    _refused(_write(tmp_path, doc), "lumen.r_b_mm", "-1.25", "positive")
+
+
+def _with_path(repo_root, path_mm, step_mm=2.5):
+    doc = _shipped_doc(repo_root)
+    doc["channels"][0]["measured_path_mm"] = np.asarray(path_mm).tolist()
+    doc["channels"][0]["measured_step_mm"] = step_mm
+    return doc
+
+
+def _ring_path_mm(n=20, step=2.5e-3):
+    ring = ring_applicator(26, 60).channel("ring")
+    return ring.centreline.position(ring.s_ref_m - np.arange(n) * step) * 1e3
+
+
+def test_measured_path_on_the_channel_is_accepted(tmp_path, repo_root):
+    app = load_applicator(_write(tmp_path, _with_path(repo_root, _ring_path_mm())))
+    assert app.channel("ring").measured_path_m.shape == (20, 3)
+
+
+def test_reversed_measured_path_is_refused_with_the_fix(tmp_path, repo_root):
+    """Proximal first (inline and as measured_path.csv in a folder): 'reverse the rows'."""
+    doc = _with_path(repo_root, _ring_path_mm()[::-1])
+    _refused(_write(tmp_path, doc), "channels[0] (ring).measured_path", "MOST DISTAL FIRST",
+             "reverse the order of the rows")  # fmt: skip
+    folder = tmp_path / "folder"
+    folder.mkdir()
+    rel = np.arange(0.0, 0.0301, 0.0025)
+    _ring_folder(folder, rel, {"measured_step_mm": 2.5, "s_ref_mm": 142.9})
+    mp = folder / "measured_path.csv"
+    lines = mp.read_text().splitlines()
+    mp.write_text("\n".join([lines[0], *lines[:0:-1]]) + "\n")
+    _refused(folder, "measured_path", "reverse the order of the rows")
+
+
+def test_shifted_measured_path_is_refused_naming_the_distance(tmp_path, repo_root):
+    """The path moved 20 mm along the ring normal: every position is 20 mm off the channel."""
+    doc = _with_path(repo_root, _ring_path_mm() + np.array([0.0, 0.0, 20.0]))
+    _refused(_write(tmp_path, doc), "channels[0] (ring).measured_path", "median 20.0 mm",
+             "same coordinates as the centreline")  # fmt: skip
+
+
+def test_declared_step_unlike_the_spacing_is_refused(tmp_path, repo_root):
+    """measured_step_mm 5 for positions 2.5 mm apart (the hole beside the existing refusal of a
+    step that contradicts relative positions)."""
+    doc = _with_path(repo_root, _ring_path_mm(), step_mm=5.0)
+    _refused(_write(tmp_path, doc), "channels[0] (ring).measured_path", "2.5 mm apart",
+             "measured_step_mm says 5 mm", "correct measured_step_mm")  # fmt: skip

@@ -111,3 +111,82 @@ def test_plan_without_library_cannot_give_an_applicator(rtplan_factory):
     plan = read_rtplan(rtplan_factory())
     with pytest.raises(RingQAError, match="no embedded applicator library"):
         applicator_from_rtplan(plan)
+
+
+# --------------------------------------------------------------------------------------------
+# plausibility of the embedded library (issue 18): the shipped example with one thing broken in
+# its library XML, written to a new plan.
+
+
+def _broken_example(root, tmp_path, old: str, new: str):
+    """The example plan with ``old`` replaced by ``new`` (once) in its library XML."""
+    import gzip
+
+    import pydicom
+
+    from ringqa.io import oncentra
+
+    ds = pydicom.dcmread(root.joinpath(*EXAMPLE))
+    el = ds.ApplicationSetupSequence[0][oncentra.LIBRARY_TAG]
+    text = oncentra.decode_library(el.value)
+    assert text.count(old) == 1
+    el.value = gzip.compress(text.replace(old, new).encode("utf-16"))
+    out = tmp_path / "RP_broken.dcm"
+    ds.save_as(out)
+    return out
+
+
+@pytest.mark.parametrize(
+    ("address", "old"),
+    [("@", 'matrix="-0.9944154088620123 '), ("@.IU", 'matrix="1.0000000000000007 ')],
+)
+def test_nan_in_a_library_transform_is_refused_naming_it(request, tmp_path, address, old):
+    """A NaN in a joint's transform used to give NaN centrelines: now the plan reads (dwells,
+    with a notice) and the applicator is refused naming the joint address."""
+    from ringqa.errors import InputFileError
+    from ringqa.io.rtplan import applicator_from_rtplan
+
+    path = _broken_example(request.config.rootpath, tmp_path, old, 'matrix="NaN ')
+    plan = read_rtplan(path)
+    assert any(f"joint address {address!r}" in w for w in plan.warnings), plan.warnings
+    with pytest.raises(InputFileError) as info:
+        applicator_from_rtplan(plan)
+    msg = str(info.value)
+    for w in ("RP_broken.dcm", f"joint address {address!r}", "non-finite", "nan",
+              "export the plan again"):  # fmt: skip
+        assert w in msg, (w, msg)
+
+
+def test_negative_lumen_diameter_is_refused_naming_the_part(request, tmp_path):
+    from ringqa.errors import InputFileError
+    from ringqa.io.rtplan import applicator_from_rtplan
+
+    path = _broken_example(request.config.rootpath, tmp_path, '<lumen diameter="3" />',
+                           '<lumen diameter="-3" />')  # fmt: skip
+    with pytest.raises(InputFileError) as info:
+        applicator_from_rtplan(read_rtplan(path))
+    msg = str(info.value)
+    for w in ("RP_broken.dcm", "library part", "(channel 1)", "<lumen diameter> is -3 mm",
+              "export the plan again"):  # fmt: skip
+        assert w in msg, (w, msg)
+
+
+def test_reversed_library_source_path_is_refused(request, tmp_path, monkeypatch):
+    """The library's measured path numbered proximal first (indices reversed): refused with the
+    fix, naming the source path."""
+    from ringqa.errors import InputFileError
+    from ringqa.io import oncentra
+    from ringqa.io.rtplan import applicator_from_rtplan
+
+    plan = read_rtplan(request.config.rootpath.joinpath(*EXAMPLE))
+    ring = plan.library[1]
+    flipped = dict(plan.library)
+    reversed_path = ring.measured_path_mm[::-1]
+    flipped[1] = oncentra.LibraryChannel(**{**vars(ring), "measured_path_mm": reversed_path})
+    object.__setattr__(plan, "library", flipped)
+    with pytest.raises(InputFileError) as info:
+        applicator_from_rtplan(plan)
+    msg = str(info.value)
+    for w in ("RP_ring26x60_oncentra43.dcm", "library source path", "MOST DISTAL FIRST",
+              "reverse the order of the positions"):  # fmt: skip
+        assert w in msg, (w, msg)

@@ -47,11 +47,12 @@ def test_round_trip(tmp_path, suffix):
 
 @given(st.lists(st.floats(-500, 500), min_size=3, max_size=3), st.floats(0.5, 5.0))
 def test_round_trip_any_straight_line(tmp_path_factory, start, step):
-    """Evenly spaced points on a line (step 0.5-5 mm) round-trip through CSV to 1 nm."""
+    """Evenly spaced points on a line (step 0.5-5 mm) round-trip through CSV to 1 nm (read as a
+    source path: 6 points over 2.5-25 mm are too short for a channel centreline)."""
     d = np.array([0.6, 0.0, 0.8])
     pts = (np.array(start) + np.outer(np.arange(6) * step, d)) * 1e-3
     p = write_points(tmp_path_factory.mktemp("rt") / "line.csv", pts)
-    np.testing.assert_allclose(read_points(p), pts, atol=1e-9)
+    np.testing.assert_allclose(read_points(p, kind="path"), pts, atol=1e-9)
 
 
 @pytest.mark.parametrize("sep", [";", "\t"])
@@ -140,3 +141,67 @@ def test_bad_json_syntax_and_type_and_missing(tmp_path):
         read_points(_csv(tmp_path, "x", name="p.txt"))
     with pytest.raises(PointsFileError, match="file not found"):
         read_points(tmp_path / "missing.csv")
+
+
+# --------------------------------------------------------------------------------------------
+# plausibility (issue 18): encodings, units. Inputs are built from the shipped ring26x60.
+
+
+def _ring_centreline_m():
+    from ringqa.io.applicator_file import load_applicator
+
+    return load_applicator("ring26x60").channel("ring").centreline.points_m
+
+
+@pytest.mark.parametrize(
+    ("encode", "encoding", "noted"),
+    [
+        (lambda t: t.encode("utf-8"), "UTF-8", False),
+        (lambda t: b"\xef\xbb\xbf" + t.encode("utf-8"), "UTF-8 with BOM", False),
+        (lambda t: t.encode("utf-16"), "UTF-16", True),
+        (lambda t: t.encode("latin-1"), "Latin-1", True),
+    ],
+)
+def test_csv_encodings_are_read_and_recorded(tmp_path, encode, encoding, noted):
+    """A German Excel's Latin-1 comment (and a BOM, and UTF-16 'Unicode text') is read; the
+    encoding is recorded and anything but UTF-8 gives a note naming the file."""
+    pts = _ring_centreline_m()
+    plain = write_points(tmp_path / "plain.csv", pts).read_text()
+    p = tmp_path / "excel.csv"
+    p.write_bytes(encode("# Länge gemessen, Ø 26 mm\n" + plain))
+    ps = read_point_set(p)
+    np.testing.assert_allclose(ps.points_m, pts, atol=1e-9)
+    assert ps.encoding == encoding
+    if noted:
+        assert len(ps.notes) == 1 and "excel.csv" in ps.notes[0] and encoding in ps.notes[0]
+        assert "save the file as UTF-8" in ps.notes[0]
+    else:
+        assert ps.notes == ()
+
+
+@pytest.mark.parametrize(
+    ("scale", "offset", "words"),
+    [
+        (0.1, 0.0, ("centimetres", "multiply by 10", "long")),
+        (1000.0, 0.0, ("micrometres", "divide by 1000")),
+        (1.0, 2.0e6, ("e+06 mm", "no applicator lies", "offset")),
+    ],
+)
+def test_centreline_in_another_unit_is_refused(tmp_path, scale, offset, words):
+    """The shipped ring's centreline in cm (28 mm long), um, or with a 2 km offset."""
+    p = write_points(tmp_path / "centreline.csv", _ring_centreline_m() * scale + offset * 1e-3)
+    with pytest.raises(PointsFileError) as info:
+        read_points(p)
+    msg = str(info.value)
+    for w in ("centreline.csv", *words):
+        assert w in msg, (w, msg)
+
+
+def test_long_centreline_is_refused(tmp_path):
+    """6 m of channel (the ring x 40 about its first point): not an applicator."""
+    pts = _ring_centreline_m()
+    p = write_points(tmp_path / "cl.csv", (pts - pts[0]) * 40.0)
+    with pytest.raises(
+        PointsFileError, match=r"cl\.csv: the centreline is .* mm long .*another unit"
+    ):
+        read_points(p)
