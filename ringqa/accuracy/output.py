@@ -1,7 +1,9 @@
 """What a study writes: ``accuracy.csv``, ``reference.csv``, ``recommended.toml``, ``study.json``.
 
 The files are written atomically into the study's folder (with the figure of
-:mod:`ringqa.accuracy.figure`); the run cache ``runs.jsonl`` stays beside them.
+:mod:`ringqa.accuracy.figure`). The run cache ``runs.jsonl`` is appended to in the folder itself
+while the study runs (so an interrupted study resumes) and carried into the new folder when the
+folder is replaced (:func:`ringqa.outdir.staged_output`'s ``ours``).
 """
 
 from __future__ import annotations
@@ -9,7 +11,7 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from ringqa.accuracy.cache import engine_fingerprint
+from ringqa.accuracy.cache import CACHE_NAME, engine_fingerprint
 from ringqa.accuracy.figure import plot_study
 from ringqa.accuracy.result import AccuracyStudy, recommendation_summary
 from ringqa.jsonio import to_jsonable, write_json
@@ -25,8 +27,8 @@ REFERENCE_CSV = "reference.csv"
 
 def write_study(study: AccuracyStudy, scene, out_dir: str | Path) -> None:
     """Write ``accuracy.csv``, ``reference.csv``, ``accuracy.png``, ``recommended.toml`` and
-    ``study.json`` into ``out_dir`` (atomically; the run cache stays beside them)."""
-    with staged_output(out_dir) as stage:
+    ``study.json`` into ``out_dir`` (atomically; the run cache is carried over beside them)."""
+    with staged_output(out_dir, ours=(CACHE_NAME,)) as stage:
         study.table.to_csv(stage / CSV_NAME, index=False, float_format="%.6g")
         import pandas as pd
 

@@ -55,11 +55,12 @@ def add_parser(subparsers) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from ringqa.accuracy import run_study
+    from ringqa.accuracy.cache import CACHE_NAME
     from ringqa.errors import RingQAError
     from ringqa.outdir import check_writable
     from ringqa.simulation.scenefile import load_scene, parse_set_args
 
-    check_writable(args.out)
+    check_writable(args.out, ours=(CACHE_NAME,))  # the run cache of an interrupted study
     if not (math.isfinite(args.target_mm) and args.target_mm > 0):
         raise RingQAError(f"--target-mm {args.target_mm}: must be a positive number of mm")
     if args.repeats < 1:

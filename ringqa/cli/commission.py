@@ -17,7 +17,9 @@ numerical error is reported.
 
 Writes DIR/dwells.csv, doses.csv, plan_dwells.csv, summary.csv, results.json and report.pdf (one
 subfolder per applicator in batch mode, plus the cross-applicator summary.csv, batch.json and
-summary.pdf). Nothing is half-written: files are staged and moved into DIR at the end.
+summary.pdf). Nothing is half-written: files are staged and DIR is replaced as a whole at the
+end (an earlier ringqa output in DIR completely; a DIR holding other files is refused before any
+work). See docs/validation.md.
 """
 
 from __future__ import annotations

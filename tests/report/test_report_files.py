@@ -112,7 +112,7 @@ def test_batch_folder(tmp_path):
     write_batch(batch, tmp_path / "all")
     out = tmp_path / "all"
     expected = {"a", "c", "summary.csv", "all_dwells.csv", "all_doses.csv", "batch.json",
-                "summary.pdf"}  # fmt: skip
+                "summary.pdf", ".ringqa-output.json"}  # fmt: skip
     assert {p.name for p in out.iterdir()} == expected
     summary = pd.read_csv(out / "summary.csv")
     assert list(summary["applicator"]) == ["a", "b", "c"]

@@ -1,0 +1,242 @@
+"""Output folders as transactions (issue 18): replaced whole, foreign folders refused, signals,
+left-overs of killed runs and operating-system errors, through the command line."""
+
+from __future__ import annotations
+
+import errno
+import importlib
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+import ringqa.simulation as sim
+from ringqa.cli import main
+from tests.accuracy.conftest import FakeSimulator
+from tests.cli.test_commission_cli import fake_world  # noqa: F401  (fixture)
+
+MARKER = ".ringqa-output.json"
+REPO = Path(__file__).resolve().parents[2]
+SCENE = REPO / "data" / "scenes" / "ring13-push100.toml"
+PAPER_LINKS = ["--set", "discretisation.element_length_mm.thin=3.0"]
+
+#: where the report writers look up write_tables (patched to fail or be interrupted)
+report = importlib.import_module("ringqa.report")
+
+
+def _names(folder: Path) -> list[str]:
+    return sorted(p.name for p in folder.iterdir())
+
+
+def _tree(folder: Path) -> dict[str, bytes]:
+    return {str(p.relative_to(folder)): p.read_bytes() for p in folder.rglob("*") if p.is_file()}
+
+
+def _one_line(err: str) -> str:
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in err, err
+    return lines[0]
+
+
+def _dead_pid() -> int:
+    proc = subprocess.Popen([sys.executable, "-c", "pass"])
+    proc.wait()
+    return proc.pid
+
+
+@pytest.mark.usefixtures("fake_world")
+def test_rerun_replaces_an_earlier_batch_output_completely(tmp_path, capsys):
+    """A batch, then one applicator into the same --out: no applicator folder, batch.json or
+    summary.pdf of the batch survives; then a --no-pdf run removes the earlier report.pdf."""
+    out = tmp_path / "out"
+    args = ["--out", str(out), "--quiet", "--centreline-reference"]
+    assert main(["commission", "fake26", "nopath", *args]) == 0
+    assert {"fake26", "nopath", "batch.json", "summary.pdf", MARKER} <= set(_names(out))
+    assert main(["commission", "nopath", *args]) == 0
+    single = _names(out)
+    assert "report.pdf" in single and MARKER in single
+    assert not {"fake26", "nopath", "batch.json", "summary.pdf"} & set(single)
+    assert main(["commission", "nopath", "--no-pdf", *args]) == 0
+    assert set(_names(out)) == set(single) - {"report.pdf"}
+    assert json.loads((out / MARKER).read_text())["command"] == "commission"
+    assert _names(tmp_path) == ["out"]  # nothing hidden left beside it
+    capsys.readouterr()
+
+
+@pytest.mark.usefixtures("fake_world")
+def test_foreign_folder_is_refused_before_any_work(tmp_path, capsys, monkeypatch):
+    """A non-empty folder ringqa did not write: exit 2, one line naming the folder and a file,
+    nothing simulated, the folder untouched."""
+    out = tmp_path / "results"
+    out.mkdir()
+    (out / "notes.txt").write_text("mine")
+    pc = importlib.import_module("ringqa.pipeline.commission")
+    monkeypatch.setattr(pc, "load_input", lambda item: pytest.fail("work started"))
+    assert main(["commission", "fake26", "--out", str(out)]) == 2
+    line = _one_line(capsys.readouterr().err)
+    assert line == (
+        f"ringqa commission: error: --out {out}: holds files ringqa did not write (e.g. "
+        "notes.txt); choose an empty or new folder, or a folder an earlier ringqa run wrote"
+    )
+    assert _tree(out) == {"notes.txt": b"mine"}
+    assert _names(tmp_path) == ["results"]
+
+
+@pytest.mark.usefixtures("fake_world")
+def test_empty_existing_folder_is_written(tmp_path, capsys):
+    out = tmp_path / "empty"
+    out.mkdir()
+    assert main(["commission", "fake26", "--out", str(out), "--no-pdf"]) == 0
+    assert {"results.json", MARKER} <= set(_names(out))
+    capsys.readouterr()
+
+
+@pytest.mark.usefixtures("fake_world")
+def test_leftover_staging_of_a_dead_process_is_removed(tmp_path, capsys):
+    """A staging folder named with a pid that no longer runs (a SIGKILLed run): removed at the
+    start of the next run, with one line on stderr."""
+    out = tmp_path / "out"
+    left = tmp_path / f".out.staging-{_dead_pid()}-k1ll3d00"
+    left.mkdir()
+    (left / "dwells.csv").write_text("partial")
+    assert main(["commission", "fake26", "--out", str(out), "--no-pdf"]) == 0
+    err = _one_line(capsys.readouterr().err)
+    assert f"removed left-over staging folder {left} from an interrupted run" in err
+    assert _names(tmp_path) == ["out"]
+
+
+@pytest.mark.usefixtures("fake_world")
+def test_full_disk_during_the_move_exits_2_and_keeps_the_earlier_output(
+    tmp_path, capsys, monkeypatch
+):
+    """ENOSPC when the staging folder is renamed into place: one line naming --out, the reason
+    and the fix, exit 2; the earlier output unchanged and no hidden folder left."""
+    out = tmp_path / "out"
+    assert main(["commission", "fake26", "--out", str(out), "--no-pdf"]) == 0
+    before = _tree(out)
+    capsys.readouterr()
+    real_replace, real_rename = os.replace, os.rename
+
+    def full(real):
+        def rename(src, dst, *a, **k):
+            if ".staging-" in str(src):
+                raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(src))
+            return real(src, dst, *a, **k)
+
+        return rename
+
+    monkeypatch.setattr(os, "replace", full(real_replace))
+    monkeypatch.setattr(os, "rename", full(real_rename))
+    assert main(["commission", "nopath", "--centreline-reference", "--out", str(out)]) == 2
+    line = _one_line(capsys.readouterr().err)
+    assert line == (
+        f"ringqa commission: cannot write {out}: No space left on device (free disk space, or "
+        "choose a folder on another disk)"
+    )
+    assert _tree(out) == before
+    assert _names(tmp_path) == ["out"]
+
+
+@pytest.mark.usefixtures("fake_world")
+def test_read_only_while_writing_exits_2_with_nothing_written(tmp_path, capsys, monkeypatch):
+    """EROFS while a file is written into the staging folder: one line, exit 2, nothing left."""
+
+    def read_only(result, folder):
+        raise OSError(errno.EROFS, os.strerror(errno.EROFS), str(Path(folder) / "dwells.csv"))
+
+    monkeypatch.setattr(report, "write_tables", read_only)
+    out = tmp_path / "out"
+    assert main(["commission", "fake26", "--out", str(out)]) == 2
+    line = _one_line(capsys.readouterr().err)
+    assert line.startswith(f"ringqa commission: cannot write {out}: Read-only file system (")
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("root", ["/proc", "/sys"])
+@pytest.mark.usefixtures("fake_world")
+def test_out_under_proc_or_sys_exits_2_in_one_line(capsys, root):
+    if not Path(root).is_dir():
+        pytest.skip(f"no {root} here")
+    out = Path(root) / "ringqa-test-out" / "out"
+    assert main(["commission", "fake26", "--out", str(out), "--no-pdf"]) == 2
+    line = _one_line(capsys.readouterr().err)
+    assert line.startswith("ringqa commission:") and str(out) in line
+    assert not out.parent.exists()
+
+
+@pytest.mark.parametrize(("signum", "status"), [(signal.SIGTERM, 143), (signal.SIGINT, 130)])
+@pytest.mark.usefixtures("fake_world")
+def test_signal_while_staging_exits_non_zero_and_leaves_nothing(
+    tmp_path, capsys, monkeypatch, signum, status
+):
+    """The process receives SIGTERM / SIGINT while the report is being staged: exit 143 / 130,
+    one line, the staging folder removed, no output folder, the handler restored."""
+    before = signal.getsignal(signal.SIGTERM)
+
+    def interrupted(result, folder):
+        (Path(folder) / "dwells.csv").write_text("partial")
+        os.kill(os.getpid(), signum)
+        time.sleep(5)  # the handler raises before this ends
+
+    monkeypatch.setattr(report, "write_tables", interrupted)
+    assert main(["commission", "fake26", "--out", str(tmp_path / "out")]) == status
+    line = _one_line(capsys.readouterr().err)
+    assert line.startswith(f"ringqa commission: interrupted by {signal.Signals(signum).name}")
+    assert list(tmp_path.iterdir()) == []
+    assert signal.getsignal(signal.SIGTERM) is before
+
+
+def test_accuracy_resumes_from_the_cache_of_an_interrupted_run(tmp_path, monkeypatch, capsys):
+    """An interrupted first study leaves only runs.jsonl (no marker): the next run accepts the
+    folder, reuses every cached run, and the replaced folder still holds the cache."""
+    fake = FakeSimulator()
+    monkeypatch.setattr(sim, "simulate", fake, raising=False)
+    out = tmp_path / "acc"
+    cmd = ["accuracy", str(SCENE), "--out", str(out), "--repeats", "1", "--quiet", *PAPER_LINKS]
+    assert main(cmd) == 0
+    for p in out.iterdir():
+        if p.name != "runs.jsonl":
+            p.unlink()
+    calls = fake.calls
+    assert main(cmd) == 0
+    assert fake.calls == calls
+    assert {"runs.jsonl", "accuracy.csv", MARKER} <= set(_names(out))
+    assert main(cmd) == 0 and fake.calls == calls  # and again, from a marked folder
+    capsys.readouterr()
+
+
+@pytest.mark.slow
+def test_sigterm_during_a_real_batch_leaves_no_staging_and_no_output(tmp_path):
+    """A real `ringqa commission --all-shipped` process gets SIGTERM once its staging folder
+    exists: it exits non-zero and leaves neither the staging folder nor a partial --out."""
+    out = tmp_path / "out"
+    env = {**os.environ, "PYTHONPATH": str(REPO)}
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "ringqa", "commission", "--all-shipped", "--out", str(out)],
+        env=env,
+        cwd=tmp_path,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        deadline = time.monotonic() + 180
+        staging = []
+        while time.monotonic() < deadline and proc.poll() is None and not staging:
+            staging = list(tmp_path.glob(".out.staging-*"))
+            time.sleep(0.01)
+        assert staging, f"no staging folder appeared (exit {proc.poll()})"
+        proc.send_signal(signal.SIGTERM)
+        _, err = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert proc.returncode == 143, err
+    assert "interrupted by SIGTERM" in err
+    assert list(tmp_path.iterdir()) == []
