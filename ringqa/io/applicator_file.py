@@ -43,7 +43,7 @@ siblings are the one list of known keys); inline points are checked as point fil
 (:func:`ringqa.io.points.check_points`); a ring radius outside :data:`RING_RADIUS_MM`, a
 centreline listed tip first, and a measured path shifted off its channel, listed proximal first
 or spaced unlike its declared step are refused (:func:`path_problem`). CSV files read in another
-encoding than UTF-8 leave a note in ``metadata["notes"]``. Table: ``docs/input_checks.md``.
+encoding than UTF-8 leave a note in ``metadata["notes"]``. Table: ``docs/validation.md``.
 """
 
 from __future__ import annotations

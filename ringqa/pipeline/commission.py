@@ -195,6 +195,7 @@ def commission(
         "the tandem is not simulated, so its dwells are the same in all plans."
     )
     plan_warnings = tuple(f"RT Plan: {w}" for w in getattr(loaded.rtplan, "warnings", ()) or ())
+    plan_warnings += tuple(str(n) for n in app.metadata.get("notes", ()) or ())
     notes = (
         *plan_warnings,
         *src.notes,

@@ -9,6 +9,8 @@ skipped with a note instead of using a default strength.
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pandas as pd
 import pydicom
@@ -102,3 +104,22 @@ def test_a_plan_without_source_strength_is_not_checked_with_a_default(repo_root,
     np.testing.assert_allclose(res.doses["dose_gy"], std["dose_gy"], rtol=1e-12)
     with_sk = commission(path, CommissionSettings(cable="flexitron", sk_U=40820.0))
     assert next(v for v in with_sk.verdicts if v.check == CHECK_TPS).status == "PASS"
+
+
+def test_reader_notes_reach_the_commissioning_notes(tmp_path):
+    """A folder whose centreline.csv has a Latin-1 comment line (German Excel) is read with a note;
+    the note reaches the report's notes (issue 18: every stage's warnings reach the report)."""
+    from ringqa.geometry.parametric import ring_applicator
+    from ringqa.io.points import write_points
+
+    ring = ring_applicator(26, 60).channel("ring")
+    write_points(tmp_path / "centreline.csv", ring.centreline.points_m)
+    rel_m = np.arange(0.0, 0.0301, 0.0025)
+    write_points(tmp_path / "measured_path.csv", ring.centreline.position(ring.s_ref_m - rel_m))
+    spec = {"name": "my ring", "lumen": {"kind": "circular", "r_b_mm": 1.5, "r_a_mm": 1.4},
+            "measured_step_mm": 2.5, "s_ref_mm": "from_measured_path"}  # fmt: skip
+    (tmp_path / "applicator.json").write_text(json.dumps(spec))
+    cl = tmp_path / "centreline.csv"
+    cl.write_bytes("# Länge gemessen, Bögen geprüft\n".encode("latin-1") + cl.read_bytes())
+    res = commission(tmp_path, FAST)
+    assert any("centreline.csv" in n and "Latin-1" in n for n in res.notes)
