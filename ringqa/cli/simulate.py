@@ -11,6 +11,7 @@ Exit status: 0 success; 1 the instrument jammed (outputs are still written: a ja
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 from ringqa.cli._options import add_set_option
@@ -54,6 +55,8 @@ def run(args: argparse.Namespace) -> int:
         f"ringqa simulate: {scene.name}: {result.message} ({n} advances, {result.n_elements} "
         f"elements, solve {result.solve_time_s:.3f} s) -> {args.out}/dwells.csv"
     )
+    for warning in result.warnings:  # also in run.json; a person reads the terminal
+        print(f"ringqa simulate: warning: {warning}", file=sys.stderr)
     if result.status == 0:
         return 0
     return EXIT_JAMMED if result.status == 1 else EXIT_FAILED

@@ -80,6 +80,7 @@ class Model:
         self.chain = chain = self._chain(inst, u_deep, approach)
         self.nd = nd = 4 if scene.effects.torsion else 3
         self.clearance = self._clearance(chain)
+        self.max_radius = float(np.max(chain.link_ro))
         self._check_bends(chain, u_deep)
         link, alpha, ro, wt = contact_samples(
             chain, self.table.min_radius_m(), self.clearance, float(solver.contact_bow_fraction)

@@ -175,7 +175,18 @@ def test_signal_while_staging_exits_non_zero_and_leaves_nothing(
     tmp_path, capsys, monkeypatch, signum, status
 ):
     """The process receives SIGTERM / SIGINT while the report is being staged: exit 143 / 130,
-    one line, the staging folder removed, no output folder, the handler restored."""
+    one line, the staging folder removed, no output folder, the handler restored. (A shell
+    starts background jobs with SIGINT ignored, and ringqa keeps an ignored signal ignored, so
+    the test gives the signal its interactive handler first.)"""
+    interactive = signal.default_int_handler if signum == signal.SIGINT else signal.SIG_DFL
+    previous = signal.signal(signum, interactive)
+    try:
+        _interrupt_while_staging(tmp_path, capsys, monkeypatch, signum, status)
+    finally:
+        signal.signal(signum, previous)
+
+
+def _interrupt_while_staging(tmp_path, capsys, monkeypatch, signum, status):
     before = signal.getsignal(signal.SIGTERM)
 
     def interrupted(result, folder):

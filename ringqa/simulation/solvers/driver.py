@@ -41,6 +41,10 @@ from ringqa.units import m_to_mm
 
 #: pseudo-time steps of the initial equilibrium's tethered walk before giving up
 INITIAL_WALK_STEPS = 300
+#: Penetration of the instrument into the wall, as a fraction of the clearance (lumen radius -
+#: instrument radius), above which the run warns. Beyond the instrument's radius the run fails
+#: (status -1): its axis has left the lumen.
+PENETRATION_WARN = 0.1
 #: A run that would take more load or time steps than this is refused before it starts: at the
 #: engine's 2-10 ms per step it would run for 3-15 minutes without a useful answer (the accuracy
 #: study shows 0.1 mm needs a few thousand steps on a ring).
@@ -198,14 +202,21 @@ def run(scene, advances_m: np.ndarray, progress: bool = False) -> SimResult:
 def _result(scene, model, integrator, monitor, recorder, status, message, v, time_s, solve_time):
     """The :class:`SimResult` of a finished run (messages, warnings, work, settings, counters)."""
     n_req = recorder.push_force_n.size
-    if status == STATUS_SUCCESS:
+    max_pen = monitor.max_penetration_m
+    if status == STATUS_SUCCESS and max_pen > model.max_radius:
+        status = STATUS_FAILED
+        message = (
+            f"the instrument sank {max_pen * 1e3:.3f} mm into the wall, more than its "
+            f"{model.max_radius * 1e3:.3f} mm radius: its axis left the lumen, so its positions "
+            "mean nothing (raise contact.stiffness_n_m)"
+        )
+    elif status == STATUS_SUCCESS:
         message = f"reached all {n_req} requested advances"
     else:
         message += f"; {recorder.n_missing} of {n_req} requested advances not reached (NaN rows)"
-    max_pen = monitor.max_penetration_m
     work = monitor.work(v, model.dynamic)
     warnings = list(model.warnings)
-    if max_pen > 0.1 * model.clearance:
+    if PENETRATION_WARN * model.clearance < max_pen <= model.max_radius:
         warnings.append(
             f"the instrument sank up to {max_pen * 1e3:.3f} mm into the wall "
             f"({100 * max_pen / model.clearance:.0f} % of the clearance): raise "
