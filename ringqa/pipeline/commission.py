@@ -194,10 +194,10 @@ def commission(
         f"The standard plan includes {n_tandem} tandem dwells ({cfg.plan_step_mm:g} mm apart); "
         "the tandem is not simulated, so its dwells are the same in all plans."
     )
-    plan_warnings = tuple(f"RT Plan: {w}" for w in getattr(loaded.rtplan, "warnings", ()) or ())
-    plan_warnings += tuple(str(n) for n in app.metadata.get("notes", ()) or ())
+    input_notes = tuple(f"RT Plan: {w}" for w in getattr(loaded.rtplan, "warnings", ()) or ())
+    input_notes += tuple(str(n) for n in app.metadata.get("notes", ()) or ())
     notes = (
-        *plan_warnings,
+        *input_notes,
         *src.notes,
         loaded_text(app, ring, loaded.kind),
         *correction_notes,

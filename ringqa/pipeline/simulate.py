@@ -605,17 +605,20 @@ def simulate_dwells(
         advances = advances[::-1]  # backward stepping / retraction: most distal dwell first
     wanted = s_ref_mm - rel_mm
     refine = engine.refine or refine_scene
+
+    def distance(a: _Run, b: _Run) -> np.ndarray:
+        """Per-dwell distance between two runs' source centres, mm (``wanted``'s order)."""
+        return m_to_mm(np.linalg.norm(
+            a.pos_m[_dwell_rows(a, advances, wanted)] - b.pos_m[_dwell_rows(b, advances, wanted)],
+            axis=1))  # fmt: skip
+
     runs = [_run_with_retries(engine, scene, advances, progress)]
     while True:
         if not runs[-1].ok:
             raise _jammed(app, runs[-1], advances, s_ref_mm)
         if len(runs) >= 2:
             coarse, fine = runs[-2], runs[-1]
-            idx_c, idx_f = (
-                _dwell_rows(coarse, advances, wanted),
-                _dwell_rows(fine, advances, wanted),
-            )
-            error_mm = m_to_mm(np.linalg.norm(fine.pos_m[idx_f] - coarse.pos_m[idx_c], axis=1))
+            error_mm = distance(coarse, fine)
             if (
                 float(np.max(error_mm)) <= NUMERICAL_ERROR_WARN_MM
                 or len(runs) > MAX_EXTRA_LEVELS + 1
@@ -632,9 +635,7 @@ def simulate_dwells(
             probe = _run_with_retries(engine, refine(coarse.scene, factor), advances, progress)
             if probe.ok:
                 probes.append(probe)
-                idx_p = _dwell_rows(probe, advances, wanted)
-                error_mm = np.maximum(error_mm, m_to_mm(
-                    np.linalg.norm(probe.pos_m[idx_p] - fine.pos_m[idx_f], axis=1)))  # fmt: skip
+                error_mm = np.maximum(error_mm, distance(probe, fine))
     runs += probes
     branch_mm = float(np.max(error_mm)) if probes else 0.0
     resolved = False
@@ -646,11 +647,7 @@ def simulate_dwells(
         runs += pair
         if all(r.ok for r in pair):
             coarse, fine = pair
-            idx_c, idx_f = (
-                _dwell_rows(coarse, advances, wanted),
-                _dwell_rows(fine, advances, wanted),
-            )
-            error_mm = m_to_mm(np.linalg.norm(fine.pos_m[idx_f] - coarse.pos_m[idx_c], axis=1))
+            error_mm = distance(coarse, fine)
             resolved = True
     notes += [r.note for r in runs if r.note]
     if n_levels > 2:
@@ -682,6 +679,7 @@ def simulate_dwells(
         resolved=resolved,
         total_solve_time_s=sum(float(getattr(r.res, "solve_time_s", r.wall_s)) for r in runs),
     )
+    idx_f = _dwell_rows(fine, advances, wanted)
     dirs = np.asarray(res.source_dir, dtype=float).reshape(-1, 3)[idx_f]
     info = SimulationInfo(
         status=fine.status,

@@ -90,16 +90,12 @@ def tps_verdict(doses: pd.DataFrame, action_pct: float = TPS_CHECK_ACTION_PCT) -
     if own.empty:
         return None
     diff = own["diff_pct"].to_numpy(dtype=float)
-    k = int(np.argmax(np.abs(diff)))
-    worst = float(abs(diff[k]))
-    status = "PASS" if worst <= action_pct else "ACTION"
-    word = "within" if status == "PASS" else "beyond"
-    return Verdict(
-        CHECK_TPS, worst, "%", (action_pct,), status,
+    at = own["point"].iloc[int(np.argmax(np.abs(diff)))]
+    return _dose_verdict(
+        CHECK_TPS, ROLE_INPUT,
         f"The plan's own dwells and times, dosed by ringqa, vs the TPS's doses at the plan's "
-        f"{len(own)} points: max |difference| {worst:.2f} % (at {own['point'].iloc[k]}), {word} "
-        f"the {action_pct:g} % action level.",
-        ROLE_INPUT,
+        f"{len(own)} points (largest at {at})",
+        diff, action_pct,
     )  # fmt: skip
 
 

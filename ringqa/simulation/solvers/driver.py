@@ -62,10 +62,9 @@ def check_budget(schedule: Schedule, scene) -> None:
     travel_mm = m_to_mm(schedule.travel_m())
     if schedule.dynamic:
         setting, value, unit = "solver.time_step_s", scene.solver.time_step_s, "s"
-        fits = value * n / MAX_STEPS
     else:
         setting, value, unit = "solver.increment_mm", m_to_mm(scene.solver.increment_m), "mm"
-        fits = value * n / MAX_STEPS
+    fits = value * n / MAX_STEPS
     raise SceneError(
         f"{setting} = {value:g} {unit}: the run would take about {n:,} steps over {travel_mm:.0f} "
         f"mm of input (at most {MAX_STEPS:,} are allowed, several minutes of solving); use "
