@@ -688,13 +688,14 @@ def _read_channel(
         source_number=None if src is None else int(src),
         number_of_pulses=None if pulses is None else int(pulses),
         pulse_interval_s=_float(p, item, "PulseRepetitionInterval", where),
-        joint_address=_private_str(item, oncentra.JOINT_ADDRESS_TAG),
+        joint_address=_private_str(item, oncentra.JOINT_ADDRESS_OFFSET),
     )
 
 
-def _private_str(item, tag: tuple[int, int]) -> str | None:
+def _private_str(item, offset: int) -> str | None:
+    """Oncentra's private text element at ``offset`` (creator "NUCLETRON" checked)."""
     try:
-        el = item.get(tag)
+        el = oncentra.private_element(item, offset)
     except Exception:
         return None
     if el is None or el.value is None:
@@ -808,12 +809,12 @@ def _read_library(p: Path, setups, channels: list, warnings: list):
     library: dict[int, LibraryChannel] = {}
     by_setup = {}
     for s in setups or []:
-        app_name = app_name or _private_str(s, oncentra.APPLICATOR_NAME_TAG)
-        el = s.get(oncentra.LIBRARY_TAG)
+        app_name = app_name or _private_str(s, oncentra.APPLICATOR_NAME_OFFSET)
+        el = oncentra.private_element(s, oncentra.LIBRARY_OFFSET)
         if el is None or not el.value:
             continue
         found = True
-        details = _private_str(s, oncentra.APPLICATOR_DETAILS_TAG) or ""
+        details = _private_str(s, oncentra.APPLICATOR_DETAILS_OFFSET) or ""
         preferred = None
         if "Measured source path:" in details:
             preferred = details.split("Measured source path:", 1)[1].strip().splitlines()[0]

@@ -75,7 +75,7 @@ from ringqa.pipeline.simulate import (
 )
 from ringqa.pipeline.summary import summarise
 from ringqa.pipeline.verdicts import check_tolerances, conclusion, verdict_meanings
-from ringqa.provenance import Provenance
+from ringqa.provenance import Provenance, tg43_data_files
 from ringqa.units import m_to_mm
 
 __all__ = ["commission"]
@@ -219,7 +219,11 @@ def commission(
         centreline_correction=None if cfg.centreline_correction is None
         else str(cfg.centreline_correction),
     )  # fmt: skip
-    provenance = Provenance.now(inputs=files, settings=used.as_dict())
+    folder = getattr(src.source, "folder", None)
+    provenance = Provenance.now(
+        inputs=files, settings=used.as_dict(),
+        data=tg43_data_files(folder) if folder is not None else (),
+    )  # fmt: skip
     return CommissioningResult(
         applicator=app.name,
         input=str(input) if isinstance(input, str | Path) else app.name,
@@ -239,6 +243,7 @@ def commission(
         reference_check=review,
         numerics=numerics,
         conclusion=conclusion(verdicts),
+        settings_origin=dict(cfg.settings_origin),
     )
 
 

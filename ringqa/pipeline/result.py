@@ -9,7 +9,7 @@ order other tools have always read).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -460,6 +460,9 @@ class CommissioningResult:
         The simulation's numerical error (commissioning vs refined run).
     conclusion : str
         One line: what the verdicts mean together.
+    settings_origin : dict of str to str
+        Where each setting came from (configuration key -> ``"default"``, ``"user config
+        <path>"``, ``"--config <path>"`` or ``"command line"``; :mod:`ringqa.config`).
     """
 
     applicator: str
@@ -480,6 +483,7 @@ class CommissioningResult:
     reference_check: Any = None
     numerics: Any = None
     conclusion: str = ""
+    settings_origin: dict[str, str] = field(default_factory=dict)
 
     @property
     def passed(self) -> bool:

@@ -17,6 +17,7 @@ import pandas as pd
 
 from ringqa.errors import InputFileError
 from ringqa.outdir import staged_output
+from ringqa.report.fields import ReportFields
 from ringqa.report.pdf import write_batch_pdf, write_pdf
 from ringqa.report.tables import SCHEMA, results_dict, write_batch_tables, write_tables
 
@@ -56,17 +57,41 @@ def read_accuracy_csv(path) -> pd.DataFrame:
     return table
 
 
-def _write_one(result, folder: Path, pdf: bool, accuracy=None) -> None:
+def _write_one(result, folder: Path, pdf: bool, accuracy=None, fields=None, export=None) -> None:
     write_tables(result, folder)
+    if export is not None:
+        from ringqa.io.export_tps import write_exports
+
+        write_exports(result, folder, export)
     if pdf:
-        write_pdf(result, folder / "report.pdf", accuracy=accuracy)
+        write_pdf(result, folder / "report.pdf", accuracy=accuracy, fields=fields)
 
 
-def write_report(result, out_dir, *, pdf: bool = True, accuracy_csv=None) -> Path:
+def _checked_exports(results, export: bool) -> list:
+    """The exports of every result, made and checked before anything is written (an export
+    that cannot be made ends the command with nothing written)."""
+    if not export:
+        return [None] * len(results)
+    from ringqa.io.export_tps import check_export
+
+    return [check_export(r) for r in results]
+
+
+def write_report(
+    result,
+    out_dir,
+    *,
+    pdf: bool = True,
+    accuracy_csv=None,
+    fields: ReportFields | None = None,
+    export: bool = False,
+) -> Path:
     """Write one applicator's files into ``out_dir`` (staged: all or nothing).
 
     ``accuracy_csv``: optional accuracy.csv of ``ringqa accuracy`` for the scene used (adds a
-    page with its error-vs-time plot).
+    page with its error-vs-time plot). ``fields``: what the signing physicist fills in (from the
+    clinic configuration). ``export``: also write ``export/`` (:mod:`ringqa.io.export_tps`:
+    ``source_path_<channel>.csv``, and ``RP_simulated.dcm`` for an RT Plan input).
 
     Returns
     -------
@@ -74,20 +99,33 @@ def write_report(result, out_dir, *, pdf: bool = True, accuracy_csv=None) -> Pat
         ``out_dir``.
     """
     accuracy = None if accuracy_csv is None else read_accuracy_csv(accuracy_csv)
+    (checked,) = _checked_exports([result], export)
     with staged_output(out_dir) as stage:
-        _write_one(result, stage, pdf, accuracy)
+        _write_one(result, stage, pdf, accuracy, fields, checked)
     return Path(out_dir)
 
 
-def write_batch(batch, out_dir, *, pdf: bool = True, progress: bool = False) -> Path:
+def write_batch(
+    batch,
+    out_dir,
+    *,
+    pdf: bool = True,
+    progress: bool = False,
+    fields: ReportFields | None = None,
+    export: bool = False,
+) -> Path:
     """Write a BatchResult: ``out_dir/<applicator>/`` per result, plus the cross-applicator
     ``summary.csv``, ``all_dwells.csv``, ``all_doses.csv``, ``batch.json`` and ``summary.pdf``.
-    Failed applicators appear in summary.csv / batch.json with their error (no subfolder)."""
+    Failed applicators appear in summary.csv / batch.json with their error (no subfolder).
+    ``fields`` and ``export`` as :func:`write_report` (the exports per applicator folder)."""
     from tqdm import tqdm
 
+    checked = _checked_exports(batch.results, export)
     with staged_output(out_dir) as stage:
-        for res in tqdm(batch.results, desc="reports", unit="applicator", disable=not progress):
-            _write_one(res, stage / _safe(res.applicator), pdf)
+        items = zip(batch.results, checked, strict=True)
+        for res, exp in tqdm(items, desc="reports", unit="applicator", disable=not progress,
+                             total=len(batch.results)):  # fmt: skip
+            _write_one(res, stage / _safe(res.applicator), pdf, None, fields, exp)
         write_batch_tables(batch, stage)
         if pdf:
             write_batch_pdf(batch, stage / "summary.pdf")

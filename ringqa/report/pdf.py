@@ -37,6 +37,7 @@ import numpy as np
 import pandas as pd
 
 from ringqa.pipeline import RingGeometry
+from ringqa.report.fields import ReportFields
 from ringqa.units import m_to_mm
 
 A4 = (8.27, 11.69)
@@ -1292,7 +1293,12 @@ def report_figures(result, accuracy: pd.DataFrame | None = None) -> list:
 
 
 def write_pdf(
-    result, path: Path, *, png_dir: Path | None = None, accuracy: pd.DataFrame | None = None
+    result,
+    path: Path,
+    *,
+    png_dir: Path | None = None,
+    accuracy: pd.DataFrame | None = None,
+    fields: ReportFields | None = None,
 ) -> Path:
     """Write the report PDF of one CommissioningResult.
 
@@ -1306,6 +1312,9 @@ def write_pdf(
     accuracy : pandas.DataFrame, optional
         The table of ``ringqa accuracy`` (accuracy.csv: ``time_s, max_err_mm, status,
         pareto``) for an extra page.
+    fields : ReportFields, optional
+        What the signing physicist fills in (from the clinic configuration); not printed yet
+        (the report layout being rewritten prints it).
 
     Returns
     -------

@@ -44,6 +44,7 @@ def results_dict(result: CommissioningResult) -> dict:
             "summary": result.summary.as_row(),
             "notes": list(result.notes),
             "settings": result.settings.as_dict(),
+            "settings_origin": dict(getattr(result, "settings_origin", {}) or {}),
             "simulation": result.simulation.as_dict(),
             "dose_points": points,
             "doses": result.doses.to_dict("records"),
