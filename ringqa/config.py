@@ -466,11 +466,12 @@ class EffectiveConfig:
             raise
         except RingQAError as exc:
             if "position_limits_mm" in str(exc):
-                key = "tolerances.position_required_mm"
+                rec, req = "tolerances.position_recommended_mm", "tolerances.position_required_mm"
+                where = [self.origins[k] for k in (rec, req) if self.origins[k] != DEFAULT]
                 raise ConfigError(
-                    f"{self.origins[key]}: tolerances.position_recommended_mm = "
-                    f"{v['tolerances.position_recommended_mm']!r} and position_required_mm = "
-                    f"{v[key]!r}: the required tolerance must be >= the recommended one"
+                    f"{' and '.join(dict.fromkeys(where)) or DEFAULT}: {rec} = {v[rec]!r} "
+                    f"({self.origins[rec]}) and {req} = {v[req]!r} ({self.origins[req]}): the "
+                    "required tolerance must be >= the recommended one"
                 ) from None
             raise
 

@@ -1,4 +1,4 @@
-"""``ringqa commission``: commission ring applicators and write the report.
+"""ringqa commission: commission ring applicators and write the report.
 
     ringqa commission ring26x60 --out out/ring26x60
     ringqa commission plan.dcm --out out/oncentra          # RT Plan with Oncentra's library
@@ -11,18 +11,18 @@
     ringqa commission plan.dcm --config site.toml --export --out out/site   # clinic settings,
                                                            # and files back to the planning system
 
-The reference path is checked against the channel (positions that cannot lie in the lumen, or
-not along the channel; a planar path stored in 2D) and registered to the CHANNEL as --register
-says (none: as supplied; plane-height: a planar path at constant height moved into the ring
-channel's plane; rigid: a rigid fit to the centreline). Raw and registered numbers are reported
-side by side. Every simulation is run twice (commissioning settings and refined) and each dwell's
-numerical error is reported.
+The reference source path (the vendor's library path or your measurement) is checked against
+the applicator channel (positions that cannot lie in the lumen or are not along the channel; a
+flat path stored in 2D) and aligned with the channel as --register says (none: as supplied;
+plane-height: a flat path moved into the ring's plane; rigid: best fit to the channel's centre
+line). Numbers as supplied and as aligned are reported side by side. Every simulation is run
+twice (commissioning settings and a finer run) and each dwell's numerical error is reported.
 
 Writes DIR/dwells.csv, doses.csv, plan_dwells.csv, summary.csv, results.json and report.pdf (one
-subfolder per applicator in batch mode, plus the cross-applicator summary.csv, batch.json and
-summary.pdf). Nothing is half-written: files are staged and DIR is replaced as a whole at the
-end (an earlier ringqa output in DIR completely; a DIR holding other files is refused before any
-work). See docs/validation.md.
+subfolder per applicator for several inputs, plus summary.csv, batch.json and summary.pdf for
+all of them). Nothing is half-written: DIR is replaced as a whole at the end (an earlier ringqa
+output in DIR completely; a DIR holding other files is refused before any work). Site settings:
+--config (docs/config.md). See docs/validation.md.
 """
 
 from __future__ import annotations
@@ -48,7 +48,7 @@ def add_parser(subparsers) -> None:
         metavar="INPUT",
         help="shipped applicator name, folder, applicator JSON or RT Plan (.dcm)",
     )
-    p.add_argument("--out", required=True, type=Path, help="output folder")
+    p.add_argument("--out", required=True, type=Path, metavar="DIR", help="output folder")
     p.add_argument(
         "--all-shipped",
         action="store_true",
@@ -79,23 +79,27 @@ def add_parser(subparsers) -> None:
     p.add_argument(
         "--source",
         default=None,
+        metavar="NAME",
         help="TG-43 source (default: the RT Plan's, else flexisource)",
     )
     p.add_argument(
         "--prescription-gy",
         type=float,
+        metavar="GY",
         default=None,
         help="mean Point A dose of the standard plan, Gy (default 7)",
     )
     p.add_argument(
         "--dose-action-pct",
         type=float,
+        metavar="PCT",
         default=None,
         help="dose-difference action level, %% (default 5)",
     )
     p.add_argument(
         "--sk-u",
         type=float,
+        metavar="U",
         default=None,
         help="source air-kerma strength, U (default: the RT Plan's; needed to check a plan "
         "without one against its planning-system doses)",
@@ -110,12 +114,14 @@ def add_parser(subparsers) -> None:
     p.add_argument(
         "--cable",
         default=None,
+        metavar="NAME",
         help="source cable model (flexitron, microselectron; default: the cable of the plan's "
         "source)",
     )
     p.add_argument(
         "--stem-mm",
         type=float,
+        metavar="MM",
         default=None,
         help="straight channel simulated before the first bend, mm (default 60)",
     )
@@ -130,20 +136,24 @@ def add_parser(subparsers) -> None:
         type=Path,
         default=None,
         metavar="FILE",
-        help="CT/film centreline segment (CSV x_mm,y_mm,z_mm, proximal -> distal, in the "
-        "applicator/plan frame) spliced over the ring centreline (single applicator only)",
+        help="a measured (CT/film) piece of the ring channel's centre line (CSV x_mm,y_mm,z_mm, "
+        "entry to tip, in the plan's coordinates) that replaces the library's there (one "
+        "applicator only)",
     )
     add_set_option(p)
     p.add_argument(
         "--centreline-reference",
         action="store_true",
-        help="allow inputs without a measured path (compare simulated vs centreline)",
+        help="accept inputs without a reference source path (then the simulated path is "
+        "compared with the channel's centre line)",
     )
     p.add_argument(
         "--accuracy-csv",
         type=Path,
         default=None,
-        help="accuracy.csv of 'ringqa accuracy' for the scene used (adds a report page)",
+        metavar="FILE",
+        help="accuracy.csv of 'ringqa accuracy' for the simulation settings used (adds a "
+        "report page)",
     )
     p.add_argument("--no-pdf", action="store_true", help="write the CSV/JSON files only")
     p.add_argument("--quiet", action="store_true", help="no progress bar")

@@ -31,6 +31,7 @@ settings are one :class:`~ringqa.pipeline.settings.CommissionSettings`; the resu
 
 from __future__ import annotations
 
+import logging
 import time
 from pathlib import Path
 
@@ -80,6 +81,8 @@ from ringqa.units import m_to_mm
 
 __all__ = ["commission"]
 
+log = logging.getLogger(__name__)
+
 
 def commission(
     input,
@@ -118,6 +121,7 @@ def commission(
     loaded = load_input(input)
     load_s = time.perf_counter() - t_start
     app = loaded.applicator
+    log.info("%s: loaded %s (%s) in %.2f s", input, app.name, loaded.kind, load_s)
     files = loaded.files
     correction_notes: tuple[str, ...] = ()
     if cfg.centreline_correction is not None:
@@ -141,6 +145,10 @@ def commission(
         else None  # fmt: skip
     selection = plan_selection(app, ring, reference, cfg.plan_step_mm, review.compared)
 
+    log.info(
+        "%s: simulating the %s cable at %d positions (%s reference)",
+        app.name, cable.preset, len(reference.relative_position_mm), reference.kind,
+    )  # fmt: skip
     t0 = time.perf_counter()
     simulated = simulate_dwells(
         app, ring, reference.relative_position_mm, cable=cable.preset,
@@ -148,6 +156,7 @@ def commission(
         stem_mm=cfg.stem_mm,
     )  # fmt: skip
     simulation_s = time.perf_counter() - t0
+    log.info("%s: simulated in %.2f s", app.name, simulation_s)
     rel = reference.relative_position_mm
     centreline = centreline_dwells(ring, rel)
     dev = compare_with_reference(app, compared_ref.dwells, simulated.dwells, centreline)

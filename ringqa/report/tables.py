@@ -16,7 +16,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from ringqa.jsonio import to_jsonable, write_json
+from ringqa.jsonio import csv_encoding, to_jsonable, write_json
 from ringqa.pipeline import BatchResult, CommissioningResult
 
 SCHEMA = "ringqa.commission/1"
@@ -72,7 +72,7 @@ def write_tables(result: CommissioningResult, folder: Path) -> list[Path]:
         ("plan_dwells.csv", result.plan_dwells),
         ("summary.csv", pd.DataFrame([result.summary.as_row()])),
     ):
-        df.to_csv(folder / name, index=False, float_format=FLOAT_FORMAT)
+        df.to_csv(folder / name, index=False, float_format=FLOAT_FORMAT, encoding=csv_encoding(df))
         out.append(folder / name)
     write_json(folder / "results.json", results_dict(result), indent=2)
     out.append(folder / "results.json")
@@ -82,17 +82,21 @@ def write_tables(result: CommissioningResult, folder: Path) -> list[Path]:
 def write_batch_tables(batch: BatchResult, folder: Path) -> list[Path]:
     """The cross-applicator summary.csv, all_dwells.csv and batch.json of a BatchResult."""
     folder = Path(folder)
-    batch.summary.to_csv(folder / "summary.csv", index=False, float_format=FLOAT_FORMAT)
-    dwells = [r.dwells for r in batch.results]
-    if dwells:
-        pd.concat(dwells, ignore_index=True).to_csv(
-            folder / "all_dwells.csv", index=False, float_format=FLOAT_FORMAT
-        )
-    doses = [r.doses for r in batch.results]
-    if doses:
-        pd.concat(doses, ignore_index=True).to_csv(
-            folder / "all_doses.csv", index=False, float_format=FLOAT_FORMAT
-        )
+    summary = batch.summary
+    summary.to_csv(
+        folder / "summary.csv", index=False, float_format=FLOAT_FORMAT,
+        encoding=csv_encoding(summary),
+    )  # fmt: skip
+    for name, frames in (
+        ("all_dwells.csv", [r.dwells for r in batch.results]),
+        ("all_doses.csv", [r.doses for r in batch.results]),
+    ):
+        if frames:
+            table = pd.concat(frames, ignore_index=True)
+            table.to_csv(
+                folder / name, index=False, float_format=FLOAT_FORMAT,
+                encoding=csv_encoding(table),
+            )  # fmt: skip
     info = {
         "schema": "ringqa.commission-batch/1",
         "applicators": [r.applicator for r in batch.results],
