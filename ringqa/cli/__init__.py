@@ -69,13 +69,19 @@ def main(argv: list[str] | None = None) -> int:
     if not getattr(args, "func", None):
         parser.print_help()
         return 2
+    logger = logging.getLogger("ringqa")
+    saved = (logger.level, logger.propagate)
     handlers = configure_logging(args.verbose, args.log_file)
+    words = sys.argv[1:] if argv is None else argv
+    logging.getLogger(__name__).debug("ringqa %s: ringqa %s", __version__, " ".join(words))
     try:
         return _run(args)
     finally:
         for handler in handlers:
-            logging.getLogger("ringqa").removeHandler(handler)
+            logger.removeHandler(handler)
             handler.close()
+        logger.setLevel(saved[0])
+        logger.propagate = saved[1]
 
 
 def configure_logging(verbose: int, log_file: Path | None) -> list[logging.Handler]:
@@ -116,7 +122,6 @@ def configure_logging(verbose: int, log_file: Path | None) -> list[logging.Handl
     for handler in handlers:
         logger.addHandler(handler)
     logger.propagate = False
-    logging.getLogger("ringqa").debug("ringqa %s: %s", __version__, " ".join(sys.argv))
     return handlers
 
 
