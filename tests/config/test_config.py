@@ -270,3 +270,23 @@ def test_keys_table_in_docs(repo_root):
     """docs/config.md carries the generated keys table (defaults, units, ranges)."""
     text = (repo_root / "docs" / "config.md").read_text(encoding="utf-8")
     assert config_keys_table() in text
+
+
+def test_report_fields_reach_the_report_writer(fake_inputs, write_config, tmp_path, monkeypatch):
+    """[report] of the configuration is handed to the PDF writer as ReportFields (the writer is
+    replaced by a recorder: the layout is another part's)."""
+    import ringqa.report as report
+    from ringqa.report.fields import ReportFields
+
+    seen = []
+
+    def recorder(result, path, *, accuracy=None, fields=None, **kw):
+        seen.append(fields)
+        path.write_bytes(b"%PDF stand-in")
+        return path
+
+    monkeypatch.setattr(report, "write_pdf", recorder)
+    path = write_config('[report]\nphysicist = "J. Jansen"\nnotes = "new ring"\n')
+    out = tmp_path / "out"
+    assert main(["commission", "fakeA", "--config", str(path), "--out", str(out), "--quiet"]) == 0
+    assert seen == [ReportFields(physicist="J. Jansen", notes="new ring")]
