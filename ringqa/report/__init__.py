@@ -7,21 +7,25 @@ Public API::
                                             # results.json report.pdf, staged (never half-written)
     write_batch(batch, "out/")              # one subfolder per applicator + summary.csv,
                                             # batch.json, summary.pdf
+    write_report(result, "out", fields=ReportFields(institution="...", physicist="..."))
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 
 import pandas as pd
 
 from ringqa.errors import InputFileError
 from ringqa.outdir import staged_output
+from ringqa.report.fields import ReportFields
 from ringqa.report.pdf import write_batch_pdf, write_pdf
 from ringqa.report.tables import SCHEMA, results_dict, write_batch_tables, write_tables
 
 __all__ = [
     "SCHEMA",
+    "ReportFields",
     "read_accuracy_csv",
     "results_dict",
     "write_batch",
@@ -56,17 +60,29 @@ def read_accuracy_csv(path) -> pd.DataFrame:
     return table
 
 
-def _write_one(result, folder: Path, pdf: bool, accuracy=None) -> None:
+def _write_one(result, folder: Path, pdf: bool, accuracy=None, fields=None, sections=()) -> None:
     write_tables(result, folder)
     if pdf:
-        write_pdf(result, folder / "report.pdf", accuracy=accuracy)
+        write_pdf(
+            result, folder / "report.pdf", accuracy=accuracy, fields=fields, sections=sections
+        )
 
 
-def write_report(result, out_dir, *, pdf: bool = True, accuracy_csv=None) -> Path:
+def write_report(
+    result,
+    out_dir,
+    *,
+    pdf: bool = True,
+    accuracy_csv=None,
+    fields: ReportFields | None = None,
+    sections: Sequence = (),
+) -> Path:
     """Write one applicator's files into ``out_dir`` (staged: all or nothing).
 
     ``accuracy_csv``: optional accuracy.csv of ``ringqa accuracy`` for the scene used (adds a
-    page with its error-vs-time plot).
+    page with its error-vs-time plot). ``fields``: what the signing physicist fills in (blank
+    lines when None). ``sections``: extra report pages, callables ``section(result) -> list of
+    reportlab flowables`` (see :func:`ringqa.report.pdf.write_pdf`).
 
     Returns
     -------
@@ -75,22 +91,32 @@ def write_report(result, out_dir, *, pdf: bool = True, accuracy_csv=None) -> Pat
     """
     accuracy = None if accuracy_csv is None else read_accuracy_csv(accuracy_csv)
     with staged_output(out_dir) as stage:
-        _write_one(result, stage, pdf, accuracy)
+        _write_one(result, stage, pdf, accuracy, fields, sections)
     return Path(out_dir)
 
 
-def write_batch(batch, out_dir, *, pdf: bool = True, progress: bool = False) -> Path:
+def write_batch(
+    batch,
+    out_dir,
+    *,
+    pdf: bool = True,
+    progress: bool = False,
+    fields: ReportFields | None = None,
+    sections: Sequence = (),
+) -> Path:
     """Write a BatchResult: ``out_dir/<applicator>/`` per result, plus the cross-applicator
     ``summary.csv``, ``all_dwells.csv``, ``all_doses.csv``, ``batch.json`` and ``summary.pdf``.
-    Failed applicators appear in summary.csv / batch.json with their error (no subfolder)."""
+    Failed applicators appear in summary.csv / batch.json with their error (no subfolder).
+    ``fields`` and ``sections`` as in :func:`write_report` (the fields go on every report and on
+    summary.pdf)."""
     from tqdm import tqdm
 
     with staged_output(out_dir) as stage:
         for res in tqdm(batch.results, desc="reports", unit="applicator", disable=not progress):
-            _write_one(res, stage / _safe(res.applicator), pdf)
+            _write_one(res, stage / _safe(res.applicator), pdf, None, fields, sections)
         write_batch_tables(batch, stage)
         if pdf:
-            write_batch_pdf(batch, stage / "summary.pdf")
+            write_batch_pdf(batch, stage / "summary.pdf", fields=fields)
     return Path(out_dir)
 
 
