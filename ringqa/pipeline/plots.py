@@ -46,10 +46,14 @@ BATCH_SIZE = (7.1, 4.4)
 
 
 def new_figure(size: tuple[float, float]):
-    """A :class:`matplotlib.figure.Figure` of ``size`` (inches), not registered with pyplot."""
+    """A :class:`matplotlib.figure.Figure` of ``size`` (inches), not registered with pyplot,
+    drawn by the Agg canvas (``fig.canvas.draw()``, ``fig.savefig`` work without a GUI)."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
-    return Figure(figsize=size)
+    fig = Figure(figsize=size)
+    FigureCanvasAgg(fig)
+    return fig
 
 
 def _finish(fig, title: str | None):

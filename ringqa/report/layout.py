@@ -167,6 +167,7 @@ def grid_table(
         for r, row in enumerate(rows)
     ]
     commands = [
+        ("FONTNAME", (0, 0), (-1, -1), FONT),  # the table's own default is Helvetica
         ("GRID", (0, 0), (-1, -1), 0.4, colors.HexColor("#9e9e9e")),
         ("BACKGROUND", (0, 0), (-1, header_rows - 1), colors.HexColor("#eeeeee")),
         ("VALIGN", (0, 0), (-1, -1), "MIDDLE"),
@@ -200,9 +201,6 @@ def figure_image(fig, width: float = FRAME_WIDTH, dpi: int = FIGURE_DPI) -> Imag
 
     The figure is drawn with the Agg canvas (no pyplot, no backend switch).
     """
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-
-    FigureCanvasAgg(fig)
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=dpi)
     buf.seek(0)
@@ -304,6 +302,7 @@ def build_pdf(path, story: list, stamp: PageStamp, *, title: str, subject: str =
         author=stamp.software,
         subject=subject,
         creator=stamp.software,
+        initialFontName=FONT,  # else the canvas adds an unembedded Helvetica
     )
     doc.build(story, canvasmaker=functools.partial(_NumberedCanvas, stamp=stamp))
     return path

@@ -684,6 +684,7 @@ def _conclusion_box(item: TextItem) -> Table:
     table.setStyle(
         TableStyle(
             [
+                ("FONTNAME", (0, 0), (-1, -1), layout.FONT),
                 ("BOX", (0, 0), (-1, -1), 2, colour),
                 ("BACKGROUND", (0, 0), (-1, -1), "#fafafa"),
                 ("TOPPADDING", (0, 0), (-1, -1), 4),
