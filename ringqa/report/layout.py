@@ -44,8 +44,8 @@ from reportlab.platypus import (
 FIGURE_DPI = 150
 PAGE = A4
 MARGIN_X = 15 * mm
-MARGIN_TOP = 20 * mm
-MARGIN_BOTTOM = 17 * mm
+MARGIN_TOP = 17 * mm
+MARGIN_BOTTOM = 15 * mm
 #: Width of the text frame, points.
 FRAME_WIDTH = PAGE[0] - 2 * MARGIN_X
 FONT = "DejaVuSans"
@@ -92,7 +92,7 @@ def styles() -> dict[str, ParagraphStyle]:
     """The paragraph styles by name: title, h1, h2, body, small, mono, cell, cellhead, field."""
     register_fonts()
     base = ParagraphStyle(
-        "body", fontName=FONT, fontSize=8.5, leading=10.8, alignment=TA_LEFT, spaceAfter=2.5
+        "body", fontName=FONT, fontSize=8.3, leading=10.2, alignment=TA_LEFT, spaceAfter=2
     )
 
     def s(name, **kw):
@@ -100,11 +100,11 @@ def styles() -> dict[str, ParagraphStyle]:
 
     return {
         "title": s("title", fontName=FONT_BOLD, fontSize=14, leading=17, spaceAfter=4),
-        "h1": s("h1", fontName=FONT_BOLD, fontSize=11, leading=13.5, spaceBefore=7, spaceAfter=3),
+        "h1": s("h1", fontName=FONT_BOLD, fontSize=11, leading=13.5, spaceBefore=5, spaceAfter=2),
         "h2": s("h2", fontName=FONT_BOLD, fontSize=8.8, leading=11, spaceBefore=3, spaceAfter=2),
         "body": base,
         "small": s("small", fontSize=7.3, leading=9, spaceAfter=1.5),
-        "note": s("note", fontSize=8, leading=10, leftIndent=8, bulletIndent=0, spaceAfter=1.5),
+        "note": s("note", fontSize=7.8, leading=9.6, leftIndent=8, bulletIndent=0, spaceAfter=1),
         "mono": s("mono", fontName=FONT_MONO, fontSize=6.8, leading=8.3, spaceAfter=0),
         "cell": s("cell", fontSize=7.3, leading=8.8, spaceAfter=0),
         "cellhead": s("cellhead", fontName=FONT_BOLD, fontSize=7.3, leading=8.8, spaceAfter=0),
@@ -274,7 +274,7 @@ class _NumberedCanvas(rl_canvas.Canvas):
         self.drawString(MARGIN_X, y_head, title)
         self.setFont(FONT, 7.5)
         self.drawRightString(w - MARGIN_X, y_head, right)
-        y_foot = MARGIN_BOTTOM - 8 * mm
+        y_foot = MARGIN_BOTTOM - 7 * mm
         self.line(MARGIN_X, y_foot + 3 * mm, w - MARGIN_X, y_foot + 3 * mm)
         self.drawString(MARGIN_X, y_foot, st.inputs)
         self.drawRightString(w - MARGIN_X, y_foot, f"page {self._pageNumber}/{total}")

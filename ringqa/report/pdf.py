@@ -669,7 +669,7 @@ def _free_notes(notes: Sequence[str]) -> list:
     if given:
         out += [para(n) for n in given]
     else:
-        out += [para("_" * 110, "small") for _ in range(3)]
+        out += [para("_" * 110, "small") for _ in range(2)]
     return out
 
 
@@ -745,8 +745,8 @@ def items_flowables(items: Sequence[TextItem]) -> list:
 
 
 def summary_flowables(result, fields: ReportFields | None = None, notes=()) -> list:
-    """Page 1 and its continuation: title, the physicist's fields, :func:`page1_items`, free
-    notes, signature block and the references used there."""
+    """Page 1 and its continuation: title, the physicist's fields, :func:`page1_items`, the
+    references used there, free notes and the signature block."""
     f = fields or ReportFields()
     return [
         heading("Commissioning report", 0),
@@ -754,9 +754,9 @@ def summary_flowables(result, fields: ReportFields | None = None, notes=()) -> l
         _fields_table(field_rows(result, f)),
         layout.spacer(2),
         *items_flowables(page1_items(result)),
+        *_references(PAPER_REFERENCE),
         *_free_notes([f.notes, *notes]),
         signature_block(f),
-        *_references(PAPER_REFERENCE),
     ]
 
 
@@ -890,8 +890,13 @@ def settings_rows(res) -> tuple[list[tuple[str, str]], list[tuple[str, str]]]:
     if res.numerics is not None:
         run.append(("numerical check runs", str(res.numerics.n_runs)))
     run += [("engine warning", w) for w in sim.warnings]
-    scene_rows = [(k, _setting_text(v)) for k, v in flatten(scene).items()]
+    scene_rows = [(k, _short(_setting_text(v))) for k, v in flatten(scene).items()]
     return run, scene_rows or [("(engine defaults)", "")]
+
+
+def _short(text: str, width: int = 60) -> str:
+    """``text``, or its start and a pointer to results.json when longer than ``width``."""
+    return text if len(text) <= width else text[: width - 24].rstrip() + "... (results.json)"
 
 
 def _two_up(rows: list[tuple[str, str]]) -> list[list[str]]:
@@ -1112,7 +1117,7 @@ def write_batch_pdf(batch, path: Path, *, fields: ReportFields | None = None) ->
             for item, err in batch.failures
         ]
     f = fields or ReportFields()
-    story += [*_free_notes([f.notes]), signature_block(f), *_references(PAPER_REFERENCE)]
+    story += [*_references(PAPER_REFERENCE), *_free_notes([f.notes]), signature_block(f)]
     return layout.build_pdf(
         path, story, stamp, title=stamp.title, subject="HDR ring applicator commissioning"
     )
