@@ -17,8 +17,6 @@ import textwrap
 import numpy as np
 import pandas as pd
 
-from ringqa.pipeline.result import RingGeometry
-
 COLOURS = {
     "measured": "black",
     "registered": "tab:green",
@@ -62,8 +60,9 @@ def _finish(fig, title: str | None):
     return fig
 
 
-def ring_frame(geometry: RingGeometry):
-    """Ring frame: centre (3,), e_left (3,), e_ant (3,) in-plane, e_cranial (3,)."""
+def ring_frame(geometry):
+    """Ring frame of a :class:`~ringqa.pipeline.result.RingGeometry`: centre (3,), e_left (3,),
+    e_ant (3,) in-plane, e_cranial (3,)."""
     c = np.asarray(geometry.ring_centre_mm, dtype=float)
     n = np.asarray(geometry.ring_normal, dtype=float)
     n = n / np.linalg.norm(n)
@@ -73,7 +72,7 @@ def ring_frame(geometry: RingGeometry):
     return c, lat, np.cross(n, lat), n
 
 
-def project(xyz, geometry: RingGeometry):
+def project(xyz, geometry):
     """Points (n, 3) in mm -> (left, in-plane perpendicular, cranial) coordinates in the ring
     frame, mm (three arrays of n)."""
     c, e1, e2, n = ring_frame(geometry)
