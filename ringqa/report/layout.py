@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import functools
 import importlib.util
-import io
 from dataclasses import dataclass
 from pathlib import Path
 from xml.sax.saxutils import escape
@@ -32,7 +31,7 @@ from reportlab.pdfbase import pdfmetrics
 from reportlab.pdfbase.ttfonts import TTFont
 from reportlab.pdfgen import canvas as rl_canvas
 from reportlab.platypus import (
-    Image,
+    Flowable,
     Paragraph,
     SimpleDocTemplate,
     Spacer,
@@ -196,16 +195,43 @@ def grid_table(
     return table
 
 
-def figure_image(fig, width: float = FRAME_WIDTH, dpi: int = FIGURE_DPI) -> Image:
-    """A matplotlib Figure as an embedded PNG image ``width`` points wide (its aspect kept).
+def figure_image(fig, width: float = FRAME_WIDTH, dpi: int = FIGURE_DPI) -> Flowable:
+    """A matplotlib Figure as an embedded image ``width`` points wide (its aspect kept).
 
-    The figure is drawn with the Agg canvas (no pyplot, no backend switch).
+    The figure is drawn by the Agg canvas at ``dpi`` (no pyplot, no backend switch) and handed
+    to reportlab as pixels (no PNG encoding and decoding on the way; the PDF stores them
+    Flate-compressed, lossless).
     """
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=dpi)
-    buf.seek(0)
+    import numpy as np
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from PIL import Image as PILImage
+    from reportlab.lib.utils import ImageReader
+
+    if not isinstance(fig.canvas, FigureCanvasAgg):
+        FigureCanvasAgg(fig)
+    fig.set_dpi(dpi)
+    fig.canvas.draw()
+    rgb = np.asarray(fig.canvas.buffer_rgba())[..., :3]
     w_in, h_in = fig.get_size_inches()
-    return Image(buf, width=width, height=width * h_in / w_in)
+    return PixelImage(
+        ImageReader(PILImage.fromarray(np.ascontiguousarray(rgb))), width, width * h_in / w_in
+    )
+
+
+class PixelImage(Flowable):
+    """An image given as pixels (a reportlab ImageReader), drawn ``width`` x ``height`` points
+    and centred in the frame."""
+
+    def __init__(self, reader, width: float, height: float):
+        super().__init__()
+        self.reader, self.width, self.height = reader, width, height
+        self.hAlign = "CENTER"
+
+    def wrap(self, avail_width, avail_height):
+        return self.width, self.height
+
+    def draw(self):
+        self.canv.drawImage(self.reader, 0, 0, self.width, self.height)
 
 
 def spacer(height_mm: float) -> Spacer:
