@@ -526,11 +526,6 @@ def batch_distances_figure(batch, title: str | None = None):
     ax.axhline(lim_req, color="#c62828", ls="--", lw=1, label=f"{lim_req:g} mm required")
     ax.legend(fontsize=7, loc="upper right")
     ax.set_ylabel("3D distance to the reference path (mm)")
-    ax.set_title(
-        "Distances per applicator (paper Figure 5)\nbox: interquartile range, line: "
-        "median, whiskers: extremes without outliers, x: outliers",
-        fontsize=8,
-    )
     ax.grid(alpha=0.3, axis="y")
     fig.subplots_adjust(left=0.1, right=0.98, bottom=0.3, top=0.88 if title else 0.9)
     return _finish(fig, title)
