@@ -7,10 +7,12 @@ Public API::
                                             # results.json report.pdf, staged (never half-written)
     write_batch(batch, "out/")              # one subfolder per applicator + summary.csv,
                                             # batch.json, summary.pdf
+    write_report(result, "out", fields=ReportFields(institution="...", physicist="..."))
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 
 import pandas as pd
@@ -23,6 +25,7 @@ from ringqa.report.tables import SCHEMA, results_dict, write_batch_tables, write
 
 __all__ = [
     "SCHEMA",
+    "ReportFields",
     "read_accuracy_csv",
     "results_dict",
     "write_batch",
@@ -57,14 +60,18 @@ def read_accuracy_csv(path) -> pd.DataFrame:
     return table
 
 
-def _write_one(result, folder: Path, pdf: bool, accuracy=None, fields=None, export=None) -> None:
+def _write_one(
+    result, folder: Path, pdf: bool, accuracy=None, fields=None, export=None, sections=()
+) -> None:
     write_tables(result, folder)
     if export is not None:
         from ringqa.io.export_tps import write_exports
 
         write_exports(result, folder, export)
     if pdf:
-        write_pdf(result, folder / "report.pdf", accuracy=accuracy, fields=fields)
+        write_pdf(
+            result, folder / "report.pdf", accuracy=accuracy, fields=fields, sections=sections
+        )
 
 
 def _checked_exports(results, export: bool) -> list:
@@ -85,6 +92,7 @@ def write_report(
     accuracy_csv=None,
     fields: ReportFields | None = None,
     export: bool = False,
+    sections: Sequence = (),
 ) -> Path:
     """Write one applicator's files into ``out_dir`` (staged: all or nothing).
 
@@ -92,6 +100,8 @@ def write_report(
     page with its error-vs-time plot). ``fields``: what the signing physicist fills in (from the
     clinic configuration). ``export``: also write ``export/`` (:mod:`ringqa.io.export_tps`:
     ``source_path_<channel>.csv``, and ``RP_simulated.dcm`` for an RT Plan input).
+    ``sections``: extra report pages, callables ``section(result) -> list of reportlab
+    flowables`` (see :func:`ringqa.report.pdf.write_pdf`).
 
     Returns
     -------
@@ -101,7 +111,7 @@ def write_report(
     accuracy = None if accuracy_csv is None else read_accuracy_csv(accuracy_csv)
     (checked,) = _checked_exports([result], export)
     with staged_output(out_dir) as stage:
-        _write_one(result, stage, pdf, accuracy, fields, checked)
+        _write_one(result, stage, pdf, accuracy, fields, checked, sections)
     return Path(out_dir)
 
 
@@ -113,11 +123,13 @@ def write_batch(
     progress: bool = False,
     fields: ReportFields | None = None,
     export: bool = False,
+    sections: Sequence = (),
 ) -> Path:
     """Write a BatchResult: ``out_dir/<applicator>/`` per result, plus the cross-applicator
     ``summary.csv``, ``all_dwells.csv``, ``all_doses.csv``, ``batch.json`` and ``summary.pdf``.
     Failed applicators appear in summary.csv / batch.json with their error (no subfolder).
-    ``fields`` and ``export`` as :func:`write_report` (the exports per applicator folder)."""
+    ``fields``, ``export`` and ``sections`` as :func:`write_report` (the exports per applicator
+    folder; the fields also go on summary.pdf)."""
     from tqdm import tqdm
 
     checked = _checked_exports(batch.results, export)
@@ -125,10 +137,10 @@ def write_batch(
         items = zip(batch.results, checked, strict=True)
         for res, exp in tqdm(items, desc="reports", unit="applicator", disable=not progress,
                              total=len(batch.results)):  # fmt: skip
-            _write_one(res, stage / _safe(res.applicator), pdf, None, fields, exp)
+            _write_one(res, stage / _safe(res.applicator), pdf, None, fields, exp, sections)
         write_batch_tables(batch, stage)
         if pdf:
-            write_batch_pdf(batch, stage / "summary.pdf")
+            write_batch_pdf(batch, stage / "summary.pdf", fields=fields)
     return Path(out_dir)
 
 
