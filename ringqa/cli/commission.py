@@ -161,6 +161,16 @@ def _inputs(args) -> list:
     return items
 
 
+def print_warnings(res, prefix: str = "") -> None:
+    """One line on stderr per named warning of a result (also in results.json ``warnings`` and
+    the report's first page)."""
+    for w in res.warning_records():
+        print(
+            f"ringqa commission: {w['severity']}: {prefix}[{w['name']}] {w['message']}",
+            file=sys.stderr,
+        )
+
+
 def run(args: argparse.Namespace) -> int:
     from ringqa.outdir import check_writable
     from ringqa.pipeline import CommissionSettings, commission, commission_batch
@@ -191,6 +201,7 @@ def run(args: argparse.Namespace) -> int:
     if single:
         res = commission(items[0], settings, progress=not args.quiet)
         write_report(res, args.out, pdf=not args.no_pdf, accuracy_csv=args.accuracy_csv)
+        print_warnings(res)
         verdicts = "; ".join(f"{v.status} {v.check}" for v in res.verdicts)
         print(
             f"ringqa commission: {res.applicator} ({res.reference} reference): {verdicts} "
@@ -199,6 +210,8 @@ def run(args: argparse.Namespace) -> int:
         return 0
     batch = commission_batch(items, settings, progress=not args.quiet)
     write_batch(batch, args.out, pdf=not args.no_pdf, progress=not args.quiet)
+    for res in batch.results:
+        print_warnings(res, prefix=f"{res.applicator}: ")
     n = len(batch.results) + len(batch.failures)
     print(f"ringqa commission: {len(batch.results)} of {n} applicators commissioned -> {args.out}")
     if batch.failures:

@@ -410,6 +410,10 @@ class Timings:
         }
 
 
+#: named input checks that are notes (the file was read correctly; shown, not alarming)
+NOTE_CHECKS = ("csv.encoding",)
+
+
 @dataclass(frozen=True, eq=False)
 class CommissioningResult:
     """Everything one commissioning run produced (tables in mm, deg, Gy, %).
@@ -460,6 +464,10 @@ class CommissioningResult:
         The simulation's numerical error (commissioning vs refined run).
     conclusion : str
         One line: what the verdicts mean together.
+    warnings : tuple of str
+        Named warnings of the input checks (``"[name] message"``,
+        :func:`ringqa.errors.named_warning`): printed by the command line, in results.json
+        ``warnings`` and first in the notes (report page 1).
     """
 
     applicator: str
@@ -480,6 +488,19 @@ class CommissioningResult:
     reference_check: Any = None
     numerics: Any = None
     conclusion: str = ""
+    warnings: tuple[str, ...] = ()
+
+    def warning_records(self) -> list[dict]:
+        """The results.json ``warnings``: ``name``, ``severity`` (``note`` for
+        :data:`NOTE_CHECKS`, else ``warning``) and ``message`` of each."""
+        from ringqa.errors import split_warning
+
+        out = []
+        for w in self.warnings:
+            name, message = split_warning(w)
+            severity = "note" if name in NOTE_CHECKS else "warning"
+            out.append({"name": name, "severity": severity, "message": message})
+        return out
 
     @property
     def passed(self) -> bool:

@@ -16,7 +16,8 @@ from pathlib import Path
 import pandas as pd
 
 from ringqa.errors import InputFileError
-from ringqa.outdir import staged_output
+from ringqa.jsonio import write_json
+from ringqa.outdir import MARKER_NAME, marker_record, staged_output
 from ringqa.report.pdf import write_batch_pdf, write_pdf
 from ringqa.report.tables import SCHEMA, results_dict, write_batch_tables, write_tables
 
@@ -86,14 +87,16 @@ def write_batch(batch, out_dir, *, pdf: bool = True, progress: bool = False) -> 
     from tqdm import tqdm
 
     with staged_output(out_dir) as stage:
-        for res in tqdm(batch.results, desc="reports", unit="applicator", disable=not progress):
-            _write_one(res, stage / _safe(res.applicator), pdf)
+        results = tqdm(batch.results, desc="reports", unit="applicator", disable=not progress)
+        for i, res in enumerate(results):
+            sub = stage / batch.label(i)
+            _write_one(res, sub, pdf)
+            # each applicator's folder is recognisably ringqa's own (copied out on its own, it
+            # is replaced whole by a later run like any output folder)
+            write_json(sub / MARKER_NAME, marker_record(), indent=2, end="\n")
         write_batch_tables(batch, stage)
         if pdf:
             write_batch_pdf(batch, stage / "summary.pdf")
     return Path(out_dir)
 
 
-def _safe(name: str) -> str:
-    keep = "".join(c if c.isalnum() or c in "-_." else "_" for c in str(name)).strip("._")
-    return keep or "applicator"

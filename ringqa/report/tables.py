@@ -43,6 +43,7 @@ def results_dict(result: CommissioningResult) -> dict:
             "verdicts": [v.as_dict() for v in result.verdicts],
             "summary": result.summary.as_row(),
             "notes": list(result.notes),
+            "warnings": result.warning_records(),
             "settings": result.settings.as_dict(),
             "simulation": result.simulation.as_dict(),
             "dose_points": points,
