@@ -68,8 +68,8 @@ from ringqa.geometry import (
     fit_ring_frame,
 )
 from ringqa.geometry.lumen_spec import lumen_from_spec, lumen_to_spec
-from ringqa.geometry.shape_checks import check_channel_shape
 from ringqa.geometry.registration import OUTSIDE_DISTANCE_M, path_placement
+from ringqa.geometry.shape_checks import check_channel_shape
 from ringqa.io.points import PointSet, PointsFileError, check_points, read_point_set
 from ringqa.jsonio import json_text, to_jsonable
 from ringqa.outdir import atomic_write_text

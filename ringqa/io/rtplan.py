@@ -854,10 +854,11 @@ def _read_library(p: Path, setups, channels: list, warnings: list):
         try:
             lib = oncentra.parse_library(oncentra.decode_library(el.value))
         except oncentra.LibraryFormatError as exc:
-            warnings.append(
+            warnings.append(named_warning(
+                "plan.library",
                 f"Oncentra applicator library (300B,100D) not readable ({exc}); using the "
-                "standard tags only"
-            )
+                "standard tags only",
+            ))  # fmt: skip
             continue
         for ch_item in _get(s, "ChannelSequence") or []:
             by_setup[int(_get(ch_item, "ChannelNumber") or 0)] = (lib, preferred)
@@ -877,7 +878,11 @@ def _read_library(p: Path, setups, channels: list, warnings: list):
         try:
             library[ch.number] = oncentra.library_channel(lib, ch.joint_address, preferred)
         except oncentra.LibraryFormatError as exc:
-            warnings.append(f"channel {ch.number}: library not usable ({exc})")
+            warnings.append(named_warning(
+                "plan.library",
+                f"channel {ch.number}: library not usable ({exc}); no centreline or measured "
+                "path for it (export the plan again from Oncentra, or give the applicator)",
+            ))  # fmt: skip
     return (library or None), app_name
 
 

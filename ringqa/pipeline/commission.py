@@ -36,6 +36,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ringqa.errors import named_warning, split_warning
 from ringqa.pipeline.deviations import (
     DwellColumns,
     centreline_offsets,
@@ -80,7 +81,6 @@ from ringqa.pipeline.verdicts import (
     conclusion,
     verdict_meanings,
 )
-from ringqa.errors import named_warning, split_warning
 from ringqa.provenance import Provenance
 from ringqa.units import m_to_mm
 

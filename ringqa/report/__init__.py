@@ -98,5 +98,3 @@ def write_batch(batch, out_dir, *, pdf: bool = True, progress: bool = False) -> 
         if pdf:
             write_batch_pdf(batch, stage / "summary.pdf")
     return Path(out_dir)
-
-

@@ -96,6 +96,7 @@ def write_batch_tables(batch: BatchResult, folder: Path) -> list[Path]:
     info = {
         "schema": "ringqa.commission-batch/1",
         "applicators": [r.applicator for r in batch.results],
+        "folders": [batch.label(i) for i in range(len(batch.results))],
         "failures": [{"input": i, "error": e} for i, e in batch.failures],
         "summary": batch.summary.to_dict("records"),
         "provenance": batch.results[0].provenance.as_dict() if batch.results else None,
