@@ -171,6 +171,8 @@ def _check_warning(case: Case, out: Path, text: str) -> None:
     data = json.loads((out / report).read_text())
     names = [w["name"] if isinstance(w, dict) else str(w) for w in data.get("warnings", [])]
     assert any(case.warning in n for n in names), data.get("warnings")
+    if report == "results.json":  # the notes lead with it: the report's first page shows them
+        assert any(n.startswith(f"Warning [{case.warning}]") for n in data["notes"])
 
 
 def _params():
