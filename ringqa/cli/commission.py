@@ -251,6 +251,16 @@ def effective(args: argparse.Namespace):
     return effective_config(args.config, command_line_settings(args), extra=extra)
 
 
+def print_warnings(res, prefix: str = "") -> None:
+    """One line on stderr per named warning of a result (also in results.json ``warnings`` and
+    the report's first page)."""
+    for w in res.warning_records():
+        print(
+            f"ringqa commission: {w['severity']}: {prefix}[{w['name']}] {w['message']}",
+            file=sys.stderr,
+        )
+
+
 def run(args: argparse.Namespace) -> int:
     from ringqa.outdir import check_writable
     from ringqa.pipeline import commission, commission_batch
@@ -278,6 +288,7 @@ def run(args: argparse.Namespace) -> int:
             res, args.out, pdf=not args.no_pdf, accuracy_csv=args.accuracy_csv, fields=fields,
             export=args.export,
         )  # fmt: skip
+        print_warnings(res)
         verdicts = "; ".join(f"{v.status} {v.check}" for v in res.verdicts)
         print(
             f"ringqa commission: {res.applicator} ({res.reference} reference): {verdicts} "
@@ -289,6 +300,8 @@ def run(args: argparse.Namespace) -> int:
         batch, args.out, pdf=not args.no_pdf, progress=not args.quiet, fields=fields,
         export=args.export,
     )  # fmt: skip
+    for res in batch.results:
+        print_warnings(res, prefix=f"{res.applicator}: ")
     n = len(batch.results) + len(batch.failures)
     print(f"ringqa commission: {len(batch.results)} of {n} applicators commissioned -> {args.out}")
     if batch.failures:

@@ -37,6 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ringqa.errors import named_warning, split_warning
 from ringqa.pipeline.deviations import (
     DwellColumns,
     centreline_offsets,
@@ -75,7 +76,12 @@ from ringqa.pipeline.simulate import (
     simulation_notes,
 )
 from ringqa.pipeline.summary import summarise
-from ringqa.pipeline.verdicts import check_tolerances, conclusion, verdict_meanings
+from ringqa.pipeline.verdicts import (
+    CHECK_TPS,
+    check_tolerances,
+    conclusion,
+    verdict_meanings,
+)
 from ringqa.provenance import Provenance, tg43_data_files
 from ringqa.units import m_to_mm
 
@@ -203,11 +209,10 @@ def commission(
         f"The standard plan includes {n_tandem} tandem dwells ({cfg.plan_step_mm:g} mm apart); "
         "the tandem is not simulated, so its dwells are the same in all plans."
     )
-    input_notes = tuple(f"RT Plan: {w}" for w in getattr(loaded.rtplan, "warnings", ()) or ())
-    input_notes += tuple(str(n) for n in app.metadata.get("notes", ()) or ())
+    warnings = collect_warnings(loaded, app, cfg, src, cable.preset, verdicts)
     notes = (
-        *input_notes,
-        *src.notes,
+        *(f"Warning [{n}]: {m}" for n, m in map(split_warning, warnings)),
+        *(n for n in src.notes if split_warning(n, "")[0] == ""),
         loaded_text(app, ring, loaded.kind),
         *correction_notes,
         *kink_notes(app, ring),
@@ -253,7 +258,40 @@ def commission(
         numerics=numerics,
         conclusion=conclusion(verdicts),
         settings_origin=dict(cfg.settings_origin),
+        warnings=warnings,
     )
+
+
+def collect_warnings(loaded, app, cfg, src, preset: str, verdicts) -> tuple[str, ...]:
+    """Every named warning of the input stages (:func:`ringqa.errors.named_warning` strings):
+    the RT Plan reader's (``plan.*``; unnamed ones ``plan.reader``), the input files' notes
+    (``csv.encoding``, ``input.note``), the source choice (``plan.source_model``), bends the
+    source capsule cannot pass (``channel.tight_bend``) and a plan whose own dwells miss the
+    TPS doses (``plan.tps_dose``)."""
+    from ringqa.geometry.shape_checks import tight_bend_warning
+    from ringqa.simulation.instruments import CABLE_PRESETS
+
+    out: list[str] = []
+    for w in getattr(loaded.rtplan, "warnings", ()) or ():
+        name, msg = split_warning(w, "plan.reader")
+        if name == "plan.no_sk" and cfg.sk_U is not None:
+            continue  # given with --sk-u
+        out.append(named_warning(name, "RT Plan: " + msg))
+    for n in app.metadata.get("notes", ()) or ():
+        out.append(named_warning("csv.encoding" if "read as" in str(n) else "input.note", str(n)))
+    out += [n for n in src.notes if split_warning(n, "")[0]]
+    inst = CABLE_PRESETS.get(preset)
+    if inst is not None:
+        capsule = inst.sections[0]
+        for ch in app.channels:
+            text = tight_bend_warning(ch, capsule.length_m, capsule.r_o_m,
+                                      f"applicator {app.name}, channel {ch.name}")  # fmt: skip
+            if text:
+                out.append(named_warning("channel.tight_bend", text))
+    for v in verdicts:
+        if v.check == CHECK_TPS and v.status == "ACTION":
+            out.append(named_warning("plan.tps_dose", v.text))
+    return tuple(out)
 
 
 def correction_note(correction) -> str:

@@ -410,6 +410,10 @@ class Timings:
         }
 
 
+#: named input checks that are notes (the file was read correctly; shown, not alarming)
+NOTE_CHECKS = ("csv.encoding",)
+
+
 @dataclass(frozen=True, eq=False)
 class CommissioningResult:
     """Everything one commissioning run produced (tables in mm, deg, Gy, %).
@@ -463,6 +467,10 @@ class CommissioningResult:
     settings_origin : dict of str to str
         Where each setting came from (configuration key -> ``"default"``, ``"user config
         <path>"``, ``"--config <path>"`` or ``"command line"``; :mod:`ringqa.config`).
+    warnings : tuple of str
+        Named warnings of the input checks (``"[name] message"``,
+        :func:`ringqa.errors.named_warning`): printed by the command line, in results.json
+        ``warnings`` and first in the notes (report page 1).
     """
 
     applicator: str
@@ -484,6 +492,19 @@ class CommissioningResult:
     numerics: Any = None
     conclusion: str = ""
     settings_origin: dict[str, str] = field(default_factory=dict)
+    warnings: tuple[str, ...] = ()
+
+    def warning_records(self) -> list[dict]:
+        """The results.json ``warnings``: ``name``, ``severity`` (``note`` for
+        :data:`NOTE_CHECKS`, else ``warning``) and ``message`` of each."""
+        from ringqa.errors import split_warning
+
+        out = []
+        for w in self.warnings:
+            name, message = split_warning(w)
+            severity = "note" if name in NOTE_CHECKS else "warning"
+            out.append({"name": name, "severity": severity, "message": message})
+        return out
 
     @property
     def passed(self) -> bool:

@@ -18,7 +18,8 @@ from pathlib import Path
 import pandas as pd
 
 from ringqa.errors import InputFileError
-from ringqa.outdir import staged_output
+from ringqa.jsonio import write_json
+from ringqa.outdir import MARKER_NAME, marker_record, staged_output
 from ringqa.report.fields import ReportFields
 from ringqa.report.pdf import write_batch_pdf, write_pdf
 from ringqa.report.tables import SCHEMA, results_dict, write_batch_tables, write_tables
@@ -135,15 +136,16 @@ def write_batch(
     checked = _checked_exports(batch.results, export)
     with staged_output(out_dir) as stage:
         items = zip(batch.results, checked, strict=True)
-        for res, exp in tqdm(items, desc="reports", unit="applicator", disable=not progress,
-                             total=len(batch.results)):  # fmt: skip
-            _write_one(res, stage / _safe(res.applicator), pdf, None, fields, exp, sections)
+        for i, (res, exp) in enumerate(
+            tqdm(items, desc="reports", unit="applicator", disable=not progress,
+                 total=len(batch.results))
+        ):  # fmt: skip
+            sub = stage / batch.label(i)
+            _write_one(res, sub, pdf, None, fields, exp, sections)
+            # each applicator's folder is recognisably ringqa's own (copied out on its own, it
+            # is replaced whole by a later run like any output folder)
+            write_json(sub / MARKER_NAME, marker_record(), indent=2, end="\n")
         write_batch_tables(batch, stage)
         if pdf:
             write_batch_pdf(batch, stage / "summary.pdf", fields=fields)
     return Path(out_dir)
-
-
-def _safe(name: str) -> str:
-    keep = "".join(c if c.isalnum() or c in "-_." else "_" for c in str(name)).strip("._")
-    return keep or "applicator"

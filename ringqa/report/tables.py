@@ -43,6 +43,7 @@ def results_dict(result: CommissioningResult) -> dict:
             "verdicts": [v.as_dict() for v in result.verdicts],
             "summary": result.summary.as_row(),
             "notes": list(result.notes),
+            "warnings": result.warning_records(),
             "settings": result.settings.as_dict(),
             "settings_origin": dict(getattr(result, "settings_origin", {}) or {}),
             "simulation": result.simulation.as_dict(),
@@ -100,6 +101,7 @@ def write_batch_tables(batch: BatchResult, folder: Path) -> list[Path]:
     info = {
         "schema": "ringqa.commission-batch/1",
         "applicators": [r.applicator for r in batch.results],
+        "folders": [batch.label(i) for i in range(len(batch.results))],
         "failures": [{"input": i, "error": e} for i, e in batch.failures],
         "summary": batch.summary.to_dict("records"),
         "provenance": batch.results[0].provenance.as_dict() if batch.results else None,
