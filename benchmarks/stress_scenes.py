@@ -157,18 +157,20 @@ def draw_scene(rng: np.random.Generator, i: int) -> tuple[dict, dict]:
         data["channel"]["s_ref_mm"] = float(length - rng.uniform(2, 8))
     labels = {
         "channel": kind, "lumen": lumen, "lumen_d_mm": round(float(d_lumen), 3),
-        "preset": preset, "solver": solver["kind"] + ("/" + solver["integrator"] if dynamic else ""),
+        "preset": preset,
+        "solver": solver["kind"] + ("/" + solver["integrator"] if dynamic else ""),
         "gravity": gravity, "friction": friction, "k_wall": k_wall,
         "motion": motion["kind"] + ("-backward" if backward else ""),
     }  # fmt: skip
     return data, labels
 
 
-def scenes(seed: int, n: int):
-    """``n`` valid random scenes: (index, scene, labels, data); invalid draws are redrawn."""
+def scenes(seed: int):
+    """Random scenes that pass the scene checks, without end: (index, scene, labels, data);
+    draws the loader refuses are redrawn (the index counts the accepted ones)."""
     rng = np.random.default_rng(seed)
     i = 0
-    while i < n:
+    while True:
         data, labels = draw_scene(rng, i)
         try:
             sc = load_scene(data)
@@ -224,13 +226,19 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     only = {int(x) for x in args.only.split(",") if x.strip()}
     rows = []
-    for i, sc, labels, _data in scenes(args.seed, args.n):
+    refused = []
+    for i, sc, labels, _data in scenes(args.seed):
+        if len(rows) >= args.n or (only and i > max(only)):
+            break
         if only and i not in only:
             continue
         row = run_one(sc, labels)
+        if row["status"] == "refused":  # the engine's own set-up checks: not a valid scene
+            refused.append(f"{row['scene']}: {row['message']}")
+            continue
         rows.append(row)
         print(
-            f"{row['scene']:11s} {str(row['status']):>7s} {row['time_s']:8.3f} s "
+            f"{row['scene']:11s} {row['status']!s:>7s} {row['time_s']:8.3f} s "
             f"it {row.get('newton_iters', 0):6} fail {row.get('failed_attempts', 0):4} "
             f"stab {row.get('stabilised_steps', 0):4} pen {row.get('penetration_frac', 0):6.3f} "
             f"c {row.get('clearance_mm', 0):.3f} | {row['channel']} {row['lumen']} "
@@ -238,6 +246,9 @@ def main(argv=None) -> int:
             f"{row['motion']} {row['friction']} k={row['k_wall']:.0e} {row.get('message', '')}",
             flush=True,
         )
+    print(f"\n{len(refused)} draws refused by the engine at set-up (not valid, redrawn):")
+    for line in refused:
+        print("  " + line[:160])
     if not rows:
         return 1
     args.csv.parent.mkdir(parents=True, exist_ok=True)
