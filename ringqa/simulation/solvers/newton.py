@@ -175,17 +175,20 @@ def newton(effects, q, st, sw, n_free, tol_abs, max_iter, max_step, r, B, energi
         # and stalls at). Step the other way, downhill along the unstable mode (trust-region
         # sized, accepted without the |r|^2 line search, which a step off a saddle must raise),
         # so the cable buckles onto the wall and Newton converges to the stable equilibrium.
-        # Not with torsion: its friction Jacobian is approximate (5 %), so the sign test is not.
+        # Only for a step the trust region clips (a near-singular mode dominates it: the
+        # saddle's signature; flipping every uphill step sent converging steps astray: the 34 mm
+        # rings got 8-13 fallback steps). Not with torsion: its friction Jacobian is approximate
+        # (5 %), so the sign test is not.
         uphill = 0.0
         for i in range(n_free):
             uphill += rhs[i] * r[i]
-        flip = uphill > 0.0 and nd == 3
-        if flip:
-            for i in range(n_free):
-                rhs[i] = -rhs[i]
         scale = 1.0
         if mx > max_step:
             scale = max_step / mx
+        flip = uphill > 0.0 and nd == 3 and scale < 1.0
+        if flip:
+            for i in range(n_free):
+                rhs[i] = -rhs[i]
         q0[:] = q
         lam = scale
         for _ls in range(9):
