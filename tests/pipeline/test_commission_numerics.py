@@ -82,21 +82,23 @@ def test_numerical_error_is_within_the_warning_level_with_the_defaults(name, rep
 
 
 @pytest.mark.slow
-def test_the_example_with_its_own_cable_is_resolved_with_finer_runs(repo_root):
+def test_the_example_with_its_own_cable_no_longer_branches(repo_root):
     """The example's plan is for the mHDR-v2 source, so its own cable is the microSelectron's
-    (stiffer than the Flexitron's thin section: its mechanics are assumed). It sticks and snaps
-    near the library centreline's kink (relative position 61 mm): halving the settings moves the
-    dwells by 0.06 mm, but the probes put some 0.17 mm apart. The check then runs two much finer
-    runs (1/5 and 1/10 of the commissioning settings; measured: 0.4 -> 0.3 -> 0.2 -> 0.15 mm links
-    move the dwells 0.03/0.03/0.01 mm), reports their distance (<= 0.1 mm, the must-show), says
-    in words why they were needed, and still names the kink."""
+    (stiffer than the Flexitron's thin section: its mechanics are assumed). Until 2026-11-25 the
+    engine's Newton stalled where the free cable in the 193 mm stem passes its buckling load
+    (docs/engine.md, "Buckled free cable"): 446 of 1465 push steps needed the fallback
+    stabilisation, the probes put dwells 0.17 mm apart and the check ran the two much finer runs
+    (1/5 and 1/10 of the settings) to settle the branch. Newton now steps off that saddle: the
+    probes agree within the warning level (measured 0.036 mm, 7 fallback steps), so the check
+    stops after the two runs and two probes, reports that distance, and still names the kink.
+    (The finer-run path, RESOLVE_FACTORS, has no end-to-end case here since: engine hand-off.)"""
     res = commission(repo_root / EXAMPLE)
     n = res.numerics
     assert res.settings.cable == "microselectron"
-    assert n.n_probes == 2 and n.resolved
-    assert n.branch_mm > NUMERICAL_ERROR_WARN_MM >= n.max_mm > 0.0
-    assert n.n_runs == 6
-    assert any("agree on one of them" in t for t in n.text)
+    assert n.n_probes == 2 and not n.resolved
+    assert n.n_runs == 4
+    assert 0.0 < n.max_mm <= NUMERICAL_ERROR_WARN_MM
+    assert n.branch_mm <= NUMERICAL_ERROR_WARN_MM
     assert any("bends sharply" in m and "relative position 61" in m for m in res.notes)
     assert res.verdicts[-1].status == "PASS"
 

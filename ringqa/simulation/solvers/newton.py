@@ -169,9 +169,26 @@ def newton(effects, q, st, sw, n_free, tol_abs, max_iter, max_step, r, B, energi
                 mx = a
         if not math.isfinite(mx):
             return 2, it, res
+        # negative curvature: r = grad E, so the Newton step d = -J^-1 r goes uphill in energy
+        # (r.d > 0) only where J is indefinite along r, i.e. past a buckling load (the straight
+        # free cable pushed past Euler's load sits on a saddle that Newton on |r| is drawn to
+        # and stalls at). Step the other way, downhill along the unstable mode (trust-region
+        # sized, accepted without the |r|^2 line search, which a step off a saddle must raise),
+        # so the cable buckles onto the wall and Newton converges to the stable equilibrium.
+        # Only for a step the trust region clips (a near-singular mode dominates it: the
+        # saddle's signature; flipping every uphill step sent converging steps astray: the 34 mm
+        # rings got 8-13 fallback steps). Not with torsion: its friction Jacobian is approximate
+        # (5 %), so the sign test is not.
+        uphill = 0.0
+        for i in range(n_free):
+            uphill += rhs[i] * r[i]
         scale = 1.0
         if mx > max_step:
             scale = max_step / mx
+        flip = uphill > 0.0 and nd == 3 and scale < 1.0
+        if flip:
+            for i in range(n_free):
+                rhs[i] = -rhs[i]
         q0[:] = q
         lam = scale
         for _ls in range(9):
@@ -181,7 +198,7 @@ def newton(effects, q, st, sw, n_free, tol_abs, max_iter, max_step, r, B, energi
             merit = 0.0
             for i in range(n_free):
                 merit += r_try[i] * r_try[i]
-            if math.isfinite(merit) and merit <= (1.0 - 1e-4 * lam) * merit0:
+            if math.isfinite(merit) and (flip or merit <= (1.0 - 1e-4 * lam) * merit0):
                 break
             lam *= 0.5
             counters[3] += 1
