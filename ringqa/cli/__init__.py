@@ -30,6 +30,7 @@ COMMANDS: dict[str, str] = {
     "accuracy": "ringqa.cli.accuracy",
     "commission": "ringqa.cli.commission",
     "needle": "ringqa.cli.needle",
+    "sweep": "ringqa.cli.sweep",
 }
 
 
