@@ -155,9 +155,11 @@ class SweepSpec:
         return tuple(p.key for p in self.parameters)
 
     def digest(self) -> str:
-        """A checksum of everything that decides the samples' numbers (not ``batch_size``):
-        a resumed sweep must have the same."""
-        d = {k: v for k, v in self.raw.items() if k not in ("batch_size", "description")}
+        """A checksum of everything that decides each sample's numbers: a resumed sweep must
+        have the same. Not ``batch_size`` or ``description``, nor (random method) ``samples``:
+        sample i depends on (seed, i) only, so a finished sweep can be extended with more."""
+        skip = ("batch_size", "description") + (("samples",) if self.method == "random" else ())
+        d = {k: v for k, v in self.raw.items() if k not in skip}
         return hashlib.sha256(json.dumps(d, sort_keys=True, default=str).encode()).hexdigest()
 
 

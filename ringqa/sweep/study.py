@@ -17,6 +17,7 @@ scheduler have all been checked):
 
 from __future__ import annotations
 
+import contextlib
 import platform
 import sys
 import time
@@ -126,14 +127,19 @@ def run_sweep(
     table = design(spec)
     job = job_of(spec)
     nominal = nominal_values(spec)
-    t0 = time.perf_counter()
-    nom_rec, reference_mm, nom_res = _nominal(job, nominal)
-    nominal_s = time.perf_counter() - t0
-
-    ctx = connect(scheduler, workers) if client is None else _given(client)
-    t_cluster = time.perf_counter()
-    with ctx as cl:
+    with contextlib.ExitStack() as stack:
+        t_cluster = time.perf_counter()
+        cl = client
+        if cl is None and scheduler:  # an unreachable scheduler fails before the nominal run
+            cl = stack.enter_context(connect(scheduler, workers))
         cluster_s = time.perf_counter() - t_cluster
+        t0 = time.perf_counter()
+        nom_rec, reference_mm, nom_res = _nominal(job, nominal)
+        nominal_s = time.perf_counter() - t0
+        if cl is None:  # a local cluster starts after the nominal run warmed the numba cache
+            t_cluster = time.perf_counter()
+            cl = stack.enter_context(connect(None, workers))
+            cluster_s = time.perf_counter() - t_cluster
         n_workers = len(cl.scheduler_info().get("workers", {}))
         out.mkdir(parents=True, exist_ok=True)
         with SampleStore(
@@ -239,19 +245,6 @@ def _write(out, summ, sens, record, samples, nominal_mm, reference_mm, title) ->
         write_json(stage / "sweep.json", record)
         fig = uncertainty_figure(samples, nominal_mm, reference_mm, summ, title)
         fig.savefig(stage / "uncertainty.png", dpi=110)
-
-
-class _given:
-    """A context manager around a client the caller owns (not closed here)."""
-
-    def __init__(self, client) -> None:
-        self.client = client
-
-    def __enter__(self):
-        return self.client
-
-    def __exit__(self, *exc) -> None:
-        return None
 
 
 def _bar(total: int, done: int, show: bool):
