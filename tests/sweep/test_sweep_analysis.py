@@ -15,12 +15,30 @@ def _samples(n=200, seed=0):
     ok = np.ones(n, bool)
     ok[-1] = False
     dev[-1] = np.nan
-    arrays = {"x_mm": dev.copy(), "y_mm": np.zeros((n, 2)), "z_mm": np.zeros((n, 2)),
-              "deviation_mm": dev, "along_mm": dev, "radial_mm": dev, "out_of_plane_mm": dev,
-              "numerical_error_mm": np.full((n, 2), 0.01),
-              "dose_gy": np.full((n, 1), 7.0), "dose_diff_pct": (3 * x[:, :1] + 20)}  # fmt: skip
-    return StoredSamples(np.arange(n), x, ok, [""] * n, np.ones(n), ["w"] * n, arrays,
-                         ("a", "b"), (1, 2), ("point_a_left",))  # fmt: skip
+    arrays = {
+        "x_mm": dev.copy(),
+        "y_mm": np.zeros((n, 2)),
+        "z_mm": np.zeros((n, 2)),
+        "deviation_mm": dev,
+        "along_mm": dev,
+        "radial_mm": dev,
+        "out_of_plane_mm": dev,
+        "numerical_error_mm": np.full((n, 2), 0.01),
+        "dose_gy": np.full((n, 1), 7.0),
+        "dose_diff_pct": (3 * x[:, :1] + 20),
+    }
+    return StoredSamples(
+        np.arange(n),
+        x,
+        ok,
+        [""] * n,
+        np.ones(n),
+        ["w"] * n,
+        arrays,
+        ("a", "b"),
+        (1, 2),
+        ("point_a_left",),
+    )
 
 
 def test_summary_contract_columns_and_numbers():
@@ -34,12 +52,22 @@ def test_summary_contract_columns_and_numbers():
     row = df[(df["dwell"] == 1) & (df["quantity"] == "deviation_mm")].iloc[0]
     v = 1.0 + 0.2 * s.values[:-1, 0]
     assert row["n_ok"] == 199 and row["n_failed"] == 1
-    np.testing.assert_allclose([row["mean"], row["sd"], row["p2_5"], row["p97_5"]],
-                               [v.mean(), v.std(ddof=1), *np.percentile(v, [2.5, 97.5])])  # fmt: skip
+    np.testing.assert_allclose(
+        [row["mean"], row["sd"], row["p2_5"], row["p97_5"]],
+        [v.mean(), v.std(ddof=1), *np.percentile(v, [2.5, 97.5])],
+    )
     shift = df[(df["dwell"] == 1) & (df["quantity"] == "shift_mm")].iloc[0]
     np.testing.assert_allclose(shift["mean"], np.abs(v - 1.0).mean())
-    assert set(df["quantity"]) == {"deviation_mm", "along_mm", "radial_mm", "out_of_plane_mm",
-                                   "shift_mm", "numerical_error_mm", "dose_gy", "dose_diff_pct"}  # fmt: skip
+    assert set(df["quantity"]) == {
+        "deviation_mm",
+        "along_mm",
+        "radial_mm",
+        "out_of_plane_mm",
+        "shift_mm",
+        "numerical_error_mm",
+        "dose_gy",
+        "dose_diff_pct",
+    }
 
 
 def test_src_of_a_linear_model():

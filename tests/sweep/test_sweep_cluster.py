@@ -9,6 +9,7 @@ import json
 import h5py
 import numpy as np
 import pandas as pd
+import pytest
 
 from ringqa.cli import main
 from ringqa.sweep import load_spec
@@ -32,8 +33,22 @@ def test_sweep_through_scheduler_address_resumes_and_is_worker_independent(
     assert main(["sweep", str(spec), "--out", str(out), "--scheduler", addr, "--quiet"]) == 0
     first = read_samples(out / "samples.h5")
     assert list(first.index) == [0, 1, 2] and first.ok.all()
-    assert main(["sweep", str(spec), "--out", str(out), "--scheduler", addr, "--quiet",
-                 "--set", "samples=5"]) == 0  # fmt: skip
+    assert (
+        main(
+            [
+                "sweep",
+                str(spec),
+                "--out",
+                str(out),
+                "--scheduler",
+                addr,
+                "--quiet",
+                "--set",
+                "samples=5",
+            ]
+        )
+        == 0
+    )
     assert "5 of 5 samples ok (0 failed, 2 computed now)" in capsys.readouterr().out
     s = read_samples(out / "samples.h5")
     assert list(s.index) == [0, 1, 2, 3, 4]
@@ -62,8 +77,9 @@ def test_sweep_through_scheduler_address_resumes_and_is_worker_independent(
     assert (out / "uncertainty.png").stat().st_size > 10_000
 
 
-def test_a_different_spec_does_not_mix_into_finished_samples(local_cluster, tmp_path,
-                                                             spec_writer, capsys):  # fmt: skip
+def test_a_different_spec_does_not_mix_into_finished_samples(
+    local_cluster, tmp_path, spec_writer, capsys
+):
     """Re-running into the folder with another seed is refused (one line, exit 2) and
     samples.h5 is unchanged."""
     spec = spec_writer(tmp_path, samples=2)
@@ -72,8 +88,49 @@ def test_a_different_spec_does_not_mix_into_finished_samples(local_cluster, tmp_
     assert main(["sweep", str(spec), "--out", str(out), "--scheduler", addr, "--quiet"]) == 0
     before = (out / "samples.h5").read_bytes()
     capsys.readouterr()
-    code = main(["sweep", str(spec), "--out", str(out), "--scheduler", addr, "--quiet",
-                 "--set", "seed=12"])  # fmt: skip
+    code = main(
+        ["sweep", str(spec), "--out", str(out), "--scheduler", addr, "--quiet", "--set", "seed=12"]
+    )
     err = capsys.readouterr().err.strip()
     assert code == 2 and len(err.splitlines()) == 1 and "different spec" in err
     assert (out / "samples.h5").read_bytes() == before
+
+
+@pytest.mark.slow
+def test_killing_a_worker_mid_sweep_loses_nothing(
+    local_cluster, tmp_path, spec_writer, monkeypatch
+):
+    """SIGKILL one worker process right after the first batch was stored: Dask reruns the lost
+    task on the other worker (its nanny restarts the killed one), every sample ends in
+    samples.h5 exactly once, and the batch stored before the kill is kept."""
+    import os
+    import signal
+    import threading
+
+    from distributed import Client
+
+    from ringqa.sweep import run_sweep
+    from ringqa.sweep.store import SampleStore
+
+    spec = load_spec(spec_writer(tmp_path, samples=8), {"batch_size": 1})
+    out = tmp_path / "out"
+    first_stored = threading.Event()
+    original = SampleStore.append
+
+    def append(self, records):
+        original(self, records)
+        first_stored.set()
+
+    monkeypatch.setattr(SampleStore, "append", append)
+    with Client(local_cluster.scheduler_address) as client:
+        pids = list(client.run(os.getpid).values())
+        result = {}
+        t = threading.Thread(
+            target=lambda: result.update(r=run_sweep(spec, out, client=client)), daemon=True
+        )
+        t.start()
+        assert first_stored.wait(300)
+        os.kill(pids[0], signal.SIGKILL)
+        t.join(600)
+    s = result["r"].samples
+    assert list(s.index) == list(range(8)) and s.ok.all()

@@ -61,6 +61,8 @@ def test_ei_scale_multiplies_every_section():
     ch = _channel()
     base = eng.scene_for_channel(ch, "flexitron")
     scaled = perturbed_engine(Perturbation(ei_scale=1.1), eng).scene_for_channel(ch, "flexitron")
-    ratio = [b.ei_nm2 / a.ei_nm2 for a, b in zip(base.instrument.sections,
-                                                  scaled.instrument.sections, strict=True)]  # fmt: skip
+    ratio = [
+        b.ei_nm2 / a.ei_nm2
+        for a, b in zip(base.instrument.sections, scaled.instrument.sections, strict=True)
+    ]
     np.testing.assert_allclose(ratio, 1.1, rtol=1e-12)

@@ -14,8 +14,15 @@ def _spec(samples=8, method="random", **params):
         "instrument.ei_scale": {"distribution": "lognormal", "median": 1.0, "sigma": 0.1},
         "lumen.diameter_delta_mm": {"distribution": "normal", "mean": 0.1, "sd": 0.05},
     }
-    return spec_from_dict({"input": "ring26x60", "samples": samples, "seed": 7,
-                           "method": method, "parameters": params})  # fmt: skip
+    return spec_from_dict(
+        {
+            "input": "ring26x60",
+            "samples": samples,
+            "seed": 7,
+            "method": method,
+            "parameters": params,
+        }
+    )
 
 
 def test_sample_depends_on_seed_and_index_only():
@@ -45,12 +52,20 @@ def test_grid_cycles_through_the_factorial():
     first parameter varying slowest."""
     spec = _spec(
         12,
-        **{"motion.backward": {"distribution": "grid", "values": [False, True]},
-           "contact.mu_k": {"distribution": "grid", "values": [0.1, 0.2, 0.3]}},
-    )  # fmt: skip
+        **{
+            "motion.backward": {"distribution": "grid", "values": [False, True]},
+            "contact.mu_k": {"distribution": "grid", "values": [0.1, 0.2, 0.3]},
+        },
+    )
     rows = design(spec)
-    assert [tuple(r) for r in rows[:6]] == [(False, 0.1), (False, 0.2), (False, 0.3),
-                                            (True, 0.1), (True, 0.2), (True, 0.3)]  # fmt: skip
+    assert [tuple(r) for r in rows[:6]] == [
+        (False, 0.1),
+        (False, 0.2),
+        (False, 0.3),
+        (True, 0.1),
+        (True, 0.2),
+        (True, 0.3),
+    ]
     assert [tuple(r) for r in rows[6:]] == [tuple(r) for r in rows[:6]]
 
 

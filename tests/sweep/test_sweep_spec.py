@@ -32,34 +32,53 @@ def test_set_overrides_top_level_and_parameter_fields():
 
 
 BAD = [
-    ("samples = 4\nseed = 1\ninput = 'ring26x60'\nsampels = 3\n"
-     "[parameters.'contact.mu_k']\ndistribution = 'normal'\nmean = 0.2\nsd = 0.02\n",
-     "sampels: unknown key (did you mean 'samples'?"),
-    ("samples = 4\nseed = 1\ninput = 'ring26x60'\n"
-     "[parameters.'contact.mu_kk']\ndistribution = 'normal'\nmean = 0.2\nsd = 0.02\n",
-     "parameters.contact.mu_kk: unknown key (did you mean 'contact.mu_k'?"),
-    ("samples = 4\nseed = 1\ninput = 'ring26x60'\n"
-     "[parameters.'contact.mu_k']\ndistribution = 'normal'\nmean = 0.2\nsd = -0.02\n",
-     "parameters.contact.mu_k.sd = -0.02: a standard deviation must be > 0"),
-    ("samples = 4\nseed = 1\ninput = 'ring26x60'\n"
-     "[parameters.'contact.mu_k']\ndistribution = 'uniform'\nlow = 0.3\nhigh = 0.2\n",
-     "low = 0.3 >= high = 0.2: an impossible uniform distribution"),
-    ("samples = 4\nseed = 1\ninput = 'ring26x60'\n"
-     "[parameters.'contact.mu_k']\ndistribution = 'uniform'\nlow = -0.1\nhigh = 0.2\n",
-     "reaches outside the key's range (>= 0)"),
-    ("samples = 4\nseed = 1\ninput = 'ring26x60'\n"
-     "[parameters.'instrument.ei_scale']\ndistribution = 'lognormal'\nmedian = -1.0\n"
-     "sigma = 0.1\n", "a lognormal distribution needs median > 0"),
-    ("samples = 4\nseed = 1\ninput = 'ring26x60'\nmethod = 'sobol'\n"
-     "[parameters.'contact.mu_k']\ndistribution = 'grid'\nvalues = [0.1, 0.2]\n",
-     "a grid cannot be part of a Sobol design"),
-    ("samples = 4\nseed = 1\ninput = 'ring26x60'\n"
-     "[parameters.'motion.backward']\ndistribution = 'normal'\nmean = 0.2\nsd = 0.02\n",
-     'is a flag: vary it with distribution = "grid"'),
-    ("samples = 0\nseed = 1\ninput = 'ring26x60'\n"
-     "[parameters.'contact.mu_k']\ndistribution = 'normal'\nmean = 0.2\nsd = 0.02\n",
-     "samples = 0: give a whole number of samples"),
-]  # fmt: skip
+    (
+        "samples = 4\nseed = 1\ninput = 'ring26x60'\nsampels = 3\n"
+        "[parameters.'contact.mu_k']\ndistribution = 'normal'\nmean = 0.2\nsd = 0.02\n",
+        "sampels: unknown key (did you mean 'samples'?",
+    ),
+    (
+        "samples = 4\nseed = 1\ninput = 'ring26x60'\n"
+        "[parameters.'contact.mu_kk']\ndistribution = 'normal'\nmean = 0.2\nsd = 0.02\n",
+        "parameters.contact.mu_kk: unknown key (did you mean 'contact.mu_k'?",
+    ),
+    (
+        "samples = 4\nseed = 1\ninput = 'ring26x60'\n"
+        "[parameters.'contact.mu_k']\ndistribution = 'normal'\nmean = 0.2\nsd = -0.02\n",
+        "parameters.contact.mu_k.sd = -0.02: a standard deviation must be > 0",
+    ),
+    (
+        "samples = 4\nseed = 1\ninput = 'ring26x60'\n"
+        "[parameters.'contact.mu_k']\ndistribution = 'uniform'\nlow = 0.3\nhigh = 0.2\n",
+        "low = 0.3 >= high = 0.2: an impossible uniform distribution",
+    ),
+    (
+        "samples = 4\nseed = 1\ninput = 'ring26x60'\n"
+        "[parameters.'contact.mu_k']\ndistribution = 'uniform'\nlow = -0.1\nhigh = 0.2\n",
+        "reaches outside the key's range (>= 0)",
+    ),
+    (
+        "samples = 4\nseed = 1\ninput = 'ring26x60'\n"
+        "[parameters.'instrument.ei_scale']\ndistribution = 'lognormal'\nmedian = -1.0\n"
+        "sigma = 0.1\n",
+        "a lognormal distribution needs median > 0",
+    ),
+    (
+        "samples = 4\nseed = 1\ninput = 'ring26x60'\nmethod = 'sobol'\n"
+        "[parameters.'contact.mu_k']\ndistribution = 'grid'\nvalues = [0.1, 0.2]\n",
+        "a grid cannot be part of a Sobol design",
+    ),
+    (
+        "samples = 4\nseed = 1\ninput = 'ring26x60'\n"
+        "[parameters.'motion.backward']\ndistribution = 'normal'\nmean = 0.2\nsd = 0.02\n",
+        'is a flag: vary it with distribution = "grid"',
+    ),
+    (
+        "samples = 0\nseed = 1\ninput = 'ring26x60'\n"
+        "[parameters.'contact.mu_k']\ndistribution = 'normal'\nmean = 0.2\nsd = 0.02\n",
+        "samples = 0: give a whole number of samples",
+    ),
+]
 
 
 @pytest.mark.parametrize(("text", "expected"), BAD)
@@ -89,8 +108,9 @@ def test_unreachable_scheduler_one_line_exit_2(small_spec, tmp_path, capsys, mon
 
     monkeypatch.setattr(execute, "CONNECT_TIMEOUT_S", 2)
     out = tmp_path / "out"
-    code = main(["sweep", str(small_spec), "--out", str(out), "--scheduler",
-                 "tcp://127.0.0.1:9", "--quiet"])  # fmt: skip
+    code = main(
+        ["sweep", str(small_spec), "--out", str(out), "--scheduler", "tcp://127.0.0.1:9", "--quiet"]
+    )
     err = capsys.readouterr().err.strip()
     assert code == 2
     assert len(err.splitlines()) == 1 and "--scheduler tcp://127.0.0.1:9: cannot reach" in err
