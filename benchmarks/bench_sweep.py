@@ -58,7 +58,7 @@ def _sweep(n_workers: int, spec, out: Path) -> dict:
             n_workers=n_workers,
             threads_per_worker=1,
             processes=True,
-            dashboard_address=None,
+            dashboard_address=":0",
             silence_logs=logging.ERROR,
         ) as cluster,
         Client(cluster) as client,

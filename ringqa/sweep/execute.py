@@ -62,7 +62,7 @@ def connect(scheduler: str | None, workers: int | None) -> Iterator[object]:
         n_workers=n,
         threads_per_worker=1,
         processes=True,
-        dashboard_address=None,
+        dashboard_address=":0",
         silence_logs=logging.ERROR,
     )
     client = Client(cluster)
