@@ -8,6 +8,7 @@ parameter names; small and picklable) and a list of ``(index, values)`` and retu
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import socket
 import time
@@ -83,6 +84,9 @@ class SampleRecord:
         host:pid of the process that ran it.
     dwell_ids, point_names : tuple
         The dwell numbers and dose-point names of the outputs' rows.
+    cpu_seconds : float
+        CPU time of the sample in its process (less sensitive to a loaded machine than
+        ``seconds``).
     """
 
     index: int
@@ -96,6 +100,7 @@ class SampleRecord:
     worker: str = ""
     dwell_ids: tuple[int, ...] = ()
     point_names: tuple[str, ...] = ()
+    cpu_seconds: float = 0.0
 
 
 def commission_settings(job: Job, values: Sequence) -> tuple[Any, Perturbation]:
@@ -122,7 +127,7 @@ def run_sample(job: Job, index: int, values: Sequence) -> SampleRecord:
     from ringqa.errors import RingQAError
     from ringqa.pipeline import commission
 
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     who = f"{socket.gethostname()}:{os.getpid()}"
     vals = tuple(v.item() if isinstance(v, np.generic) else v for v in values)
     try:
@@ -138,7 +143,14 @@ def run_sample(job: Job, index: int, values: Sequence) -> SampleRecord:
             np.full((0, 3), np.nan),
             seconds=time.perf_counter() - t0,
             worker=who,
+            cpu_seconds=time.process_time() - c0,
         )
+    rec = record_of(res, int(index), vals, time.perf_counter() - t0, who)
+    return dataclasses.replace(rec, cpu_seconds=time.process_time() - c0)
+
+
+def record_of(res, index: int, values: tuple, seconds: float, worker: str) -> SampleRecord:
+    """The :class:`SampleRecord` of a finished commissioning result ``res``."""
     d = res.dwells[res.dwells["path"] == "simulated"]
     doses = res.doses[res.doses["plan"] == "simulated"]
     dwell = {
@@ -154,14 +166,14 @@ def run_sample(job: Job, index: int, values: Sequence) -> SampleRecord:
     }
     return SampleRecord(
         int(index),
-        vals,
+        tuple(values),
         True,
         "",
         d[["x_mm", "y_mm", "z_mm"]].to_numpy(float),
         dwell,
         point,
-        time.perf_counter() - t0,
-        who,
+        seconds,
+        worker,
         tuple(int(x) for x in d["dwell"]),
         tuple(str(x) for x in doses["point"]),
     )

@@ -5,7 +5,7 @@ Layout (h5py): attributes ``spec_digest`` (a resumed sweep must match it), ``par
 in the order they finished:
 
 - ``index`` (n,) int, ``values`` (n, D) float (flags as 0/1), ``ok`` (n,) bool,
-  ``message`` (n,) str, ``seconds`` (n,) float, ``worker`` (n,) str;
+  ``message`` (n,) str, ``seconds`` and ``cpu_seconds`` (n,) float, ``worker`` (n,) str;
 - ``x_mm``, ``y_mm``, ``z_mm`` and each of :data:`~ringqa.sweep.runner.DWELL_QUANTITIES`:
   (n, n_dwell) float (NaN for a failed sample);
 - each of :data:`~ringqa.sweep.runner.POINT_QUANTITIES`: (n, n_point) float.
@@ -41,6 +41,9 @@ class StoredSamples:
     ok : (n,) ndarray of bool
     message : list of str
     seconds : (n,) ndarray
+        Wall time of each sample on its worker, s.
+    cpu_seconds : (n,) ndarray
+        CPU time of each sample, s (NaN in files written before it was recorded).
     worker : list of str
     arrays : dict of str to ndarray
         ``x_mm``, ``y_mm``, ``z_mm``, the dwell quantities (n, n_dwell) and the point
@@ -55,6 +58,7 @@ class StoredSamples:
     ok: np.ndarray
     message: list[str]
     seconds: np.ndarray
+    cpu_seconds: np.ndarray
     worker: list[str]
     arrays: dict[str, np.ndarray]
     parameters: tuple[str, ...]
@@ -108,6 +112,7 @@ class SampleStore:
             f.create_dataset("ok", (0,), maxshape=(None,), dtype="bool")
             f.create_dataset("message", (0,), maxshape=(None,), dtype=_STR)
             f.create_dataset("seconds", (0,), maxshape=(None,), dtype="f8")
+            f.create_dataset("cpu_seconds", (0,), maxshape=(None,), dtype="f8")
             f.create_dataset("worker", (0,), maxshape=(None,), dtype=_STR)
             for name in ("x_mm", "y_mm", "z_mm", *DWELL_QUANTITIES):
                 f.create_dataset(name, (0, nd), maxshape=(None, nd), dtype="f8")
@@ -150,6 +155,8 @@ class SampleStore:
         f["ok"][n0:] = [r.ok for r in records]
         f["message"][n0:] = [r.message for r in records]
         f["seconds"][n0:] = [r.seconds for r in records]
+        if "cpu_seconds" in f:
+            f["cpu_seconds"][n0:] = [r.cpu_seconds for r in records]
         f["worker"][n0:] = [r.worker for r in records]
         for j, axis in enumerate(("x_mm", "y_mm", "z_mm")):
             rows = []
@@ -182,6 +189,9 @@ def read_samples(path: Path) -> StoredSamples:
                 m.decode() if isinstance(m, bytes) else str(m) for m in f["message"][()][order]
             ],
             seconds=f["seconds"][()][order],
+            cpu_seconds=f["cpu_seconds"][()][order]
+            if "cpu_seconds" in f
+            else np.full(len(order), np.nan),
             worker=[w.decode() if isinstance(w, bytes) else str(w) for w in f["worker"][()][order]],
             arrays=arrays,
             parameters=tuple(str(p) for p in f.attrs["parameters"]),

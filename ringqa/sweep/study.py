@@ -72,19 +72,25 @@ def nominal_values(spec: SweepSpec) -> list:
 
 
 def _nominal(job: Job, values) -> tuple[SampleRecord, np.ndarray, object]:
+    """The nominal run in this process: its record, the reference dwells (mm), the result."""
+    from ringqa.errors import RingQAError
     from ringqa.pipeline import commission
     from ringqa.pipeline.uncertainty import Perturbation, perturbed_engine
-    from ringqa.sweep.runner import run_sample
+    from ringqa.sweep.runner import record_of
 
-    rec = run_sample(job, -1, values)
-    if not rec.ok:
-        from ringqa.errors import RingQAError
-
-        raise RingQAError(f"the nominal run (every parameter at its centre) failed: {rec.message}")
+    t0 = time.perf_counter()
     settings, pert = commission_settings(job, values)
-    res = commission(
-        job.input, settings, engine=perturbed_engine(Perturbation.from_values(pert, (job.seed, -1)))
-    )
+    try:
+        res = commission(
+            job.input,
+            settings,
+            engine=perturbed_engine(Perturbation.from_values(pert, (job.seed, -1))),
+        )
+    except RingQAError as exc:
+        raise RingQAError(
+            f"the nominal run (every parameter at its centre) failed: {exc}"
+        ) from None
+    rec = record_of(res, -1, tuple(values), time.perf_counter() - t0, "parent")
     ref = res.dwells[res.dwells["path"] == res.reference]
     return rec, ref[["x_mm", "y_mm", "z_mm"]].to_numpy(float), res
 
@@ -155,7 +161,7 @@ def run_sweep(
                 bar.update(len(records))
 
             try:
-                stream(cl, job, todo, spec.batch_size, on_batch, nominal)
+                stream(cl, job, todo, spec.batch_size, on_batch, nominal if todo else None)
             finally:
                 bar.close()
             run_s = time.perf_counter() - t_run
@@ -195,6 +201,9 @@ def run_sweep(
             "samples_wall": run_s,
             "samples_cpu_sum": sample_s,
             "mean_per_sample": sample_s / max(1, len(samples.index)),
+            "mean_cpu_per_sample": float(np.nanmean(samples.cpu_seconds))
+            if len(samples.index)
+            else float("nan"),
             "total": time.perf_counter() - t_start,
         },
         "nominal": {

@@ -33,6 +33,7 @@ def _samples(n=200, seed=0):
         ok,
         [""] * n,
         np.ones(n),
+        np.ones(n),
         ["w"] * n,
         arrays,
         ("a", "b"),
