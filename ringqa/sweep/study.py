@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import contextlib
 import platform
+import signal
 import sys
 import time
 from dataclasses import dataclass
@@ -156,12 +157,16 @@ def run_sweep(
             bar = _bar(len(table), len(done), progress)
             t_run = time.perf_counter()
 
+            guard = _AppendGuard()
+
             def on_batch(records: list[SampleRecord]) -> None:
-                st.append(records)
+                with guard:
+                    st.append(records)
                 bar.update(len(records))
 
             try:
-                stream(cl, job, todo, spec.batch_size, on_batch, nominal if todo else None)
+                with guard.installed():
+                    stream(cl, job, todo, spec.batch_size, on_batch, nominal if todo else None)
             finally:
                 bar.close()
             run_s = time.perf_counter() - t_run
@@ -254,6 +259,52 @@ def _write(out, summ, sens, record, samples, nominal_mm, reference_mm, title) ->
         write_json(stage / "sweep.json", record)
         fig = uncertainty_figure(samples, nominal_mm, reference_mm, summ, title)
         fig.savefig(stage / "uncertainty.png", dpi=110)
+
+
+class _AppendGuard:
+    """SIGINT/SIGTERM while samples stream: stop the sweep (KeyboardInterrupt), but never in the
+    middle of appending a batch to samples.h5 (a signal then waits for the append to finish),
+    so an interrupted sweep keeps a readable file with every finished sample."""
+
+    def __init__(self) -> None:
+        self.busy = False
+        self.pending: int | None = None
+
+    def _handler(self, signum, frame) -> None:
+        if self.busy:
+            self.pending = signum
+            return
+        raise KeyboardInterrupt(signal.Signals(signum).name)
+
+    def __enter__(self) -> None:
+        self.busy = True
+
+    def __exit__(self, *exc) -> None:
+        self.busy = False
+        if self.pending is not None:
+            signum, self.pending = self.pending, None
+            raise KeyboardInterrupt(signal.Signals(signum).name)
+
+    @contextlib.contextmanager
+    def installed(self):
+        """The handler for SIGINT and SIGTERM (main thread only; restored after)."""
+        import threading
+
+        if threading.current_thread() is not threading.main_thread():
+            yield
+            return
+        previous = {}
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            old = signal.getsignal(sig)
+            if old is None or old is signal.SIG_IGN:
+                continue
+            previous[sig] = old
+            signal.signal(sig, self._handler)
+        try:
+            yield
+        finally:
+            for sig, old in previous.items():
+                signal.signal(sig, old)
 
 
 def _bar(total: int, done: int, show: bool):

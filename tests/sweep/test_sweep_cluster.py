@@ -5,6 +5,7 @@ numbers do not depend on the worker that ran it."""
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import h5py
 import numpy as np
@@ -134,3 +135,47 @@ def test_killing_a_worker_mid_sweep_loses_nothing(
         t.join(600)
     s = result["r"].samples
     assert list(s.index) == list(range(8)) and s.ok.all()
+
+
+@pytest.mark.slow
+def test_interrupted_sweep_resumes_without_recomputing(tmp_path, spec_writer):
+    """A real ``ringqa sweep`` process stopped with SIGINT after its first stored sample exits
+    130 and keeps samples.h5; the same command again computes only the samples not stored
+    (computed now = 6 - stored), each index once."""
+    import os
+    import re
+    import signal
+    import subprocess
+    import sys
+
+    spec = spec_writer(tmp_path, samples=6)
+    out = tmp_path / "out"
+    cmd = [
+        sys.executable,
+        "-m",
+        "ringqa",
+        "sweep",
+        str(spec),
+        "--out",
+        str(out),
+        "--workers",
+        "1",
+        "--set",
+        "batch_size=1",
+    ]
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[2])}
+    proc = subprocess.Popen(cmd, stderr=subprocess.PIPE, stdout=subprocess.PIPE, env=env)
+    seen = b""
+    while not re.search(rb"[1-5]/6", seen):
+        ch = proc.stderr.read(1)
+        assert ch, seen.decode(errors="replace")
+        seen += ch
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 130, (seen + err).decode(errors="replace")
+    stored = len(read_samples(out / "samples.h5").index)
+    assert 1 <= stored <= 6
+    done = subprocess.run([*cmd, "--quiet"], capture_output=True, text=True, env=env, timeout=600)
+    assert done.returncode == 0, done.stderr
+    assert f"6 of 6 samples ok (0 failed, {6 - stored} computed now)" in done.stdout
+    assert list(read_samples(out / "samples.h5").index) == list(range(6))
