@@ -10,6 +10,9 @@ numbers whichever worker runs a sample). The samples run on a Dask LocalCluster 
 (all cores, or --workers N) or on the cluster at --scheduler, in batches, and are appended to
 DIR/samples.h5 as they finish: re-running the same command resumes, skipping finished samples.
 
+--partial writes the outputs from the samples finished so far without running more (a long
+study looked at while unfinished; sweep.json says "partial": true).
+
 Writes DIR/samples.h5, summary.csv (per dwell and dose point: mean, sd, p2_5, p97_5),
 sensitivity.csv, sweep.json and uncertainty.png. A bad spec (unknown key, negative sd, an
 impossible distribution) or an unreachable scheduler: one line, exit 2, nothing written.
@@ -55,6 +58,11 @@ def add_parser(subparsers) -> None:
         help="override a spec key: samples=24, seed=7, set.<scene key>=v, "
         "parameters.<key>.<field>=v; repeatable",
     )
+    p.add_argument(
+        "--partial",
+        action="store_true",
+        help="run nothing: write the outputs from the samples already in DIR/samples.h5",
+    )
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
 
@@ -75,7 +83,12 @@ def run(args: argparse.Namespace) -> int:
     spec = load_spec(args.spec, parse_set_args(args.sets))
     check_writable(args.out, ours=(SAMPLES_NAME,))
     res = run_sweep(
-        spec, args.out, scheduler=args.scheduler, workers=args.workers, progress=not args.quiet
+        spec,
+        args.out,
+        scheduler=args.scheduler,
+        workers=args.workers,
+        progress=not args.quiet,
+        partial=args.partial,
     )
     r = res.record
     print(

@@ -173,10 +173,13 @@ class SampleStore:
         f.flush()
 
 
-def read_samples(path: Path) -> StoredSamples:
-    """Read ``samples.h5`` (rows sorted by sample index)."""
+def read_samples(path: Path, limit: int | None = None) -> StoredSamples:
+    """Read ``samples.h5`` (rows sorted by sample index; ``limit``: only indices below it, the
+    runs of the current design)."""
     with h5py.File(path, "r") as f:
-        _, order = np.unique(f["index"][()], return_index=True)  # sorted; a repeat kept once
+        index, order = np.unique(f["index"][()], return_index=True)  # sorted; repeats once
+        if limit is not None:
+            order = order[index < limit]
         arrays = {
             name: f[name][()][order]
             for name in ("x_mm", "y_mm", "z_mm", *DWELL_QUANTITIES, *POINT_QUANTITIES)

@@ -28,6 +28,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from ringqa.errors import RingQAError
 from ringqa.outdir import check_writable, staged_output
 from ringqa.sweep.analysis import sensitivity, summary
 from ringqa.sweep.runner import Job, SampleRecord, commission_settings
@@ -118,9 +119,12 @@ def run_sweep(
     workers: int | None = None,
     progress: bool = False,
     client=None,
+    partial: bool = False,
 ) -> SweepResult:
     """Run a sweep (see the module docstring); ``client``: an existing
-    ``distributed.Client`` (tests), else :func:`~ringqa.sweep.execute.connect`."""
+    ``distributed.Client`` (tests), else :func:`~ringqa.sweep.execute.connect`; ``partial``:
+    run nothing, write the outputs from the samples already in ``samples.h5`` (a long study
+    looked at while it is unfinished; ``--partial``)."""
     from ringqa.sweep.execute import connect, stream
 
     t_start = time.perf_counter()
@@ -129,6 +133,8 @@ def run_sweep(
     if h5.exists():  # a sweep to resume: refuse another spec's samples before any work
         with SampleStore(h5, spec.digest(), spec.names, (), ()) as st:
             n_done_before = len(st.done())
+    elif partial:
+        raise RingQAError(f"--partial: {h5} does not exist: no finished samples to summarise")
     else:
         n_done_before = 0
     table = design(spec)
@@ -137,23 +143,26 @@ def run_sweep(
     with contextlib.ExitStack() as stack:
         t_cluster = time.perf_counter()
         cl = client
-        if cl is None and scheduler:  # an unreachable scheduler fails before the nominal run
+        if (
+            cl is None and scheduler and not partial
+        ):  # an unreachable scheduler fails before the nominal run
             cl = stack.enter_context(connect(scheduler, workers))
         cluster_s = time.perf_counter() - t_cluster
         t0 = time.perf_counter()
         nom_rec, reference_mm, nom_res = _nominal(job, nominal)
         nominal_s = time.perf_counter() - t0
-        if cl is None:  # a local cluster starts after the nominal run warmed the numba cache
+        # a local cluster starts after the nominal run warmed the numba cache
+        if cl is None and not partial:
             t_cluster = time.perf_counter()
             cl = stack.enter_context(connect(None, workers))
             cluster_s = time.perf_counter() - t_cluster
-        n_workers = len(cl.scheduler_info().get("workers", {}))
+        n_workers = 0 if cl is None else len(cl.scheduler_info().get("workers", {}))
         out.mkdir(parents=True, exist_ok=True)
         with SampleStore(
             h5, spec.digest(), spec.names, nom_rec.dwell_ids, nom_rec.point_names
         ) as st:
             done = st.done()
-            todo = [(i, table[i]) for i in range(len(table)) if i not in done]
+            todo = [] if partial else [(i, table[i]) for i in range(len(table)) if i not in done]
             bar = _bar(len(table), len(done), progress)
             t_run = time.perf_counter()
 
@@ -166,11 +175,12 @@ def run_sweep(
 
             try:
                 with guard.installed():
-                    stream(cl, job, todo, spec.batch_size, on_batch, nominal if todo else None)
+                    if todo:
+                        stream(cl, job, todo, spec.batch_size, on_batch, nominal)
             finally:
                 bar.close()
             run_s = time.perf_counter() - t_run
-    samples = read_samples(h5)
+    samples = read_samples(h5, limit=len(table))
     summ = summary(samples, nom_rec.positions_mm)
     sens = sensitivity(samples, spec.names, salib_problem(spec) if spec.method == "sobol" else None)
     failures = [
@@ -189,6 +199,7 @@ def run_sweep(
         "seed": spec.seed,
         "method": spec.method,
         "n_runs": n_runs(spec),
+        "partial": bool(partial and len(samples.index) < len(table)),
         "n_ok": int(samples.ok.sum()),
         "n_failed": int((~samples.ok).sum()),
         "resumed_from": n_done_before,

@@ -77,6 +77,15 @@ def test_sweep_through_scheduler_address_resumes_and_is_worker_independent(
     assert record["seed"] == 11 and record["versions"]["distributed"]
     assert (out / "uncertainty.png").stat().st_size > 10_000
 
+    # --partial with samples=7: nothing runs (no scheduler needed), the outputs cover the 5
+    # stored samples and say the sweep is partial
+    capsys.readouterr()
+    args = ["sweep", str(spec), "--out", str(out), "--quiet", "--partial", "--set", "samples=7"]
+    assert main(args) == 0
+    assert "5 of 7 samples ok (0 failed, 0 computed now)" in capsys.readouterr().out
+    record = json.loads((out / "sweep.json").read_text())
+    assert record["partial"] is True and record["n_ok"] == 5
+
 
 def test_a_different_spec_does_not_mix_into_finished_samples(
     local_cluster, tmp_path, spec_writer, capsys
