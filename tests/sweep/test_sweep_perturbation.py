@@ -66,3 +66,26 @@ def test_ei_scale_multiplies_every_section():
         for a, b in zip(base.instrument.sections, scaled.instrument.sections, strict=True)
     ]
     np.testing.assert_allclose(ratio, 1.1, rtol=1e-12)
+
+
+def test_sample_settings_split_scene_keys_from_perturbations():
+    """A sample's scene keys go to CommissionSettings.scene_overrides with the fixed [set]
+    keys; the perturbation keys go to the Perturbation; [settings] fields are mapped
+    (sk_u -> sk_U, centreline_reference -> require_measured=False)."""
+    from ringqa.sweep.runner import Job, commission_settings
+
+    job = Job(
+        "ring26x60",
+        {"stem_mm": 80.0, "sk_u": 40000.0, "centreline_reference": True},
+        {"solver.increment_mm": 0.5},
+        ("contact.mu_k", "lumen.diameter_delta_mm", "motion.backward"),
+        3,
+    )
+    settings, pert = commission_settings(job, [0.18, 0.1, True])
+    assert settings.scene_overrides == {
+        "solver.increment_mm": 0.5,
+        "contact.mu_k": 0.18,
+        "motion.backward": True,
+    }
+    assert pert == {"lumen.diameter_delta_mm": 0.1}
+    assert (settings.stem_mm, settings.sk_U, settings.require_measured) == (80.0, 40000.0, False)
