@@ -78,11 +78,11 @@ def _sweep(n_workers: int, spec, out: Path) -> dict:
         "samples": n,
         "wall_s": t["samples_wall"],
         "per_s": n / t["samples_wall"],
-        "cpu_sum_s": t["samples_cpu_sum"],
+        "wall_sum_s": t["samples_wall_sum"],
         "mean_sample_s": t["mean_per_sample"],
         "cpu_sample_s": t["mean_cpu_per_sample"],
         "overhead_per_task_s": max(
-            0.0, (n_workers * t["samples_wall"] - t["samples_cpu_sum"]) / n_tasks
+            0.0, (n_workers * t["samples_wall"] - t["samples_wall_sum"]) / n_tasks
         ),
         "noop_task_s": noop_s,
         "x": res.samples.arrays["x_mm"],
@@ -120,7 +120,7 @@ def main(argv=None) -> int:
     print("|---|---|---|---|---|---|")
     for r in rows:
         print(
-            f"| {r['workers']} | {r['wall_s']:.2f} | {r['per_s']:.2f} | {r['cpu_sum_s']:.2f} |"
+            f"| {r['workers']} | {r['wall_s']:.2f} | {r['per_s']:.2f} | {r['wall_sum_s']:.2f} |"
             f" {r['mean_sample_s']:.3f} | {r['cpu_sample_s']:.3f} |"
         )
     print(

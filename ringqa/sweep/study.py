@@ -215,7 +215,8 @@ def run_sweep(
             "nominal_run": nominal_s,
             "cluster_start": cluster_s,
             "samples_wall": run_s,
-            "samples_cpu_sum": sample_s,
+            "samples_wall_sum": sample_s,
+            "samples_cpu_sum": float(np.nansum(samples.cpu_seconds)),
             "mean_per_sample": sample_s / max(1, len(samples.index)),
             "mean_cpu_per_sample": float(np.nanmean(samples.cpu_seconds))
             if len(samples.index)
