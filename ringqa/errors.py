@@ -29,3 +29,22 @@ class SceneError(RingQAError):
 
 class SimulationError(RingQAError):
     """A simulation could not be set up (as opposed to a run that jams, which is a result)."""
+
+
+def named_warning(name: str, message: str) -> str:
+    """A warning as one string, ``"[name] message"`` (name: the check, e.g. ``plan.isotope``).
+
+    Warnings travel as plain strings (an RT Plan's ``warnings``, a result's ``warnings``) so that
+    every stage can pass them on; :func:`split_warning` takes the name back out.
+    """
+    return f"[{name}] {message}"
+
+
+def split_warning(text: str, default: str = "input") -> tuple[str, str]:
+    """``(name, message)`` of a :func:`named_warning` string (``default`` for an unnamed one)."""
+    text = str(text)
+    if text.startswith("[") and "] " in text:
+        name, message = text[1:].split("] ", 1)
+        if name and " " not in name:
+            return name, message
+    return default, text

@@ -37,7 +37,33 @@ import numpy as np
 
 from ringqa.outdir import atomic_write_text
 
-__all__ = ["json_text", "to_jsonable", "write_json"]
+__all__ = ["csv_encoding", "json_text", "to_jsonable", "write_json"]
+
+#: the encoding of a CSV file holding non-ASCII text: UTF-8 with a byte-order mark, so that
+#: Excel (which reads a CSV without one in the system's code page) keeps the degree signs of
+#: applicator names ("60°"); pandas, the csv module with ``encoding="utf-8-sig"`` and ringqa's
+#: readers skip the mark.
+CSV_ENCODING_NON_ASCII = "utf-8-sig"
+
+
+def csv_encoding(table) -> str:
+    """The encoding to write a CSV of ``table`` with: ``"utf-8-sig"`` when any column name or
+    text value is not ASCII (Excel then reads it correctly), else ``"utf-8"`` (byte for byte
+    what ASCII files always were).
+
+    Parameters
+    ----------
+    table : pandas.DataFrame or iterable of rows
+        The header and values (rows: iterables of values).
+    """
+    if hasattr(table, "columns"):
+        texts = [str(c) for c in table.columns]
+        for col in table.columns:
+            if table[col].dtype == object or str(table[col].dtype).startswith("str"):
+                texts += [v for v in table[col].tolist() if isinstance(v, str)]
+    else:
+        texts = [v for row in table for v in row if isinstance(v, str)]
+    return CSV_ENCODING_NON_ASCII if any(not t.isascii() for t in texts) else "utf-8"
 
 
 def to_jsonable(obj: Any) -> Any:

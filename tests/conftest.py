@@ -50,3 +50,10 @@ def oncentra_plan_path(shared_dir: Path) -> Path:
     path = plan_dir / "RP_ring26x60_oncentra43.dcm"
     assert path.is_file(), f"{path}: missing from the shared reference material"
     return path
+
+
+@pytest.fixture(autouse=True)
+def no_user_config(monkeypatch):
+    """No test reads the developer's own clinic configuration (``RINGQA_CONFIG`` empty: none);
+    tests of the user configuration set the variable themselves."""
+    monkeypatch.setenv("RINGQA_CONFIG", "")

@@ -14,6 +14,7 @@ from __future__ import annotations
 import argparse
 import errno
 import importlib
+import logging
 import signal
 import sys
 from pathlib import Path
@@ -30,6 +31,7 @@ COMMANDS: dict[str, str] = {
     "accuracy": "ringqa.cli.accuracy",
     "commission": "ringqa.cli.commission",
     "needle": "ringqa.cli.needle",
+    "config": "ringqa.cli.config",
     "sweep": "ringqa.cli.sweep",
 }
 
@@ -41,6 +43,20 @@ def build_parser() -> argparse.ArgumentParser:
         description="Commissioning QA for HDR brachytherapy ring applicators.",
     )
     parser.add_argument("--version", action="version", version=f"ringqa {__version__}")
+    parser.add_argument(
+        "-v",
+        "--verbose",
+        action="count",
+        default=0,
+        help="print what ringqa does (-v: steps; -vv: details) on the terminal",
+    )
+    parser.add_argument(
+        "--log-file",
+        type=Path,
+        default=None,
+        metavar="FILE",
+        help="also write the log (with details) to FILE, appended",
+    )
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for module_name in COMMANDS.values():
         importlib.import_module(module_name).add_parser(sub)
@@ -54,6 +70,64 @@ def main(argv: list[str] | None = None) -> int:
     if not getattr(args, "func", None):
         parser.print_help()
         return 2
+    logger = logging.getLogger("ringqa")
+    saved = (logger.level, logger.propagate)
+    handlers = configure_logging(args.verbose, args.log_file)
+    words = sys.argv[1:] if argv is None else argv
+    logging.getLogger(__name__).debug("ringqa %s: ringqa %s", __version__, " ".join(words))
+    try:
+        return _run(args)
+    finally:
+        for handler in handlers:
+            logger.removeHandler(handler)
+            handler.close()
+        logger.setLevel(saved[0])
+        logger.propagate = saved[1]
+
+
+def configure_logging(verbose: int, log_file: Path | None) -> list[logging.Handler]:
+    """Attach the command line's log handlers to the ``ringqa`` logger (library modules only
+    call ``logging.getLogger(__name__)``; only the command line configures handlers).
+
+    Parameters
+    ----------
+    verbose : int
+        0: warnings only on stderr; 1 (``-v``): INFO; 2 or more (``-vv``): DEBUG.
+    log_file : Path or None
+        Also append DEBUG-level records with time stamps to this file.
+
+    Returns
+    -------
+    list of logging.Handler
+        The handlers added (removed again when the command ends).
+    """
+    logger = logging.getLogger("ringqa")
+    level = logging.WARNING if verbose <= 0 else logging.INFO if verbose == 1 else logging.DEBUG
+    console = logging.StreamHandler(sys.stderr)
+    console.setLevel(level)
+    console.setFormatter(logging.Formatter("ringqa: %(message)s"))
+    handlers: list[logging.Handler] = [console]
+    if log_file is not None:
+        try:
+            fh = logging.FileHandler(log_file, encoding="utf-8")
+        except OSError as exc:
+            console.close()
+            raise SystemExit(
+                f"ringqa: error: --log-file {log_file}: {exc.strerror or exc} (choose a "
+                "writable file)"
+            ) from None
+        fh.setLevel(logging.DEBUG)
+        fh.setFormatter(logging.Formatter("%(asctime)s %(levelname)s %(name)s: %(message)s"))
+        handlers.append(fh)
+    logger.setLevel(min(h.level for h in handlers))
+    for handler in handlers:
+        logger.addHandler(handler)
+    logger.propagate = False
+    return handlers
+
+
+def _run(args: argparse.Namespace) -> int:
+    """Run the chosen sub-command; errors the user can fix -> one line, exit 2."""
     try:
         with running_command(args.command):
             return int(args.func(args) or 0)

@@ -5,7 +5,8 @@ from __future__ import annotations
 import argparse
 
 SET_HELP = (
-    "override a scene key (dotted TOML path, user units), e.g. solver.increment_mm=0.5; repeatable"
+    "change one simulation setting, e.g. solver.increment_mm=0.5 (names and units: "
+    "data/scenes/README.md); repeatable"
 )
 
 

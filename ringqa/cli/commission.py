@@ -1,4 +1,4 @@
-"""``ringqa commission``: commission ring applicators and write the report.
+"""ringqa commission: commission ring applicators and write the report.
 
     ringqa commission ring26x60 --out out/ring26x60
     ringqa commission plan.dcm --out out/oncentra          # RT Plan with Oncentra's library
@@ -7,19 +7,22 @@
     ringqa commission my_rings/ --out out/batch            # a folder of applicator folders/files
     ringqa commission plan.dcm --register plane-height --out out/reg   # a 2D reference path
     ringqa commission plan.dcm --centreline-correction ct_ring.csv --out out/ct
+    ringqa commission --example --out out/example          # the shipped example plan
+    ringqa commission plan.dcm --config site.toml --export --out out/site   # clinic settings,
+                                                           # and files back to the planning system
 
-The reference path is checked against the channel (positions that cannot lie in the lumen, or
-not along the channel; a planar path stored in 2D) and registered to the CHANNEL as --register
-says (none: as supplied; plane-height: a planar path at constant height moved into the ring
-channel's plane; rigid: a rigid fit to the centreline). Raw and registered numbers are reported
-side by side. Every simulation is run twice (commissioning settings and refined) and each dwell's
-numerical error is reported.
+The reference source path (the vendor's library path or your measurement) is checked against
+the applicator channel (positions that cannot lie in the lumen or are not along the channel; a
+flat path stored in 2D) and aligned with the channel as --register says (none: as supplied;
+plane-height: a flat path moved into the ring's plane; rigid: best fit to the channel's centre
+line). Numbers as supplied and as aligned are reported side by side. Every simulation is run
+twice (commissioning settings and a finer run) and each dwell's numerical error is reported.
 
 Writes DIR/dwells.csv, doses.csv, plan_dwells.csv, summary.csv, results.json and report.pdf (one
-subfolder per applicator in batch mode, plus the cross-applicator summary.csv, batch.json and
-summary.pdf). Nothing is half-written: files are staged and DIR is replaced as a whole at the
-end (an earlier ringqa output in DIR completely; a DIR holding other files is refused before any
-work). See docs/validation.md.
+subfolder per applicator for several inputs, plus summary.csv, batch.json and summary.pdf for
+all of them). Nothing is half-written: DIR is replaced as a whole at the end (an earlier ringqa
+output in DIR completely; a DIR holding other files is refused before any work). Site settings:
+--config (docs/config.md). See docs/validation.md.
 """
 
 from __future__ import annotations
@@ -45,52 +48,87 @@ def add_parser(subparsers) -> None:
         metavar="INPUT",
         help="shipped applicator name, folder, applicator JSON or RT Plan (.dcm)",
     )
-    p.add_argument("--out", required=True, type=Path, help="output folder")
+    p.add_argument("--out", required=True, type=Path, metavar="DIR", help="output folder")
     p.add_argument(
         "--all-shipped",
         action="store_true",
         help="commission every shipped ring applicator (batch)",
     )
     p.add_argument(
-        "--source", default=None, help="TG-43 source (default: the RT Plan's, else flexisource)"
+        "--config",
+        type=Path,
+        default=None,
+        metavar="FILE",
+        help="clinic configuration (TOML: tolerances, plan, dose points, cable, report fields; "
+        "see docs/config.md); command-line options override it. 'ringqa config show' prints "
+        "the settings in force",
+    )
+    p.add_argument(
+        "--example",
+        action="store_true",
+        help="commission the shipped example plan (Oncentra 26 mm / 60 degree ring)",
+    )
+    p.add_argument(
+        "--export",
+        action="store_true",
+        help="also write DIR/export/: the simulated source path per channel "
+        "(source_path_<channel>.csv) and, for an RT Plan input, RP_simulated.dcm (a copy of "
+        "the plan with the ring dwells moved to the simulated positions, for commissioning "
+        "verification only; docs/export.md)",
+    )
+    p.add_argument(
+        "--source",
+        default=None,
+        metavar="NAME",
+        help="TG-43 source (default: the RT Plan's, else flexisource)",
     )
     p.add_argument(
         "--prescription-gy",
         type=float,
-        default=7.0,
-        help="mean Point A dose of the standard plan, Gy (7)",
+        metavar="GY",
+        default=None,
+        help="mean Point A dose of the standard plan, Gy (default 7)",
     )
     p.add_argument(
-        "--dose-action-pct", type=float, default=5.0, help="dose-difference action level, %% (5)"
+        "--dose-action-pct",
+        type=float,
+        metavar="PCT",
+        default=None,
+        help="dose-difference action level, %% (default 5)",
     )
     p.add_argument(
         "--sk-u",
         type=float,
+        metavar="U",
         default=None,
         help="source air-kerma strength, U (default: the RT Plan's; needed to check a plan "
-        "without one against its TPS doses)",
+        "without one against its planning-system doses)",
     )
     p.add_argument(
         "--register",
-        default="none",
+        default=None,
         metavar="MODE",
-        help="registration of the reference path to the channel: none (default), plane-height "
-        "or rigid",
+        help="how the reference source path is aligned with the channel before comparing: "
+        "none (default: as supplied), plane-height or rigid",
     )
     p.add_argument(
         "--cable",
         default=None,
-        help="cable model (flexitron, microselectron; default: the cable of the plan's source)",
+        metavar="NAME",
+        help="source cable model (flexitron, microselectron; default: the cable of the plan's "
+        "source)",
     )
     p.add_argument(
         "--stem-mm",
         type=float,
-        default=60.0,
-        help="straight channel simulated before the first bend, mm (60)",
+        metavar="MM",
+        default=None,
+        help="straight channel simulated before the first bend, mm (default 60)",
     )
     p.add_argument(
         "--whole-channel",
         action="store_true",
+        default=None,
         help="simulate the whole channel (however long its straight shaft)",
     )
     p.add_argument(
@@ -98,20 +136,24 @@ def add_parser(subparsers) -> None:
         type=Path,
         default=None,
         metavar="FILE",
-        help="CT/film centreline segment (CSV x_mm,y_mm,z_mm, proximal -> distal, in the "
-        "applicator/plan frame) spliced over the ring centreline (single applicator only)",
+        help="a measured (CT/film) piece of the ring channel's centre line (CSV x_mm,y_mm,z_mm, "
+        "entry to tip, in the plan's coordinates) that replaces the library's there (one "
+        "applicator only)",
     )
     add_set_option(p)
     p.add_argument(
         "--centreline-reference",
         action="store_true",
-        help="allow inputs without a measured path (compare simulated vs centreline)",
+        help="accept inputs without a reference source path (then the simulated path is "
+        "compared with the channel's centre line)",
     )
     p.add_argument(
         "--accuracy-csv",
         type=Path,
         default=None,
-        help="accuracy.csv of 'ringqa accuracy' for the scene used (adds a report page)",
+        metavar="FILE",
+        help="accuracy.csv of 'ringqa accuracy' for the simulation settings used (adds a "
+        "report page)",
     )
     p.add_argument(
         "--sweep",
@@ -174,29 +216,81 @@ def _inputs(args) -> list:
 
         items += list(shipped_applicators())
     if not items:
-        raise RingQAError("no INPUT given: name an applicator, a folder, a file, or --all-shipped")
+        raise RingQAError(
+            "no INPUT given: name an applicator, a folder, a file, --example or --all-shipped"
+        )
     return items
+
+
+#: command-line option (argparse dest) -> configuration key (ringqa.config)
+OPTION_KEYS = {
+    "source": "simulation.source",
+    "prescription_gy": "plan.prescription_gy",
+    "dose_action_pct": "tolerances.dose_action_pct",
+    "sk_u": "simulation.sk_u",
+    "register": "simulation.register",
+    "cable": "simulation.cable",
+    "stem_mm": "simulation.stem_mm",
+    "whole_channel": "simulation.whole_channel",
+}
+
+
+def command_line_settings(args: argparse.Namespace) -> dict:
+    """The settings given on the command line, by configuration key (``--set`` as
+    ``scene.<key>``); options not given are left out (the configuration decides)."""
+    from ringqa.config import KEYS
+    from ringqa.simulation.scenefile import parse_set_args
+
+    specs = {k.key: k for k in KEYS}
+    given = {}
+    for dest, key in OPTION_KEYS.items():
+        value = getattr(args, dest, None)
+        if value is None:
+            continue
+        problem = specs[key].problem(value)
+        if problem and dest not in ("register", "cable", "source"):
+            raise RingQAError(f"{specs[key].option} {value!r}: {problem}")
+        given[key] = value
+    for dotted, value in parse_set_args(getattr(args, "overrides", None)).items():
+        given[f"scene.{dotted}"] = value
+    return given
+
+
+def effective(args: argparse.Namespace):
+    """The :class:`ringqa.config.EffectiveConfig` of a ``commission`` command line."""
+    from ringqa.config import effective_config
+
+    extra = {}
+    if getattr(args, "centreline_correction", None) is not None:
+        extra["centreline_correction"] = args.centreline_correction
+    if getattr(args, "centreline_reference", False):
+        extra["require_measured"] = False
+    return effective_config(args.config, command_line_settings(args), extra=extra)
+
+
+def print_warnings(res, prefix: str = "") -> None:
+    """One line on stderr per named warning of a result (also in results.json ``warnings`` and
+    the report's first page)."""
+    for w in res.warning_records():
+        print(
+            f"ringqa commission: {w['severity']}: {prefix}[{w['name']}] {w['message']}",
+            file=sys.stderr,
+        )
 
 
 def run(args: argparse.Namespace) -> int:
     from ringqa.outdir import check_writable
-    from ringqa.pipeline import CommissionSettings, commission, commission_batch
+    from ringqa.pipeline import commission, commission_batch
     from ringqa.report import write_batch, write_report
-    from ringqa.simulation.scenefile import parse_set_args
 
+    config = effective(args)
+    settings = config.settings()
+    fields = config.report_fields()
+    if args.example:
+        from ringqa.datasets import example_plan
+
+        args.inputs = [str(example_plan()), *args.inputs]
     check_writable(args.out)  # fail before the (long) simulations
-    settings = CommissionSettings(
-        scene_overrides=parse_set_args(args.overrides),
-        source=args.source,
-        prescription_gy=args.prescription_gy,
-        dose_action_pct=args.dose_action_pct,
-        sk_U=args.sk_u,
-        cable=args.cable,
-        register=args.register,
-        stem_mm=None if args.whole_channel else args.stem_mm,
-        centreline_correction=args.centreline_correction,
-        require_measured=False if args.centreline_reference else None,
-    )
     items = _inputs(args)
     single = len(items) == 1 and not args.all_shipped
     single = single and expand_folder(Path(args.inputs[0])) is None
@@ -212,7 +306,11 @@ def run(args: argparse.Namespace) -> int:
         sweep_spec = _sweep_spec(args, items[0])  # checked before the simulations
     if single:
         res = commission(items[0], settings, progress=not args.quiet)
-        write_report(res, args.out, pdf=not args.no_pdf, accuracy_csv=args.accuracy_csv)
+        write_report(
+            res, args.out, pdf=not args.no_pdf, accuracy_csv=args.accuracy_csv, fields=fields,
+            export=args.export,
+        )  # fmt: skip
+        print_warnings(res)
         if sweep_spec is not None:
             _write_uncertainty(sweep_spec, args)
         verdicts = "; ".join(f"{v.status} {v.check}" for v in res.verdicts)
@@ -222,7 +320,12 @@ def run(args: argparse.Namespace) -> int:
         )
         return 0
     batch = commission_batch(items, settings, progress=not args.quiet)
-    write_batch(batch, args.out, pdf=not args.no_pdf, progress=not args.quiet)
+    write_batch(
+        batch, args.out, pdf=not args.no_pdf, progress=not args.quiet, fields=fields,
+        export=args.export,
+    )  # fmt: skip
+    for res in batch.results:
+        print_warnings(res, prefix=f"{res.applicator}: ")
     n = len(batch.results) + len(batch.failures)
     print(f"ringqa commission: {len(batch.results)} of {n} applicators commissioned -> {args.out}")
     if batch.failures:

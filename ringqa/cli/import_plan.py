@@ -19,6 +19,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from ringqa.errors import split_warning
 from ringqa.jsonio import write_json
 from ringqa.outdir import staged_output
 from ringqa.provenance import Provenance
@@ -45,8 +46,12 @@ def run(args: argparse.Namespace) -> int:
     with staged_output(args.out) as stage:
         written = write_plan_files(plan, stage)
         write_json(stage / "provenance.json", prov.as_dict(), indent=2, end="\n")
-    for w in plan.warnings:
-        print(f"ringqa import: note: {w}", file=sys.stderr)
+    for w in plan.warnings:  # also in plan.json "warnings"
+        name, message = split_warning(w, "")
+        if name:
+            print(f"ringqa import: warning: [{name}] {message}", file=sys.stderr)
+        else:
+            print(f"ringqa import: note: {w}", file=sys.stderr)
     dwells = ", ".join(
         f"ch{c.number} {c.name}: {c.n_dwells} dwells {c.times_s.sum():.2f} s" for c in plan.channels
     )

@@ -69,6 +69,7 @@ from ringqa.geometry import (
 )
 from ringqa.geometry.lumen_spec import lumen_from_spec, lumen_to_spec
 from ringqa.geometry.registration import OUTSIDE_DISTANCE_M, path_placement
+from ringqa.geometry.shape_checks import check_channel_shape
 from ringqa.io.points import PointSet, PointsFileError, check_points, read_point_set
 from ringqa.jsonio import json_text, to_jsonable
 from ringqa.outdir import atomic_write_text
@@ -586,11 +587,36 @@ def _channel(c, where: str, rd: _Reader, ring_frame=None) -> Channel:
         )
     except GeometryError as exc:
         raise rd.fail(where, str(exc)) from None
+    _check_length(c, where, rd, cl)
+    try:
+        check_channel_shape(channel, f"{where}.centreline")
+    except GeometryError as exc:
+        raise rd.fail(where + ".centreline", str(exc).split(": ", 1)[1]) from None
     if path_m is not None:
         problem = path_problem(channel, path_m, rel_m, step)
         if problem:
             raise rd.fail(f"{where}.measured_path", *problem)
     return channel
+
+
+#: ``length_mm`` (informative: the centreline's length) may differ from the centreline's length
+#: by this much (mm) before the file is refused as inconsistent.
+LENGTH_TOL_MM = 1.0
+
+
+def _check_length(c: dict, where: str, rd: _Reader, cl: Centreline) -> None:
+    """``length_mm`` (optional) must be a number equal to the centreline's length."""
+    if "length_mm" not in c:
+        return
+    given = rd.number(c, "length_mm", where, positive=True)
+    actual = m_to_mm(cl.length_m)
+    if abs(given - actual) > LENGTH_TOL_MM:
+        raise rd.fail(
+            f"{where}.length_mm",
+            f"{given:g} mm, but the centreline is {actual:.2f} mm long",
+            "correct length_mm or the centreline points (or leave length_mm out: it is the "
+            "centreline's length)",
+        )
 
 
 def path_problem(channel: Channel, path_m, rel_m=None, step_mm=None) -> tuple[str, str] | None:

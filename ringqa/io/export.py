@@ -14,12 +14,18 @@ from pathlib import Path
 import numpy as np
 
 from ringqa.io.points import write_points
-from ringqa.jsonio import write_json
+from ringqa.jsonio import csv_encoding, write_json
 from ringqa.units import mm_to_m
 
 
 def _fmt(v) -> str:
     return "" if v is None else f"{float(v):.6f}"
+
+
+def _write_rows(path: Path, rows: list) -> None:
+    """A CSV file (UTF-8 with a byte-order mark when a value is not ASCII: Excel)."""
+    with open(path, "w", newline="", encoding=csv_encoding(rows)) as fh:
+        csv.writer(fh).writerows(rows)
 
 
 def write_plan_files(plan, out: Path) -> list[str]:
@@ -32,24 +38,22 @@ def write_plan_files(plan, out: Path) -> list[str]:
     cols = ["channel", "dwell", "relative_position_mm", "x_mm", "y_mm", "z_mm", "time_s"]
     cols += ["dir_x", "dir_y", "dir_z"] if has_dir else []
     cols += ["channel_name"]
-    with open(out / "dwells.csv", "w", newline="") as fh:
-        w = csv.writer(fh)
-        w.writerow(cols)
-        for ch in plan.channels:
-            for k in range(ch.n_dwells):
-                row = [ch.number, k, _fmt(ch.relative_position_mm[k])]
-                row += [_fmt(v) for v in ch.positions_mm[k]] + [_fmt(ch.times_s[k])]
-                if has_dir:
-                    d = ch.directions[k] if ch.directions is not None else (None,) * 3
-                    row += [_fmt(v) for v in d]
-                w.writerow([*row, ch.name])
+    rows = [cols]
+    for ch in plan.channels:
+        for k in range(ch.n_dwells):
+            row = [ch.number, k, _fmt(ch.relative_position_mm[k])]
+            row += [_fmt(v) for v in ch.positions_mm[k]] + [_fmt(ch.times_s[k])]
+            if has_dir:
+                d = ch.directions[k] if ch.directions is not None else (None,) * 3
+                row += [_fmt(v) for v in d]
+            rows.append([*row, ch.name])
+    _write_rows(out / "dwells.csv", rows)
     written.append("dwells.csv")
-    with open(out / "points.csv", "w", newline="") as fh:
-        w = csv.writer(fh)
-        w.writerow(["name", "x_mm", "y_mm", "z_mm", "tps_dose_gy", "dose_tag"])
-        for pt in plan.points:
-            xyz = [_fmt(v) for v in pt.position_mm]
-            w.writerow([pt.name, *xyz, _fmt(pt.tps_dose_gy), pt.dose_tag or ""])
+    rows = [["name", "x_mm", "y_mm", "z_mm", "tps_dose_gy", "dose_tag"]]
+    for pt in plan.points:
+        xyz = [_fmt(v) for v in pt.position_mm]
+        rows.append([pt.name, *xyz, _fmt(pt.tps_dose_gy), pt.dose_tag or ""])
+    _write_rows(out / "points.csv", rows)
     written.append("points.csv")
     library_summary = {}
     for number, lc in sorted((plan.library or {}).items()):

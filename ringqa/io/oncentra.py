@@ -34,8 +34,9 @@ tube centreline):
   first marker (relative position 0 of the channel). ringqa returns centrelines PROXIMAL ->
   DISTAL and measured paths MOST DISTAL FIRST (sorted by ``index``).
 
-The plan's channels name their part by joint address in the private tag (300B,1013)
-(``"@"``, ``"@.IU"``).
+The plan's channels name their part by joint address in the private tag (300B,xx13)
+(``"@"``, ``"@.IU"``). Every private tag is read in the block reserved by the creator
+``"NUCLETRON"`` (:func:`private_element`).
 """
 
 from __future__ import annotations
@@ -48,14 +49,42 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-#: Private tag (group 0x300B, private creator "NUCLETRON") holding the library.
-LIBRARY_TAG = (0x300B, 0x100D)
-#: Private tag in each channel item holding the part's joint address ("@", "@.IU").
-JOINT_ADDRESS_TAG = (0x300B, 0x1013)
-#: Private tag in the setup item naming the applicator model.
-APPLICATOR_NAME_TAG = (0x300B, 0x1010)
-#: Private tag in the setup item with the applicator details (names the measured source path).
-APPLICATOR_DETAILS_TAG = (0x300B, 0x1011)
+#: Oncentra's private creator (group 0x300B) and the element offsets of its tags in that block
+#: (read through pydicom's ``private_block``: the block is found by its creator string, never
+#: by a fixed tag number, since another writer may reserve the block at another slot).
+PRIVATE_GROUP = 0x300B
+PRIVATE_CREATOR = "NUCLETRON"
+#: offset of the library (setup item): gzip-compressed UTF-16 XML
+LIBRARY_OFFSET = 0x0D
+#: offset of the part's joint address ("@", "@.IU") in each channel item
+JOINT_ADDRESS_OFFSET = 0x13
+#: offset of the applicator model's name in the setup item
+APPLICATOR_NAME_OFFSET = 0x10
+#: offset of the applicator details (names the measured source path) in the setup item
+APPLICATOR_DETAILS_OFFSET = 0x11
+
+#: The tags as Oncentra writes them (block 0x10): for tests that build synthetic plans.
+LIBRARY_TAG = (PRIVATE_GROUP, 0x1000 + LIBRARY_OFFSET)
+JOINT_ADDRESS_TAG = (PRIVATE_GROUP, 0x1000 + JOINT_ADDRESS_OFFSET)
+APPLICATOR_NAME_TAG = (PRIVATE_GROUP, 0x1000 + APPLICATOR_NAME_OFFSET)
+APPLICATOR_DETAILS_TAG = (PRIVATE_GROUP, 0x1000 + APPLICATOR_DETAILS_OFFSET)
+
+
+def private_element(item, offset: int):
+    """Oncentra's private element at ``offset`` of ``item`` (a pydicom Dataset), or None.
+
+    The block is looked up with ``item.private_block(0x300B, "NUCLETRON")``: the private
+    creator string is checked, so a block of another vendor in the same group is never read as
+    Oncentra's.
+    """
+    try:
+        block = item.private_block(PRIVATE_GROUP, PRIVATE_CREATOR)
+    except (KeyError, ValueError, AttributeError):
+        return None
+    try:
+        return block[offset]
+    except KeyError:
+        return None
 
 
 class LibraryFormatError(ValueError):

@@ -31,8 +31,10 @@ import numpy as np
 
 from ringqa.errors import InputFileError
 from ringqa.geometry import Applicator, Centreline, Channel, Lumen, fit_ring_frame
+from ringqa.geometry.centreline import GeometryError
 from ringqa.geometry.lumen import FlatSide
 from ringqa.geometry.parametric import FLAT_MM, LUMEN_SOURCE
+from ringqa.geometry.shape_checks import check_channel_shape
 from ringqa.io.applicator_file import RING_RADIUS_MM, path_problem
 from ringqa.units import m_to_mm, mm_to_m
 
@@ -263,6 +265,12 @@ def applicator_from_rtplan(plan):
             measured_step_m=step_m,
             measured_source=lc.measured_path_origin if path_m is not None else "",
         )
+        try:
+            check_channel_shape(channel, f"library part {lc.part_id} (channel {number})")
+        except GeometryError as exc:
+            raise InputFileError(
+                plan.path, str(exc), "export the plan again, or give the applicator instead"
+            ) from None
         if path_m is not None:
             problem = path_problem(channel, path_m, None, lc.measured_step_mm)
             if problem:

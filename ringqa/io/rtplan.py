@@ -42,9 +42,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ringqa.errors import InputFileError
+from ringqa.errors import InputFileError, named_warning
 from ringqa.io import oncentra
 from ringqa.io.oncentra import LibraryChannel
+from ringqa.io.points import MAX_COORDINATE_MM
 
 RT_PLAN_SOP_CLASS = "1.2.840.10008.5.1.4.1.1.481.5"
 _SOP_NAMES = {
@@ -630,6 +631,13 @@ def _read_channel(
                 raise RTPlanError(p, f"{cw}: CumulativeTimeWeight is missing", "")
         if wt < 0:
             raise RTPlanError(p, f"{cw}: CumulativeTimeWeight is {wt:g} (negative)", "")
+        if not np.all(np.abs(x) <= MAX_COORDINATE_MM):
+            raise RTPlanError(
+                p,
+                f"{cw}: ControlPoint3DPosition {_fmt_xyz(x)} mm lies more than "
+                f"{MAX_COORDINATE_MM / 1000:g} m from the origin: no dwell position does",
+                "export the plan again with positions in millimetres",
+            )
         rel.append(r)
         pos.append(x)
         w.append(wt)
@@ -651,6 +659,13 @@ def _read_channel(
         raise RTPlanError(p, f"{where}: {exc}", "") from None
     if w:
         ranges[number] = (w[0], w[-1], final if final is not None else w[-1], mode)
+    if total == 0.0 and len(groups) and max(w, default=0.0) > 0:
+        warnings.append(named_warning(
+            "plan.channel_time",
+            f"{where}: ChannelTotalTime is 0 s but the channel has {len(groups)} dwell(s) with "
+            "time weights: it gives no dose (check the exported plan; a channel the TPS does "
+            "not use has no dwells)",
+        ))  # fmt: skip
     if mode == "per-dwell":
         warnings.append(
             f"{where}: CumulativeTimeWeight holds per-dwell weights (not cumulative); read as "
@@ -688,13 +703,14 @@ def _read_channel(
         source_number=None if src is None else int(src),
         number_of_pulses=None if pulses is None else int(pulses),
         pulse_interval_s=_float(p, item, "PulseRepetitionInterval", where),
-        joint_address=_private_str(item, oncentra.JOINT_ADDRESS_TAG),
+        joint_address=_private_str(item, oncentra.JOINT_ADDRESS_OFFSET),
     )
 
 
-def _private_str(item, tag: tuple[int, int]) -> str | None:
+def _private_str(item, offset: int) -> str | None:
+    """Oncentra's private text element at ``offset`` (creator "NUCLETRON" checked)."""
     try:
-        el = item.get(tag)
+        el = oncentra.private_element(item, offset)
     except Exception:
         return None
     if el is None or el.value is None:
@@ -704,6 +720,14 @@ def _private_str(item, tag: tuple[int, int]) -> str | None:
         v = v.decode("latin-1", errors="replace")
     v = str(v).strip().strip("\x00").strip()
     return v or None
+
+
+#: isotopes of the TG-43 data ringqa ships (data/sources), normalised ("ir192")
+TG43_ISOTOPES = ("ir192",)
+
+
+def _fmt_xyz(x) -> str:
+    return "(" + ", ".join(f"{float(v):.6g}" for v in x) + ")"
 
 
 def _read_sources(p: Path, ds, warnings: list) -> list[PlanSource]:
@@ -730,7 +754,11 @@ def _read_sources(p: Path, ds, warnings: list) -> list[PlanSource]:
             )
         sk = _float(p, s, "ReferenceAirKermaRate", where)
         if sk is None:
-            warnings.append(f"{where}: no ReferenceAirKermaRate (S_K); give it to the dose step")
+            warnings.append(named_warning(
+                "plan.no_sk",
+                f"{where}: no ReferenceAirKermaRate (S_K): the plan's own dwells cannot be dosed "
+                "against the TPS (give the strength with --sk-u)",
+            ))  # fmt: skip
         elif sk <= 0:
             raise RTPlanError(p, f"{where}: ReferenceAirKermaRate is {sk:g}", "")
         date = None
@@ -750,6 +778,13 @@ def _read_sources(p: Path, ds, warnings: list) -> list[PlanSource]:
             )
             if x.strip()
         ).strip()
+        if isotope and isotope.replace("-", "").replace(" ", "").lower() not in TG43_ISOTOPES:
+            warnings.append(named_warning(
+                "plan.isotope",
+                f"{where}: the plan's source is {isotope} ({model or 'no model given'}), but "
+                "ringqa's TG-43 source data are all Ir-192: doses computed with them are wrong "
+                f"for {isotope} (use the position results only, or a TPS for {isotope} doses)",
+            ))  # fmt: skip
         num = _get(s, "SourceNumber")
         out.append(
             PlanSource(
@@ -808,22 +843,23 @@ def _read_library(p: Path, setups, channels: list, warnings: list):
     library: dict[int, LibraryChannel] = {}
     by_setup = {}
     for s in setups or []:
-        app_name = app_name or _private_str(s, oncentra.APPLICATOR_NAME_TAG)
-        el = s.get(oncentra.LIBRARY_TAG)
+        app_name = app_name or _private_str(s, oncentra.APPLICATOR_NAME_OFFSET)
+        el = oncentra.private_element(s, oncentra.LIBRARY_OFFSET)
         if el is None or not el.value:
             continue
         found = True
-        details = _private_str(s, oncentra.APPLICATOR_DETAILS_TAG) or ""
+        details = _private_str(s, oncentra.APPLICATOR_DETAILS_OFFSET) or ""
         preferred = None
         if "Measured source path:" in details:
             preferred = details.split("Measured source path:", 1)[1].strip().splitlines()[0]
         try:
             lib = oncentra.parse_library(oncentra.decode_library(el.value))
         except oncentra.LibraryFormatError as exc:
-            warnings.append(
+            warnings.append(named_warning(
+                "plan.library",
                 f"Oncentra applicator library (300B,100D) not readable ({exc}); using the "
-                "standard tags only"
-            )
+                "standard tags only",
+            ))  # fmt: skip
             continue
         for ch_item in _get(s, "ChannelSequence") or []:
             by_setup[int(_get(ch_item, "ChannelNumber") or 0)] = (lib, preferred)
@@ -843,7 +879,11 @@ def _read_library(p: Path, setups, channels: list, warnings: list):
         try:
             library[ch.number] = oncentra.library_channel(lib, ch.joint_address, preferred)
         except oncentra.LibraryFormatError as exc:
-            warnings.append(f"channel {ch.number}: library not usable ({exc})")
+            warnings.append(named_warning(
+                "plan.library",
+                f"channel {ch.number}: library not usable ({exc}); no centreline or measured "
+                "path for it (export the plan again from Oncentra, or give the applicator)",
+            ))  # fmt: skip
     return (library or None), app_name
 
 

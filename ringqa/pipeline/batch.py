@@ -28,12 +28,24 @@ class BatchResult:
         (input, one-line reason) for each applicator that failed.
     summary : pandas.DataFrame
         One row per input: the result's summary row (:meth:`Summary.as_row`), or
-        ``applicator``, ``verdict`` = ``"ERROR"`` and ``error`` for a failure.
+        ``applicator``, ``verdict`` = ``"ERROR"`` and ``error`` for a failure; ``folder`` names
+        the result's output subfolder (empty for a failure).
+    labels : tuple of str
+        One per result, unique in the batch: the output subfolder (the applicator's name made
+        safe for a file name; ``name-2``, ``name-3`` ... for a repeated name, so two inputs never
+        share or overwrite a folder).
     """
 
     results: tuple[CommissioningResult, ...]
     failures: tuple[tuple[str, str], ...]
     summary: pd.DataFrame
+    labels: tuple[str, ...] = ()
+
+    def label(self, i: int) -> str:
+        """The output subfolder of ``results[i]``."""
+        if self.labels:
+            return self.labels[i]
+        return unique_label(self.results[i].applicator, set())
 
     @property
     def ok(self) -> bool:
@@ -79,6 +91,8 @@ def commission_batch(
     results: list[CommissioningResult] = []
     failures: list[tuple[str, str]] = []
     rows = []
+    labels: list[str] = []
+    taken: set[str] = set()
     bar = tqdm(items, desc="commission", unit="applicator", disable=not progress)
     for item in bar:
         label = _label(item)
@@ -93,8 +107,23 @@ def commission_batch(
             rows.append({"applicator": label, "verdict": "ERROR", "error": reason})
             continue
         results.append(res)
-        rows.append({**res.summary.as_row(), "error": ""})
-    return BatchResult(tuple(results), tuple(failures), pd.DataFrame(rows))
+        labels.append(unique_label(res.applicator, taken))
+        rows.append({**res.summary.as_row(), "error": "", "folder": labels[-1]})
+    return BatchResult(tuple(results), tuple(failures), pd.DataFrame(rows), tuple(labels))
+
+
+def unique_label(name: str, taken: set[str]) -> str:
+    """``name`` made safe for a folder name (letters, digits, ``-_.``; others ``_``), with
+    ``-2``, ``-3`` ... appended while it is in ``taken`` (compared case-insensitively, as some
+    file systems do); the result is added to ``taken``."""
+    safe = "".join(c if c.isalnum() or c in "-_." else "_" for c in str(name)).strip("._")
+    safe = safe or "applicator"
+    label, k = safe, 1
+    while label.lower() in taken:
+        k += 1
+        label = f"{safe}-{k}"
+    taken.add(label.lower())
+    return label
 
 
 def _is_user_error(exc: Exception) -> bool:

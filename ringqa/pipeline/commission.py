@@ -31,11 +31,13 @@ settings are one :class:`~ringqa.pipeline.settings.CommissionSettings`; the resu
 
 from __future__ import annotations
 
+import logging
 import time
 from pathlib import Path
 
 import numpy as np
 
+from ringqa.errors import named_warning, split_warning
 from ringqa.pipeline.deviations import (
     DwellColumns,
     centreline_offsets,
@@ -74,11 +76,18 @@ from ringqa.pipeline.simulate import (
     simulation_notes,
 )
 from ringqa.pipeline.summary import summarise
-from ringqa.pipeline.verdicts import check_tolerances, conclusion, verdict_meanings
-from ringqa.provenance import Provenance
+from ringqa.pipeline.verdicts import (
+    CHECK_TPS,
+    check_tolerances,
+    conclusion,
+    verdict_meanings,
+)
+from ringqa.provenance import Provenance, tg43_data_files
 from ringqa.units import m_to_mm
 
 __all__ = ["commission"]
+
+log = logging.getLogger(__name__)
 
 
 def commission(
@@ -118,6 +127,7 @@ def commission(
     loaded = load_input(input)
     load_s = time.perf_counter() - t_start
     app = loaded.applicator
+    log.info("%s: loaded %s (%s) in %.2f s", input, app.name, loaded.kind, load_s)
     files = loaded.files
     correction_notes: tuple[str, ...] = ()
     if cfg.centreline_correction is not None:
@@ -141,6 +151,10 @@ def commission(
         else None  # fmt: skip
     selection = plan_selection(app, ring, reference, cfg.plan_step_mm, review.compared)
 
+    log.info(
+        "%s: simulating the %s cable at %d positions (%s reference)",
+        app.name, cable.preset, len(reference.relative_position_mm), reference.kind,
+    )  # fmt: skip
     t0 = time.perf_counter()
     simulated = simulate_dwells(
         app, ring, reference.relative_position_mm, cable=cable.preset,
@@ -148,6 +162,7 @@ def commission(
         stem_mm=cfg.stem_mm,
     )  # fmt: skip
     simulation_s = time.perf_counter() - t0
+    log.info("%s: simulated in %.2f s", app.name, simulation_s)
     rel = reference.relative_position_mm
     centreline = centreline_dwells(ring, rel)
     dev = compare_with_reference(app, compared_ref.dwells, simulated.dwells, centreline)
@@ -194,11 +209,10 @@ def commission(
         f"The standard plan includes {n_tandem} tandem dwells ({cfg.plan_step_mm:g} mm apart); "
         "the tandem is not simulated, so its dwells are the same in all plans."
     )
-    input_notes = tuple(f"RT Plan: {w}" for w in getattr(loaded.rtplan, "warnings", ()) or ())
-    input_notes += tuple(str(n) for n in app.metadata.get("notes", ()) or ())
+    warnings = collect_warnings(loaded, app, cfg, src, cable.preset, verdicts)
     notes = (
-        *input_notes,
-        *src.notes,
+        *(f"Warning [{n}]: {m}" for n, m in map(split_warning, warnings)),
+        *(n for n in src.notes if split_warning(n, "")[0] == ""),
         loaded_text(app, ring, loaded.kind),
         *correction_notes,
         *kink_notes(app, ring),
@@ -219,7 +233,11 @@ def commission(
         centreline_correction=None if cfg.centreline_correction is None
         else str(cfg.centreline_correction),
     )  # fmt: skip
-    provenance = Provenance.now(inputs=files, settings=used.as_dict())
+    folder = getattr(src.source, "folder", None)
+    provenance = Provenance.now(
+        inputs=files, settings=used.as_dict(),
+        data=tg43_data_files(folder) if folder is not None else (),
+    )  # fmt: skip
     return CommissioningResult(
         applicator=app.name,
         input=str(input) if isinstance(input, str | Path) else app.name,
@@ -239,7 +257,41 @@ def commission(
         reference_check=review,
         numerics=numerics,
         conclusion=conclusion(verdicts),
+        settings_origin=dict(cfg.settings_origin),
+        warnings=warnings,
     )
+
+
+def collect_warnings(loaded, app, cfg, src, preset: str, verdicts) -> tuple[str, ...]:
+    """Every named warning of the input stages (:func:`ringqa.errors.named_warning` strings):
+    the RT Plan reader's (``plan.*``; unnamed ones ``plan.reader``), the input files' notes
+    (``csv.encoding``, ``input.note``), the source choice (``plan.source_model``), bends the
+    source capsule cannot pass (``channel.tight_bend``) and a plan whose own dwells miss the
+    TPS doses (``plan.tps_dose``)."""
+    from ringqa.geometry.shape_checks import tight_bend_warning
+    from ringqa.simulation.instruments import CABLE_PRESETS
+
+    out: list[str] = []
+    for w in getattr(loaded.rtplan, "warnings", ()) or ():
+        name, msg = split_warning(w, "plan.reader")
+        if name == "plan.no_sk" and cfg.sk_U is not None:
+            continue  # given with --sk-u
+        out.append(named_warning(name, "RT Plan: " + msg))
+    for n in app.metadata.get("notes", ()) or ():
+        out.append(named_warning("csv.encoding" if "read as" in str(n) else "input.note", str(n)))
+    out += [n for n in src.notes if split_warning(n, "")[0]]
+    inst = CABLE_PRESETS.get(preset)
+    if inst is not None:
+        capsule = inst.sections[0]
+        for ch in app.channels:
+            text = tight_bend_warning(ch, capsule.length_m, capsule.r_o_m,
+                                      f"applicator {app.name}, channel {ch.name}")  # fmt: skip
+            if text:
+                out.append(named_warning("channel.tight_bend", text))
+    for v in verdicts:
+        if v.check == CHECK_TPS and v.status == "ACTION":
+            out.append(named_warning("plan.tps_dose", v.text))
+    return tuple(out)
 
 
 def correction_note(correction) -> str:

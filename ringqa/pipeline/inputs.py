@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from ringqa.errors import RingQAError
+from ringqa.errors import RingQAError, named_warning
 from ringqa.units import m_to_mm
 
 #: Air-kerma strength used when neither the settings nor an RT Plan give one, U (doses are
@@ -190,8 +190,11 @@ def choose_source(source, sk_U: float | None, rtplan) -> SourceChoice:
             return SourceChoice(tg43.load_source(name), float(sk_U), notes, sk_given)
         notes = (
             *notes,
-            f"The RT Plan's source ({getattr(rtplan.source, 'model', '?')}) has no TG-43 data in "
-            "ringqa; the Flexisource data were used (choose one with --source).",
+            named_warning(
+                "plan.source_model",
+                f"The RT Plan's source ({getattr(rtplan.source, 'model', '?')}) has no TG-43 "
+                "data in ringqa; the Flexisource data were used (choose one with --source).",
+            ),
         )
     return SourceChoice(tg43.load_source("flexisource"), float(sk_U), notes, sk_given)
 

@@ -9,7 +9,7 @@ order other tools have always read).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -410,6 +410,10 @@ class Timings:
         }
 
 
+#: named input checks that are notes (the file was read correctly; shown, not alarming)
+NOTE_CHECKS = ("csv.encoding",)
+
+
 @dataclass(frozen=True, eq=False)
 class CommissioningResult:
     """Everything one commissioning run produced (tables in mm, deg, Gy, %).
@@ -460,6 +464,13 @@ class CommissioningResult:
         The simulation's numerical error (commissioning vs refined run).
     conclusion : str
         One line: what the verdicts mean together.
+    settings_origin : dict of str to str
+        Where each setting came from (configuration key -> ``"default"``, ``"user config
+        <path>"``, ``"--config <path>"`` or ``"command line"``; :mod:`ringqa.config`).
+    warnings : tuple of str
+        Named warnings of the input checks (``"[name] message"``,
+        :func:`ringqa.errors.named_warning`): printed by the command line, in results.json
+        ``warnings`` and first in the notes (report page 1).
     """
 
     applicator: str
@@ -480,8 +491,111 @@ class CommissioningResult:
     reference_check: Any = None
     numerics: Any = None
     conclusion: str = ""
+    settings_origin: dict[str, str] = field(default_factory=dict)
+    warnings: tuple[str, ...] = ()
+
+    def warning_records(self) -> list[dict]:
+        """The results.json ``warnings``: ``name``, ``severity`` (``note`` for
+        :data:`NOTE_CHECKS`, else ``warning``) and ``message`` of each."""
+        from ringqa.errors import split_warning
+
+        out = []
+        for w in self.warnings:
+            name, message = split_warning(w)
+            severity = "note" if name in NOTE_CHECKS else "warning"
+            out.append({"name": name, "severity": severity, "message": message})
+        return out
 
     @property
     def passed(self) -> bool:
         """True when no verdict is FAIL or ACTION."""
         return all(v.status in ("PASS", "WARN") for v in self.verdicts)
+
+    # -- notebook conventions (pylinac-like): tables, figures, the signed PDF ----------------
+
+    def to_frames(self) -> dict[str, pd.DataFrame]:
+        """The run's tables as pandas DataFrames (copies; units in the column names).
+
+        Returns
+        -------
+        dict of str to pandas.DataFrame
+            ``dwells`` (one row per dwell and path), ``doses`` (per dose point and plan),
+            ``plan_dwells`` (the standard plans' dwells and times), ``summary`` (one row, the
+            columns of summary.csv), ``verdicts`` (one row per verdict: ``check, value, unit,
+            status, role, text``) and ``notes`` (one column ``note``).
+        """
+        return {
+            "dwells": self.dwells.copy(),
+            "doses": self.doses.copy(),
+            "plan_dwells": self.plan_dwells.copy(),
+            "summary": pd.DataFrame([self.summary.as_row()]),
+            "verdicts": pd.DataFrame(
+                [
+                    {
+                        "check": v.check,
+                        "value": v.value,
+                        "unit": v.unit,
+                        "status": v.status,
+                        "role": v.role,
+                        "text": v.text,
+                    }
+                    for v in self.verdicts
+                ],
+                columns=["check", "value", "unit", "status", "role", "text"],
+            ),
+            "notes": pd.DataFrame({"note": list(self.notes)}),
+        }
+
+    def plot_positions(self, title: str | None = None):
+        """Dwell positions in the ring plane and orthogonal to it (the paper's Figure 6).
+
+        Returns a :class:`matplotlib.figure.Figure` (no pyplot, the backend is left alone);
+        ``title`` defaults to the applicator's name.
+        """
+        from ringqa.pipeline.plots import positions_figure
+
+        return positions_figure(self, self.applicator if title is None else title)
+
+    def plot_deviations(self, title: str | None = None):
+        """Deviation per dwell (3D distance, components in mm, angle in deg) as a
+        :class:`matplotlib.figure.Figure` (no pyplot)."""
+        from ringqa.pipeline.plots import deviations_figure
+
+        return deviations_figure(self, self.applicator if title is None else title)
+
+    def plot_doses(self, title: str | None = None):
+        """The dose points beside the standard plan's dwells (ring plane, orthogonal view) as
+        a :class:`matplotlib.figure.Figure` (no pyplot); the doses are in ``to_frames()``."""
+        from ringqa.pipeline.plots import dose_points_figure
+
+        return dose_points_figure(self, self.applicator if title is None else title)
+
+    def publish_pdf(self, path, fields=None, notes=None, *, accuracy=None, sections=()):
+        """Write the signed report PDF of this result (as ``ringqa commission`` does).
+
+        Parameters
+        ----------
+        path : str or pathlib.Path
+            The PDF to write.
+        fields : ringqa.report.ReportFields, optional
+            Institution, physicist, serial, afterloader, source calibration (blank lines to fill
+            by hand when not given).
+        notes : str or sequence of str, optional
+            Free notes printed on the first page.
+        accuracy : pandas.DataFrame, optional
+            ``ringqa accuracy``'s table for an extra page.
+        sections : sequence of callables, optional
+            Extra pages, see :func:`ringqa.report.pdf.write_pdf`.
+
+        Returns
+        -------
+        pathlib.Path
+        """
+        # The report layer sits after the pipeline (DEVELOPERS.md): it is looked up when called,
+        # so the pipeline never imports it at module level and the data still flows one way.
+        import importlib
+
+        writer = importlib.import_module("ringqa.report.pdf").write_pdf
+        return writer(
+            self, path, fields=fields, notes=notes or (), accuracy=accuracy, sections=sections
+        )

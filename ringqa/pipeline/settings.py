@@ -77,6 +77,10 @@ class CommissionSettings:
         Refuse an applicator without a measured source path. None: refuse for user files
         (folder, JSON, RT Plan), accept shipped applicators and Applicator objects (compared
         simulated vs centreline).
+    settings_origin : mapping of str to str
+        Where each setting came from (configuration key -> ``"default"``, ``"user config
+        <path>"``, ``"--config <path>"``, ``"command line"``; :mod:`ringqa.config`); carried
+        into the result (``results.json`` ``settings_origin``). Empty when built in Python.
 
     Raises
     ------
@@ -99,6 +103,7 @@ class CommissionSettings:
     stem_mm: float | None = DEFAULT_STEM_MM
     centreline_correction: str | Path | None = None
     require_measured: bool | None = None
+    settings_origin: Mapping[str, str] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         def keep(name: str, value) -> None:
@@ -174,6 +179,12 @@ class CommissionSettings:
                 f"scene_overrides {overrides!r}: must map dotted scene keys to values, e.g. "
                 '{"solver.increment_mm": 0.5}'
             )
+        origin = self.settings_origin
+        if not isinstance(origin, Mapping):
+            raise RingQAError(
+                f"settings_origin {origin!r}: must map setting names to where they came from"
+            )
+        keep("settings_origin", {str(k): str(v) for k, v in origin.items()})
         keep("scene_overrides", dict(overrides))
         keep("prescription_gy", float(self.prescription_gy))
         keep("position_limits_mm", (float(pair[0]), float(pair[1])))

@@ -7,21 +7,26 @@ Public API::
                                             # results.json report.pdf, staged (never half-written)
     write_batch(batch, "out/")              # one subfolder per applicator + summary.csv,
                                             # batch.json, summary.pdf
+    write_report(result, "out", fields=ReportFields(institution="...", physicist="..."))
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 
 import pandas as pd
 
 from ringqa.errors import InputFileError
-from ringqa.outdir import staged_output
+from ringqa.jsonio import write_json
+from ringqa.outdir import MARKER_NAME, marker_record, staged_output
+from ringqa.report.fields import ReportFields
 from ringqa.report.pdf import write_batch_pdf, write_pdf
 from ringqa.report.tables import SCHEMA, results_dict, write_batch_tables, write_tables
 
 __all__ = [
     "SCHEMA",
+    "ReportFields",
     "read_accuracy_csv",
     "results_dict",
     "write_batch",
@@ -56,17 +61,48 @@ def read_accuracy_csv(path) -> pd.DataFrame:
     return table
 
 
-def _write_one(result, folder: Path, pdf: bool, accuracy=None) -> None:
+def _write_one(
+    result, folder: Path, pdf: bool, accuracy=None, fields=None, export=None, sections=()
+) -> None:
     write_tables(result, folder)
+    if export is not None:
+        from ringqa.io.export_tps import write_exports
+
+        write_exports(result, folder, export)
     if pdf:
-        write_pdf(result, folder / "report.pdf", accuracy=accuracy)
+        write_pdf(
+            result, folder / "report.pdf", accuracy=accuracy, fields=fields, sections=sections
+        )
 
 
-def write_report(result, out_dir, *, pdf: bool = True, accuracy_csv=None) -> Path:
+def _checked_exports(results, export: bool) -> list:
+    """The exports of every result, made and checked before anything is written (an export
+    that cannot be made ends the command with nothing written)."""
+    if not export:
+        return [None] * len(results)
+    from ringqa.io.export_tps import check_export
+
+    return [check_export(r) for r in results]
+
+
+def write_report(
+    result,
+    out_dir,
+    *,
+    pdf: bool = True,
+    accuracy_csv=None,
+    fields: ReportFields | None = None,
+    export: bool = False,
+    sections: Sequence = (),
+) -> Path:
     """Write one applicator's files into ``out_dir`` (staged: all or nothing).
 
     ``accuracy_csv``: optional accuracy.csv of ``ringqa accuracy`` for the scene used (adds a
-    page with its error-vs-time plot).
+    page with its error-vs-time plot). ``fields``: what the signing physicist fills in (from the
+    clinic configuration). ``export``: also write ``export/`` (:mod:`ringqa.io.export_tps`:
+    ``source_path_<channel>.csv``, and ``RP_simulated.dcm`` for an RT Plan input).
+    ``sections``: extra report pages, callables ``section(result) -> list of reportlab
+    flowables`` (see :func:`ringqa.report.pdf.write_pdf`).
 
     Returns
     -------
@@ -74,26 +110,42 @@ def write_report(result, out_dir, *, pdf: bool = True, accuracy_csv=None) -> Pat
         ``out_dir``.
     """
     accuracy = None if accuracy_csv is None else read_accuracy_csv(accuracy_csv)
+    (checked,) = _checked_exports([result], export)
     with staged_output(out_dir) as stage:
-        _write_one(result, stage, pdf, accuracy)
+        _write_one(result, stage, pdf, accuracy, fields, checked, sections)
     return Path(out_dir)
 
 
-def write_batch(batch, out_dir, *, pdf: bool = True, progress: bool = False) -> Path:
+def write_batch(
+    batch,
+    out_dir,
+    *,
+    pdf: bool = True,
+    progress: bool = False,
+    fields: ReportFields | None = None,
+    export: bool = False,
+    sections: Sequence = (),
+) -> Path:
     """Write a BatchResult: ``out_dir/<applicator>/`` per result, plus the cross-applicator
     ``summary.csv``, ``all_dwells.csv``, ``all_doses.csv``, ``batch.json`` and ``summary.pdf``.
-    Failed applicators appear in summary.csv / batch.json with their error (no subfolder)."""
+    Failed applicators appear in summary.csv / batch.json with their error (no subfolder).
+    ``fields``, ``export`` and ``sections`` as :func:`write_report` (the exports per applicator
+    folder; the fields also go on summary.pdf)."""
     from tqdm import tqdm
 
+    checked = _checked_exports(batch.results, export)
     with staged_output(out_dir) as stage:
-        for res in tqdm(batch.results, desc="reports", unit="applicator", disable=not progress):
-            _write_one(res, stage / _safe(res.applicator), pdf)
+        items = zip(batch.results, checked, strict=True)
+        for i, (res, exp) in enumerate(
+            tqdm(items, desc="reports", unit="applicator", disable=not progress,
+                 total=len(batch.results))
+        ):  # fmt: skip
+            sub = stage / batch.label(i)
+            _write_one(res, sub, pdf, None, fields, exp, sections)
+            # each applicator's folder is recognisably ringqa's own (copied out on its own, it
+            # is replaced whole by a later run like any output folder)
+            write_json(sub / MARKER_NAME, marker_record(), indent=2, end="\n")
         write_batch_tables(batch, stage)
         if pdf:
-            write_batch_pdf(batch, stage / "summary.pdf")
+            write_batch_pdf(batch, stage / "summary.pdf", fields=fields)
     return Path(out_dir)
-
-
-def _safe(name: str) -> str:
-    keep = "".join(c if c.isalnum() or c in "-_." else "_" for c in str(name)).strip("._")
-    return keep or "applicator"

@@ -1,24 +1,30 @@
-"""The PDF report a physicist signs (matplotlib PdfPages, A4 portrait).
+"""The PDF report a physicist signs (reportlab, A4 portrait; matplotlib for the figures only).
 
-Pages per applicator:
-1. Commissioning summary (:func:`page1_items`, flowed onto a second text page when it does not
-   fit): title block (applicator, source, plan, tolerances, software, date, inputs with SHA-256),
-   where the reference path comes from and what its checks found (planar, constant height,
-   infeasible positions, positions outside the channel, the registration and its transform), the
-   verdicts grouped by role (TPS model, simulation check, numerics) with the one-line conclusion,
-   the numbers "as supplied | registered" side by side with the simulation's numerical error, the
-   notes and the signature lines.
-2. Dwell positions like the paper's Figure 6: projected onto the ring plane and orthogonal to it,
-   reference (as supplied and registered) / simulated / centreline, with the channel centreline
-   and the flagged reference positions.
+Every page has a running header (the applicator's full name, software version, date) and footer
+(the input's SHA-256 prefix, page n/N), see :mod:`ringqa.report.layout`. The pages of one
+applicator:
+
+1. Commissioning summary (:func:`page1_items`, flowing onto the next page when it does not fit):
+   the title with the applicator's full name, the signing physicist's fields
+   (:class:`~ringqa.report.fields.ReportFields`: institution, physicist, applicator serial beside
+   the library's part ID, afterloader, source and its calibration; blank lines when not given),
+   the run (applicator, source, plan, tolerances, software, date, inputs with SHA-256), the
+   verdicts grouped by role with the one-line conclusion, every note of the run (warnings, input
+   notes), where the reference path comes from and what its checks found (registration and its
+   transform), the numbers "as supplied | registered" side by side with the simulation's
+   numerical error, the free notes, the signature block and the references used on the page.
+2. Dwell positions like the paper's Figure 6 (ring plane and orthogonal view).
 3. Deviation per dwell: 3D distance (with the simulation's numerical error),
    along/radial/out-of-plane components, angle of orientation; flagged reference positions shaded.
-4. Dose points: map (ring plane and side view) and the dose table of the standard plans
-   (differences to the reference plan as supplied and, when registered, as registered; the RT
-   Plan's own doses beside the TPS values).
-5. Dwell-by-dwell table (reference flags, numerical error).
-6. Settings of the run.
-Batch: a cross-applicator page with Figure-5-like boxplots and the summary table.
+4. Dose points: map and the dose table of the standard plans (differences to the reference plan
+   as supplied and, when registered, as registered; the RT Plan's own doses beside the TPS
+   values), with the TG-43 data's reference.
+5. Dwell-by-dwell table (reference flags, numerical error), over as many pages as it needs.
+6. The effective settings of the run (``result.settings`` as it is, and the scene).
+7. Optional: the accuracy study of ``ringqa accuracy``; then any extra ``sections``.
+
+Batch: ``summary.pdf`` with the same header/footer, Figure-5-like boxplots, the summary table,
+the dose table over applicators, failures and the signature block.
 
 The report names the pipeline's ``measured`` path "the reference path (as supplied)": it is what
 the user or the applicator library supplies, a measurement only when its source says so.
@@ -26,34 +32,36 @@ the user or the applicator library supplies, a measurement only when its source 
 
 from __future__ import annotations
 
-import functools
+import hashlib
 import re
-import textwrap
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from xml.sax.saxutils import escape
 
 import numpy as np
 import pandas as pd
+from reportlab.platypus import CondPageBreak, KeepTogether, PageBreak, Table, TableStyle
 
-from ringqa.pipeline import RingGeometry
+from ringqa.pipeline.plots import (
+    FLAG_COLOURS,
+    FLAG_NAMES,
+    accuracy_caption,
+    accuracy_figure,
+    batch_distances_figure,
+    deviation_caption,
+    deviations_figure,
+    dose_points_caption,
+    dose_points_figure,
+    positions_figure,
+    reference_flags,
+    reference_name,
+)
+from ringqa.report import layout
+from ringqa.report.fields import ReportFields
+from ringqa.report.layout import badge, grid_table, heading, para
 from ringqa.units import m_to_mm
 
-A4 = (8.27, 11.69)
-COLOURS = {
-    "measured": "black",
-    "registered": "tab:green",
-    "simulated": "tab:red",
-    "centreline": "tab:blue",
-}
-MARKERS = {"measured": "s", "registered": "D", "simulated": "o", "centreline": "^"}
-#: How the report names the pipeline's paths and plans.
-PATH_LABELS = {
-    "measured": "reference as supplied",
-    "registered": "reference registered",
-    "simulated": "simulated",
-    "centreline": "centreline",
-}
 LONG_NAMES = {
     "point_a_left": "Point A left",
     "point_a_right": "Point A right",
@@ -62,17 +70,7 @@ LONG_NAMES = {
     "depth5_left": "5 mm deeper, left",
     "depth5_right": "5 mm deeper, right",
 }
-STATUS_COLOURS = {
-    "PASS": "#2e7d32",
-    "WARN": "#ef6c00",
-    "FAIL": "#c62828",
-    "ACTION": "#c62828",
-    "ERROR": "#c62828",
-}
-#: Reference flags (``reference_flag``): short name in the tables and the shading colour.
-FLAG_NAMES = {"infeasible": "infeasible", "outside_channel": "outside"}
-FLAG_COLOURS = {"infeasible": "#ffcdd2", "outside_channel": "#cfd8dc"}
-FLAG_EDGES = {"infeasible": "#c62828", "outside_channel": "#546e7a"}
+STATUS_COLOURS = layout.STATUS_COLOURS
 #: The dwell table's column of the flags of the reference path as supplied (when registered).
 SUPPLIED_FLAG_COLUMN = "reference\nas\nsupplied"
 #: Verdict roles in page-1 order (:mod:`ringqa.pipeline.verdicts`).
@@ -85,48 +83,10 @@ PLAIN_WORDS = (
     (r"measured path", "reference path"),
     (r"measured plan", "standard plan on the reference path"),
 )
-
-
-def _plt():
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
-
-
-def _title(res, what: str) -> str:
-    """Page title: what, then the applicator (shortened to fit the page)."""
-    return textwrap.shorten(f"{what}: {res.applicator}", 62, placeholder="...")
-
-
-def _frame(geometry: RingGeometry):
-    """Ring frame: centre (3,), e_left (3,), e_ant (3,) in-plane, e_cranial (3,)."""
-    c = np.asarray(geometry.ring_centre_mm, dtype=float)
-    n = np.asarray(geometry.ring_normal, dtype=float)
-    n = n / np.linalg.norm(n)
-    lat = np.asarray(geometry.ring_lateral, dtype=float)
-    lat = lat - np.dot(lat, n) * n
-    lat /= np.linalg.norm(lat)
-    return c, lat, np.cross(n, lat), n
-
-
-def _project(xyz, geometry: RingGeometry):
-    c, e1, e2, n = _frame(geometry)
-    d = np.asarray(xyz, dtype=float).reshape(-1, 3) - c
-    return d @ e1, d @ e2, d @ n
-
-
-def _text_page(plt, title: str):
-    fig = plt.figure(figsize=A4)
-    fig.text(0.06, 0.965, title, fontsize=14, weight="bold", va="top")
-    return fig
-
-
-# ---------------------------------------------------------------------------------------------
-# Page 1 as text: pure functions of the result (tested without rendering)
-# ---------------------------------------------------------------------------------------------
+#: The method's paper, cited where its figures, tables and lumen data are used.
+PAPER_REFERENCE = "Straathof R, et al. Med Phys 2024;51:3698. doi:10.1002/mp.16934"
+#: A section of extra pages: ``section(result) -> list of reportlab flowables``.
+Section = Callable[[object], list]
 
 
 @dataclass(frozen=True)
@@ -242,7 +202,7 @@ def header_items(res) -> list[TextItem]:
         TextItem(
             "field",
             f"{s.source} (TG-43), S_K = {fmt_value(s.sk_U, '{:.0f}')} U; cable model: "
-            f"{s.cable} preset (all simulation settings: last page)",
+            f"{s.cable} preset (all settings: settings page)",
             "Source, cable",
         ),
         TextItem(
@@ -430,7 +390,9 @@ def note_items(res) -> list[TextItem]:
 
 
 def page1_items(result) -> list[TextItem]:
-    """Everything page 1 (and its continuation) says, in order, in the report's wording.
+    """Everything page 1 (and its continuation) says, in order, in the report's wording: the
+    run, the verdicts and conclusion, the notes (warnings first on the page), the reference path
+    and the numbers as supplied | registered.
 
     The pipeline's sentences (reference checks, verdicts, notes) call the supplied path the
     "reference path" (:func:`plain_wording`); where the path comes from is quoted as given.
@@ -445,10 +407,10 @@ def page1_items(result) -> list[TextItem]:
     """
     items = [
         *header_items(result),
-        *reference_items(result),
         *verdict_items(result),
-        *comparison_items(result),
         *note_items(result),
+        *reference_items(result),
+        *comparison_items(result),
     ]
     review = result.reference_check
     keep = () if review is None else (review.source,)
@@ -468,477 +430,6 @@ def page1_items(result) -> list[TextItem]:
 def page1_lines(result) -> list[str]:
     """Page 1's text as plain lines (what the physicist reads, without the layout)."""
     return [line for item in page1_items(result) for line in item.lines()]
-
-
-# ---------------------------------------------------------------------------------------------
-# Page 1 rendered: text items flowed onto A4 pages
-# ---------------------------------------------------------------------------------------------
-
-
-@dataclass(frozen=True)
-class _Style:
-    x: float
-    size: float
-    width: int
-    weight: str = "normal"
-    family: str = "sans-serif"
-    before: float = 0.0
-    after: float = 0.003
-
-
-#: kind -> layout (x in figure fraction, font size, wrap width in characters, spacing)
-_STYLES = {
-    "heading": _Style(0.06, 11.5, 80, "bold", before=0.012, after=0.006),
-    "subheading": _Style(0.07, 8.5, 105, "bold", before=0.004, after=0.003),
-    "field": _Style(0.25, 8.5, 88),
-    "file": _Style(0.25, 7.0, 100),
-    "text": _Style(0.075, 8.5, 112, after=0.004),
-    "verdict": _Style(0.165, 8.5, 100, after=0.006),
-    "conclusion": _Style(0.07, 10.5, 86, "bold", before=0.01, after=0.016),
-    "table": _Style(0.075, 8.0, 110, family="monospace", before=0.002, after=0.012),
-    "note": _Style(0.06, 8.0, 122, after=0.003),
-}
-_PT = A4[1] * 72.0  # page height in points
-_TOP = 0.925
-_BOTTOM_FIRST = 0.1  # page 1 keeps the signature line free
-_BOTTOM = 0.04
-_CONCLUSION_PAD = 5.0  # points
-
-
-@functools.cache
-def _line_height(size: float, family: str) -> float:
-    """Height of one line of text (fraction of the A4 page height), measured once per font."""
-    plt = _plt()
-    fig = plt.figure(figsize=A4)
-    try:
-        renderer = fig.canvas.get_renderer()
-        heights = [
-            fig.text(0, 0, "\n".join(["Ag|"] * n), fontsize=size, family=family)
-            .get_window_extent(renderer)
-            .height
-            for n in (1, 11)
-        ]
-        return (heights[1] - heights[0]) / 10 / fig.bbox.height
-    finally:
-        plt.close(fig)
-
-
-def _table_text(rows) -> tuple[str, str]:
-    """Header and body of a monospaced table (columns padded to their widths)."""
-    widths = [max(len(r[k]) for r in rows) for k in range(len(rows[0]))]
-
-    def line(row):
-        first = row[0].ljust(widths[0])
-        return "  ".join(
-            [first, *(c.rjust(max(w, 11)) for c, w in zip(row[1:], widths[1:], strict=True))]
-        )
-
-    header = line(rows[0])
-    return header, "\n".join([("-" * len(header)), *(line(r) for r in rows[1:])])
-
-
-def _wrapped(item: TextItem) -> str:
-    style = _STYLES[item.kind]
-    if item.kind == "table":
-        header, body = _table_text(item.rows)
-        return header + "\n" + body
-    if item.kind == "note":
-        return "- " + textwrap.fill(item.text, style.width).replace("\n", "\n  ")
-    if item.kind == "file":
-        return textwrap.fill(item.text, style.width) + "\n" + item.label
-    return textwrap.fill(item.text, style.width)
-
-
-def _item_height(item: TextItem) -> float:
-    """Height of an item on the page (figure fraction), spacing included."""
-    style = _STYLES[item.kind]
-    n = _wrapped(item).count("\n") + 1
-    pad = 2 * _CONCLUSION_PAD / _PT if item.kind == "conclusion" else 0.0
-    return style.before + n * _line_height(style.size, style.family) + pad + style.after
-
-
-def _draw_item(fig, item: TextItem, y: float) -> None:
-    """Draw ``item`` with its top at ``y`` (after its spacing before)."""
-    style = _STYLES[item.kind]
-    y -= style.before
-    kw = {"fontsize": style.size, "va": "top", "weight": style.weight, "family": style.family}
-    text = _wrapped(item)
-    if item.kind == "field":
-        fig.text(0.06, y, item.label, fontsize=style.size, weight="bold", va="top")
-    if item.kind == "verdict":
-        fig.text(
-            0.075,
-            y,
-            f" {item.label} ",
-            fontsize=style.size,
-            weight="bold",
-            va="top",
-            color="white",
-            bbox={
-                "facecolor": STATUS_COLOURS.get(item.label, "grey"),
-                "edgecolor": "none",
-                "pad": 1.5,
-            },
-        )
-    if item.kind == "conclusion":
-        edge = STATUS_COLOURS.get(item.label, "0.4")
-        kw["bbox"] = {"facecolor": "#fafafa", "edgecolor": edge, "lw": 2, "pad": _CONCLUSION_PAD}
-    if item.kind == "file":
-        path, digest = text.rsplit("\n", 1)
-        fig.text(style.x, y, path, **kw)
-        y -= (path.count("\n") + 1) * _line_height(style.size, style.family)
-        fig.text(style.x, y, digest, **{**kw, "family": "monospace"})
-        return
-    if item.kind == "table":
-        header, body = text.split("\n", 1)
-        fig.text(style.x, y, header, **{**kw, "weight": "bold"})
-        fig.text(style.x, y - _line_height(style.size, style.family), body, **kw)
-        return
-    fig.text(style.x, y, text, **kw)
-
-
-def _flow(plt, items: list[TextItem], title: str, more_title: str) -> list:
-    """Lay ``items`` out top to bottom, starting a new page when the next one does not fit (a
-    heading stays with the item after it; the space after an item may reach the margin)."""
-    figs = [_text_page(plt, title)]
-    y = _TOP
-    for k, item in enumerate(items):
-        height = _item_height(item)
-        need = height - _STYLES[item.kind].after
-        if item.kind in ("heading", "subheading") and k + 1 < len(items):
-            need = height + _item_height(items[k + 1]) - _STYLES[items[k + 1].kind].after
-        bottom = _BOTTOM_FIRST if len(figs) == 1 else _BOTTOM
-        if y - need < bottom and y < _TOP:
-            figs.append(_text_page(plt, more_title))
-            y = _TOP
-        _draw_item(figs[-1], item, y)
-        y -= height
-    return figs
-
-
-def _title_page(plt, res) -> list:
-    """Page 1 (and its continuation): :func:`page1_items` laid out, with the signature lines."""
-    figs = _flow(
-        plt,
-        page1_items(res),
-        textwrap.shorten(f"ringqa commissioning report: {res.applicator}", 60),
-        textwrap.shorten(f"Commissioning summary (continued): {res.applicator}", 60),
-    )
-    figs[0].text(
-        0.06,
-        0.05,
-        "Checked by: ______________________   Signature: ____________________   "
-        "Date: ______________",
-        fontsize=10,
-    )
-    if len(figs) > 1:
-        figs[0].text(0.06, 0.075, "Continued on the next page.", fontsize=8.5, style="italic")
-    return figs
-
-
-def _settings_page(plt, res):
-    """The simulation's scene settings and the run's other settings (for the record)."""
-    fig = _text_page(plt, textwrap.shorten(f"Settings of this run: {res.applicator}", 60))
-    s = res.settings
-    sim = res.simulation
-    flat = {
-        k: v for k, v in _flatten(s.scene).items() if not isinstance(v, list | tuple | dict)
-    } or {"(engine defaults)": ""}
-    for k, v in s.scene_overrides.items():
-        flat[f"--set {k}"] = v
-    run = {
-        "simulation status": f"{sim.status} {sim.message}".strip(),
-        "simulation solve time": f"{sim.solve_time_s:.2f} s",
-        "elements": sim.n_elements,
-        **{f"dose point {k}": v for k, v in s.dose_points.as_dict().items()},
-        "plan step": f"{s.plan_step_mm:g} mm",
-        "tandem dwells (no reference path)": s.tandem_dwells,
-        "registration of the reference path": s.register,
-    }
-    if res.numerics is not None:
-        run["numerical check runs"] = res.numerics.n_runs
-    for w in sim.warnings:
-        run.setdefault("engine warnings", "")
-        run["engine warnings"] += f"{w}; "
-    y = 0.92
-    fig.text(0.06, y, "Run", fontsize=12, weight="bold", va="top")
-    y -= 0.025
-    lines = [textwrap.shorten(f"{k} = {_fmt(v, '{}')}", 110) for k, v in run.items()]
-    fig.text(0.06, y, "\n".join(lines), fontsize=7.5, va="top", family="monospace")
-    y -= 0.0135 * len(lines) + 0.02
-    fig.text(
-        0.06, y, "Scene (simulation settings, user units)", fontsize=12, weight="bold", va="top"
-    )
-    y -= 0.025
-    items = [textwrap.shorten(f"{k} = {_fmt(v, '{}')}", 58) for k, v in flat.items()]
-    per_col = max(1, int((y - 0.04) / 0.0125))
-    if len(items) > 2 * per_col:
-        items = [
-            *items[: 2 * per_col - 1],
-            f"... {len(items) - 2 * per_col + 1} more in results.json",
-        ]
-    fig.text(0.06, y, "\n".join(items[:per_col]), fontsize=7, va="top", family="monospace")
-    fig.text(0.52, y, "\n".join(items[per_col:]), fontsize=7, va="top", family="monospace")
-    return fig
-
-
-def _flatten(d: dict, prefix: str = "") -> dict:
-    out = {}
-    for k, v in d.items():
-        key = f"{prefix}{k}"
-        if isinstance(v, dict):
-            out.update(_flatten(v, key + "."))
-        else:
-            out[key] = v
-    return out
-
-
-def _path_label(path: str, reference: str) -> str:
-    """How a path (or its plan) is named in legends and tables."""
-    if path == reference == "centreline":
-        return "centreline (the reference)"
-    return PATH_LABELS.get(path, path)
-
-
-def _reference_name(res) -> str:
-    """The path the others are compared with, for page titles."""
-    if res.reference != "measured":
-        return "centreline (the reference)"
-    mode = res.summary.registration
-    return "reference path" if mode == "none" else f"registered reference path ({mode})"
-
-
-def reference_flags(res) -> pd.DataFrame:
-    """Per reference dwell: ``relative_position_mm``, ``flag`` (of the path as compared) and
-    ``flag_supplied`` (of the path as supplied); ``""`` when the position is fine."""
-    d = res.dwells
-    base = d[d["path"] == res.reference].reset_index(drop=True)
-    n = len(base)
-    flags = base["reference_flag"] if "reference_flag" in base else pd.Series([""] * n)
-    flags = flags.fillna("").astype(str).to_numpy()
-    review = res.reference_check
-    raw = flags
-    if review is not None and len(review.raw_flags) == n:
-        raw = np.asarray(review.raw_flags, dtype=str)
-    return pd.DataFrame(
-        {
-            "relative_position_mm": base["relative_position_mm"].to_numpy(),
-            "flag": flags,
-            "flag_supplied": raw,
-        }
-    )
-
-
-def _flagged_rows(res) -> pd.DataFrame:
-    """The reference rows (as compared: registered when registered) that carry a flag."""
-    d = res.dwells
-    path = "registered" if "registered" in set(d["path"]) else res.reference
-    sub = d[d["path"] == path].reset_index(drop=True)
-    flags = reference_flags(res)["flag"]
-    return sub.assign(flag=flags.to_numpy())[flags.to_numpy() != ""]
-
-
-def _shade_flags(ax, res, legend: bool) -> None:
-    """Shade the relative positions whose reference position is flagged."""
-    table = reference_flags(res)
-    rel = table["relative_position_mm"].to_numpy(dtype=float)
-    half = 0.5 * float(np.median(np.diff(np.sort(rel)))) if rel.size > 1 else 0.5
-    seen = set()
-    for x, flag in zip(rel, table["flag"], strict=True):
-        if flag not in FLAG_COLOURS:
-            continue
-        label = None
-        if legend and flag not in seen:
-            label = f"reference position {FLAG_NAMES[flag]}"
-            seen.add(flag)
-        ax.axvspan(
-            x - half, x + half, color=FLAG_COLOURS[flag], alpha=0.8, lw=0, zorder=0, label=label
-        )
-
-
-def _positions_page(plt, res):
-    """Figure 6 of the paper: ring-plane view and the orthogonal view."""
-    fig, axes = plt.subplots(2, 1, figsize=A4, gridspec_kw={"height_ratios": [1.35, 1]})
-    fig.suptitle(
-        _title(res, "Dwell positions (paper Figure 6)"),
-        fontsize=13,
-        weight="bold",
-        x=0.06,
-        ha="left",
-    )
-    geo = res.geometry
-    ax1, ax2 = axes
-    for name, line in geo.centrelines_mm.items():
-        u, v, h = _project(np.asarray(line), geo)
-        ax1.plot(u, v, "-", color="0.75", lw=1, label=f"{name} centreline")
-        ax2.plot(u, h, "-", color="0.75", lw=1)
-    d = res.dwells
-    for path in ("measured", "registered", "centreline", "simulated"):
-        sub = d[d["path"] == path]
-        if sub.empty:
-            continue
-        u, v, h = _project(sub[["x_mm", "y_mm", "z_mm"]].to_numpy(), geo)
-        kw = {
-            "color": COLOURS[path],
-            "marker": MARKERS[path],
-            "ms": 4,
-            "lw": 0.8,
-            "mfc": "none" if path != "simulated" else COLOURS[path],
-        }
-        ax1.plot(u, v, label=f"{_path_label(path, res.reference)} dwells", **kw)
-        ax2.plot(u, h, **kw)
-        if path == res.reference:
-            for k in range(0, len(u), 4):
-                ax1.annotate(
-                    f"{sub['relative_position_mm'].iloc[k]:g}",
-                    (u[k], v[k]),
-                    textcoords="offset points",
-                    xytext=(6, 4),
-                    fontsize=6,
-                    color="0.3",
-                )
-    flagged = _flagged_rows(res)
-    for flag, rows in flagged.groupby("flag", sort=False):
-        u, v, h = _project(rows[["x_mm", "y_mm", "z_mm"]].to_numpy(), geo)
-        kw = {
-            "ls": "none",
-            "marker": "o",
-            "ms": 10,
-            "mfc": "none",
-            "mew": 1.2,
-            "color": FLAG_EDGES.get(flag, "0.3"),
-        }
-        ax1.plot(u, v, label=f"reference position {FLAG_NAMES.get(flag, flag)}", **kw)
-        ax2.plot(u, h, **kw)
-    r = geo.ring_radius_mm
-    lim = r + 8
-    ax1.set_xlim(-lim, lim)
-    ax1.set_ylim(-lim, lim)
-    ax1.set_aspect("equal")
-    ax1.set_xlabel("patient left (mm), in the ring plane")
-    ax1.set_ylabel("in the ring plane, perpendicular (mm)")
-    ax1.set_title(
-        "projected onto the ring plane (seen from cranial); numbers: relative position (mm)",
-        fontsize=9,
-    )
-    ax1.plot(0, 0, "k+")
-    ax1.legend(fontsize=6.5, loc="lower left")
-    ax1.grid(alpha=0.3)
-    ax2.set_xlim(-lim, lim)
-    ax2.set_xlabel("patient left (mm), in the ring plane")
-    ax2.set_ylabel("cranial (mm), orthogonal to the ring plane")
-    ax2.set_title("orthogonal to the ring plane (seen from anterior/posterior)", fontsize=9)
-    ax2.grid(alpha=0.3)
-    _, _, hh = _project(d[["x_mm", "y_mm", "z_mm"]].to_numpy(), geo)
-    span = max(3.0, float(np.max(np.abs(hh))) * 1.3) if hh.size else 3.0
-    ax2.set_ylim(-span, span)
-    fig.subplots_adjust(left=0.12, right=0.95, bottom=0.06, top=0.92, hspace=0.25)
-    return fig
-
-
-def _compared_paths(dwells, ref: str):
-    """(path, its rows) for the simulated and centreline paths other than the reference."""
-    for path in ("simulated", "centreline"):
-        if path != ref:
-            yield path, dwells[dwells["path"] == path]
-
-
-def _deviation_page(plt, res):
-    fig, axes = plt.subplots(3, 1, figsize=A4, sharex=True)
-    ref = res.reference
-    ref_name = _reference_name(res)
-    fig.suptitle(_title(res, "Deviations"), fontsize=13, weight="bold", x=0.06, ha="left")
-    subtitle = f"Simulated and centreline dwells compared with the {ref_name}."
-    if (reference_flags(res)["flag"] != "").any():
-        subtitle += (
-            " Shaded: reference positions that are infeasible (red) or outside the channel (grey)."
-        )
-    fig.text(0.06, 0.945, textwrap.fill(subtitle, 120), fontsize=8, va="top")
-    versus = "reference" if ref == "measured" else "centreline"
-    d = res.dwells
-    lim_rec, lim_req = res.settings.position_limits_mm
-    ax = axes[0]
-    for path, sub in _compared_paths(d, ref):
-        rel = sub["relative_position_mm"].to_numpy(dtype=float)
-        dist = sub["dist_to_reference_mm"].to_numpy(dtype=float)
-        ax.plot(
-            rel, dist, marker=MARKERS[path], color=COLOURS[path], ms=4, label=f"{path} vs {versus}"
-        )
-        if path == "simulated" and "numerical_error_mm" in sub:
-            err = sub["numerical_error_mm"].fillna(0.0).to_numpy(dtype=float)
-            ax.fill_between(
-                rel,
-                np.clip(dist - err, 0, None),
-                dist + err,
-                color=COLOURS[path],
-                alpha=0.25,
-                lw=0,
-                label="simulated ± its numerical error",
-            )
-            ax.plot(
-                rel,
-                err,
-                ls=":",
-                color=COLOURS[path],
-                lw=1.2,
-                label="numerical error of the simulation",
-            )
-    moved = d[d["path"] == "measured"] if "registered" in set(d["path"]) else d.iloc[:0]
-    if not moved.empty:
-        ax.plot(
-            moved["relative_position_mm"],
-            moved["dist_to_reference_mm"],
-            ls="--",
-            lw=1,
-            color=COLOURS["measured"],
-            label="reference as supplied vs registered",
-        )
-    ax.axhline(lim_rec, color="#ef6c00", ls="--", lw=1, label=f"{lim_rec:g} mm recommended")
-    ax.axhline(lim_req, color="#c62828", ls="--", lw=1, label=f"{lim_req:g} mm required")
-    _shade_flags(ax, res, legend=True)
-    ax.set_ylabel("3D distance (mm)")
-    ax.set_ylim(0, 1.6 * max(ax.get_ylim()[1], lim_req))  # room for the legend
-    ax.legend(fontsize=6.5, ncol=2, loc="upper center")
-    ax.grid(alpha=0.3)
-    ax = axes[1]
-    styles = {"along_mm": "-", "radial_mm": "--", "out_of_plane_mm": ":"}
-    for path, sub in _compared_paths(d, ref):
-        for comp, ls in styles.items():
-            ax.plot(
-                sub["relative_position_mm"],
-                sub[comp],
-                ls=ls,
-                color=COLOURS[path],
-                lw=1.2,
-                label=f"{path}: {comp[:-3].replace('_', '-')}",
-            )
-    _shade_flags(ax, res, legend=False)
-    ax.axhline(0, color="0.5", lw=0.6)
-    ax.set_ylabel("component (mm)")
-    ax.set_title(
-        "along = distal positive; radial = outward in the ring plane; out-of-plane = "
-        "cranial positive",
-        fontsize=8,
-    )
-    ax.legend(fontsize=6.5, ncol=2)
-    ax.grid(alpha=0.3)
-    ax = axes[2]
-    for path, sub in _compared_paths(d, ref):
-        ax.plot(
-            sub["relative_position_mm"],
-            sub["angle_deg"],
-            marker=MARKERS[path],
-            ms=4,
-            color=COLOURS[path],
-            label=f"{path} vs {versus}",
-        )
-    _shade_flags(ax, res, legend=False)
-    ax.set_ylabel("orientation difference (deg)")
-    ax.set_xlabel("relative position (mm), 0 = most distal dwell")
-    ax.legend(fontsize=7)
-    ax.grid(alpha=0.3)
-    fig.subplots_adjust(left=0.12, right=0.95, bottom=0.06, top=0.92, hspace=0.25)
-    return fig
 
 
 def _plan_label(plan: str, reference: str) -> str:
@@ -1011,128 +502,6 @@ def _dose_table_title(res) -> str:
     )
 
 
-def _dose_page(plt, res):
-    fig = plt.figure(figsize=A4)
-    fig.suptitle(
-        _title(res, "Dose points and standard-plan doses"),
-        fontsize=13,
-        weight="bold",
-        x=0.06,
-        ha="left",
-    )
-    geo = res.geometry
-    ax1 = fig.add_axes((0.08, 0.60, 0.40, 0.32))
-    ax2 = fig.add_axes((0.56, 0.60, 0.40, 0.32))
-    for line in geo.centrelines_mm.values():
-        u, v, h = _project(np.asarray(line), geo)
-        ax1.plot(u, v, "-", color="0.75", lw=1)
-        ax2.plot(u, h, "-", color="0.75", lw=1)
-    pdw = res.plan_dwells
-    ref_plan = pdw[pdw["plan"] == res.reference]
-    u, v, h = _project(ref_plan[["x_mm", "y_mm", "z_mm"]].to_numpy(), geo)
-    ax1.plot(u, v, "k.", ms=5, label="standard-plan dwells")
-    ax2.plot(u, h, "k.", ms=5)
-    pts = res.doses[res.doses["plan"] == res.reference]
-    pu, pv, ph = _project(pts[["x_mm", "y_mm", "z_mm"]].to_numpy(), geo)
-    short = {
-        "point_a_left": "A L",
-        "point_a_right": "A R",
-        "surface_left": "S L",
-        "surface_right": "S R",
-        "depth5_left": "5 L",
-        "depth5_right": "5 R",
-    }
-    for k, name in enumerate(pts["point"]):
-        colour = "tab:green" if pts["kind"].iloc[k] != "tps" else "tab:purple"
-        ax1.plot(pu[k], pv[k], "*", color=colour, ms=9)
-        ax2.plot(pu[k], ph[k], "*", color=colour, ms=9)
-        label = short.get(name, name)
-        off = {  # labels point away from each other on both sides (offsets in points)
-            "point_a_left": (-6, 9), "point_a_right": (-6, 9),
-            "surface_left": (-14, -13), "surface_right": (3, -13),
-            "depth5_left": (3, -13), "depth5_right": (-14, -13),
-        }.get(name, (4, 4))  # fmt: skip
-        for ax, yy in ((ax1, pv[k]), (ax2, ph[k])):
-            ax.annotate(label, (pu[k], yy), xytext=off, textcoords="offset points", fontsize=7)
-    # zoom on the dwells and points (the channels' long stems would dwarf them)
-    for ax, xs, ys in ((ax1, (u, pu), (v, pv)), (ax2, (u, pu), (h, ph))):
-        xx, yy = np.concatenate(xs), np.concatenate(ys)
-        half = 0.5 * max(np.ptp(xx), np.ptp(yy)) + 8.0
-        cx, cy = 0.5 * (xx.max() + xx.min()), 0.5 * (yy.max() + yy.min())
-        ax.set_xlim(cx - half, cx + half)
-        ax.set_ylim(cy - half, cy + half)
-    for ax, ylabel, title in (
-        (ax1, "in the ring plane (mm)", "ring plane (seen from cranial)"),
-        (ax2, "cranial (mm)", "orthogonal view"),
-    ):
-        ax.set_xlabel("patient left (mm)")
-        ax.set_ylabel(ylabel)
-        ax.set_title(title, fontsize=9)
-        ax.set_aspect("equal")
-        ax.grid(alpha=0.3)
-    ax1.legend(fontsize=7, loc="lower right")
-    spec = res.settings.dose_points
-    fig.text(
-        0.06,
-        0.555,
-        textwrap.fill(
-            f"A L/R = Point A left/right: {spec.point_a_lateral_mm:g} mm lateral of the ring "
-            f"axis, {spec.point_a_height_mm:g} mm cranial of the ring channel plane. S L/R = "
-            f"lateral ring surface, {spec.surface_offset_mm:g} mm outside the channel "
-            "centreline in the ring plane (outer surface of the Ring CT/MR mesh). 5 L/R = "
-            f"{spec.depth_mm:g} mm deeper. Purple: the RT Plan's own points.",
-            115,
-        ),
-        fontsize=8,
-        va="top",
-    )
-    # dose table
-    header, cells = dose_table(res)
-    fig.text(0.06, 0.505, textwrap.fill(_dose_table_title(res), 120), fontsize=8.5, va="top")
-    ax = fig.add_axes((0.03, 0.21, 0.94, 0.26))
-    ax.axis("off")
-    table = ax.table(
-        cellText=cells,
-        colLabels=header,
-        loc="upper center",
-        cellLoc="center",
-        colWidths=_dose_column_widths(len(header)),
-    )
-    table.auto_set_font_size(False)
-    table.set_fontsize(7 if len(header) > 4 else 8)
-    table.scale(1, 1.25)
-    for (row, _), cell in table.get_celld().items():
-        if row == 0:
-            cell.set_height(cell.get_height() * 1.7)
-    own = res.doses[res.doses["plan"] == "rtplan"]
-    if not own.empty:
-        ax = fig.add_axes((0.06, 0.03, 0.88, 0.16))
-        ax.axis("off")
-        ax.set_title(
-            "The RT Plan's own dwells and times at its points: ringqa TG-43 beside the TPS",
-            fontsize=9,
-            loc="left",
-        )
-        cells = [
-            [
-                str(r.point),
-                fmt_value(r.tps_dose_gy, "{:.4f}"),
-                fmt_value(r.dose_gy, "{:.4f}"),
-                f"{fmt_value(r.diff_pct, '{:+.2f}')} %",
-            ]
-            for r in own.itertuples()
-        ]
-        t = ax.table(
-            cellText=cells,
-            colLabels=["RT Plan point", "TPS dose (Gy)", "ringqa dose (Gy)", "difference"],
-            loc="upper center",
-            cellLoc="center",
-        )
-        t.auto_set_font_size(False)
-        t.set_fontsize(8)
-    return fig
-
-
 def dwell_table(res) -> pd.DataFrame:
     """The dwell-by-dwell table: relative position, in the plan, the reference flags, the
     simulated deviations with the simulation's numerical error, the centreline's deviations
@@ -1167,286 +536,6 @@ def dwell_table(res) -> pd.DataFrame:
         for key, col, fmt in columns:
             data[col] = sub[key].map(lambda x, fmt=fmt: fmt_value(x, fmt))
     return pd.DataFrame(data)
-
-
-def _dwell_table_pages(plt, res):
-    table = dwell_table(res)
-    flags = reference_flags(res)["flag"].to_numpy()
-    supplied = reference_flags(res)["flag_supplied"].to_numpy()
-    columns = list(table.columns)
-    supplied_col = columns.index(SUPPLIED_FLAG_COLUMN) if SUPPLIED_FLAG_COLUMN in columns else -1
-    figs = []
-    per_page = 40
-    for start in range(0, len(table), per_page):
-        chunk = table.iloc[start : start + per_page]
-        fig = _text_page(plt, textwrap.shorten(f"Deviations from the {_reference_name(res)}", 62))
-        ax = fig.add_axes((0.03, 0.04, 0.94, 0.86))
-        ax.axis("off")
-        t = ax.table(
-            cellText=chunk.to_numpy(),
-            colLabels=list(chunk.columns),
-            loc="upper center",
-            cellLoc="center",
-        )
-        t.auto_set_font_size(False)
-        t.set_fontsize(6.3)
-        t.scale(1, 1.15)
-        for (row, col), cell in t.get_celld().items():
-            if row == 0:
-                cell.set_height(cell.get_height() * 3.0)
-            elif flags[start + row - 1] in FLAG_COLOURS:
-                cell.set_facecolor(FLAG_COLOURS[flags[start + row - 1]])
-            elif col == supplied_col and supplied[start + row - 1] in FLAG_COLOURS:
-                cell.set_facecolor(FLAG_COLOURS[supplied[start + row - 1]])
-        fig.text(
-            0.04,
-            0.935,
-            textwrap.fill(
-                f"{res.applicator}. along = distal positive, radial = outward in the ring plane, "
-                "out of plane = cranial positive; angle between source orientations. Shaded rows: "
-                "reference position infeasible (cannot lie in the lumen, red) or outside the "
-                "channel (left out of the verdicts, grey).",
-                125,
-            ),
-            fontsize=8,
-            va="top",
-        )
-        figs.append(fig)
-    return figs
-
-
-def _accuracy_page(plt, res, table: pd.DataFrame):
-    """The accuracy/time study of the scene (ringqa accuracy's accuracy.csv): error vs time."""
-    fig = plt.figure(figsize=A4)
-    fig.suptitle(
-        _title(res, "Accuracy of the simulation settings"),
-        fontsize=13,
-        weight="bold",
-        x=0.06,
-        ha="left",
-    )
-    ax = fig.add_axes((0.12, 0.45, 0.8, 0.45))
-    ok = (table["status"] == 0) & np.isfinite(table["max_err_mm"]) & (table["max_err_mm"] > 0)
-    t = table[ok]
-    ax.scatter(t["time_s"], t["max_err_mm"], c="C0", s=18, label="runs (max dwell error)")
-    if "pareto" in t:
-        front = t[t["pareto"].astype(bool)].sort_values("time_s")
-        ax.step(front["time_s"], front["max_err_mm"], where="post", c="C3", label="Pareto front")
-    lim_rec = res.settings.position_limits_mm[0]
-    ax.axhline(
-        0.1 * lim_rec,
-        color="0.4",
-        ls=":",
-        lw=1,
-        label=f"{0.1 * lim_rec:g} mm (a tenth of the {lim_rec:g} mm tolerance)",
-    )
-    if len(t):
-        ax.set_xscale("log")
-        ax.set_yscale("log")
-    ax.set_xlabel("solve time per run (s)")
-    ax.set_ylabel("max dwell-position error vs converged reference (mm)")
-    ax.grid(alpha=0.3, which="both")
-    ax.legend(fontsize=8)
-    n_bad = int((~ok).sum())
-    fig.text(
-        0.06,
-        0.38,
-        textwrap.fill(
-            f"{len(table)} runs of the scene's numerical settings, {n_bad} failed, jammed or "
-            "exact. The simulated dwell positions in this report are only as accurate as the "
-            "settings used: compare the scene settings on page 1 with the Pareto front.",
-            110,
-        ),
-        fontsize=9,
-        va="top",
-    )
-    return fig
-
-
-def report_figures(result, accuracy: pd.DataFrame | None = None) -> list:
-    """The report's pages of one CommissioningResult, as matplotlib figures (close them after
-    use).
-
-    Parameters
-    ----------
-    result : CommissioningResult
-    accuracy : pandas.DataFrame, optional
-        The table of ``ringqa accuracy`` (accuracy.csv) for an extra page.
-
-    Returns
-    -------
-    list of matplotlib.figure.Figure
-    """
-    plt = _plt()
-    figs = [
-        *_title_page(plt, result),
-        _positions_page(plt, result),
-        _deviation_page(plt, result),
-        _dose_page(plt, result),
-        *_dwell_table_pages(plt, result),
-        _settings_page(plt, result),
-    ]
-    if accuracy is not None:
-        figs.append(_accuracy_page(plt, result, accuracy))
-    return figs
-
-
-def write_pdf(
-    result, path: Path, *, png_dir: Path | None = None, accuracy: pd.DataFrame | None = None
-) -> Path:
-    """Write the report PDF of one CommissioningResult.
-
-    Parameters
-    ----------
-    result : CommissioningResult
-    path : pathlib.Path
-        The PDF to write.
-    png_dir : pathlib.Path, optional
-        Also save each page there as ``page<k>.png``.
-    accuracy : pandas.DataFrame, optional
-        The table of ``ringqa accuracy`` (accuracy.csv: ``time_s, max_err_mm, status,
-        pareto``) for an extra page.
-
-    Returns
-    -------
-    pathlib.Path
-    """
-    plt = _plt()
-    from matplotlib.backends.backend_pdf import PdfPages
-
-    path = Path(path)
-    figs = report_figures(result, accuracy)
-    try:
-        with PdfPages(path) as pdf:
-            for k, fig in enumerate(figs):
-                pdf.savefig(fig)
-                if png_dir is not None:
-                    fig.savefig(Path(png_dir) / f"page{k + 1}.png", dpi=80)
-            info = pdf.infodict()
-            info["Title"] = f"ringqa commissioning report: {result.applicator}"
-            info["Creator"] = result.provenance.software
-    finally:
-        for fig in figs:
-            plt.close(fig)
-    return path
-
-
-def write_batch_pdf(batch, path: Path, *, png_dir: Path | None = None) -> Path:
-    """Cross-applicator report: Figure-5-like boxplots, summary table, failures."""
-    plt = _plt()
-    from matplotlib.backends.backend_pdf import PdfPages
-
-    with PdfPages(path) as pdf:
-        fig = plt.figure(figsize=A4)
-        fig.suptitle(
-            "ringqa commissioning: all applicators", fontsize=14, weight="bold", x=0.06, ha="left"
-        )
-        ax = fig.add_axes((0.1, 0.58, 0.85, 0.33))
-        data, labels, colours = [], [], []
-        for r in batch.results:
-            for path in ("centreline", "simulated"):
-                if path == r.reference:
-                    continue
-                sub = r.dwells[r.dwells["path"] == path]["dist_to_reference_mm"].to_numpy()
-                data.append(sub)
-                name = textwrap.shorten(r.applicator, 22, placeholder="...")
-                labels.append(f"{name}\n{path[:3]}. vs {r.reference[:4]}.")
-                colours.append(COLOURS[path])
-        if data:
-            bp = ax.boxplot(data, patch_artist=True, sym="x")
-            ax.set_xticks(range(1, len(labels) + 1), labels, fontsize=6.5, rotation=45, ha="right")
-            for patch, c in zip(bp["boxes"], colours, strict=True):
-                patch.set_facecolor(c)
-                patch.set_alpha(0.35)
-            for med in bp["medians"]:
-                med.set_color("black")
-        lim_rec, lim_req = (
-            batch.results[0].settings.position_limits_mm if batch.results else (1.0, 2.0)
-        )
-        ax.axhline(lim_rec, color="#ef6c00", ls="--", lw=1, label=f"{lim_rec:g} mm recommended")
-        ax.axhline(lim_req, color="#c62828", ls="--", lw=1, label=f"{lim_req:g} mm required")
-        ax.legend(fontsize=7, loc="upper right")
-        ax.set_ylabel("3D distance to the reference path (mm)")
-        ax.set_title(
-            "Distances per applicator (paper Figure 5)\nbox: interquartile range, line: "
-            "median, whiskers: extremes without outliers, x: outliers",
-            fontsize=8,
-        )
-        ax.grid(alpha=0.3, axis="y")
-        refs = {r.applicator: r.reference for r in batch.results}
-        if any(v == "centreline" for v in refs.values()):
-            fig.text(
-                0.06,
-                0.475,
-                textwrap.fill(
-                    "Applicators without a measured source path (the shipped synthetic rings) are "
-                    "compared simulated vs CENTRELINE: there is no measurement in those boxes.",
-                    110,
-                ),
-                fontsize=8.5,
-                va="top",
-                color="#c62828",
-            )
-        cols = [
-            ("applicator", "applicator", "{}"),
-            ("reference", "ref.", "{}"),
-            ("median_dist_sim_mm", "sim. median (mm)", "{:.2f}"),
-            ("max_dist_sim_mm", "sim. max (mm)", "{:.2f}"),
-            ("max_dist_centreline_mm", "cl. max (mm)", "{:.2f}"),
-            ("max_abs_diff_surface_simulated_pct", "sim. surface\nmax |dD| (%)", "{:.1f}"),
-            ("verdict", "verdict", "{}"),
-        ]
-        cells = []
-        for row in batch.summary.to_dict("records"):
-            row["applicator"] = textwrap.shorten(str(row.get("applicator")), 22, placeholder="...")
-            cells.append([_fmt(row.get(k), f) for k, _, f in cols])
-        ax = fig.add_axes((0.04, 0.25, 0.92, 0.18))
-        ax.axis("off")
-        if cells:
-            t = ax.table(
-                cellText=cells, colLabels=[c[1] for c in cols], loc="upper center", cellLoc="center"
-            )
-            t.auto_set_font_size(False)
-            t.set_fontsize(7)
-            t.scale(1, 1.3)
-            for (r, _), cell in t.get_celld().items():
-                if r == 0:
-                    cell.set_height(cell.get_height() * 1.8)
-        rows = table2_rows(batch.results)
-        if rows:
-            ax = fig.add_axes((0.04, 0.02, 0.92, 0.15))
-            ax.axis("off")
-            ax.set_title(
-                "|Dose difference| between the plans over the applicators, median (range), % "
-                "(paper Table 2)",
-                fontsize=9,
-                loc="left",
-            )
-            t = ax.table(
-                cellText=rows,
-                colLabels=["plans (applicators)", "Point A", "lateral surface", "lateral 5 mm"],
-                loc="upper center",
-                cellLoc="center",
-            )
-            t.auto_set_font_size(False)
-            t.set_fontsize(8)
-            t.scale(1, 1.3)
-        y = 0.245
-        for item, err in batch.failures:
-            fig.text(
-                0.06,
-                y,
-                textwrap.shorten(f"FAILED {item}: {err}", 150),
-                fontsize=7,
-                color="#c62828",
-                va="top",
-            )
-            y -= 0.015
-        pdf.savefig(fig)
-        if png_dir is not None:
-            fig.savefig(Path(png_dir) / "summary.png", dpi=80)
-        plt.close(fig)
-    return Path(path)
 
 
 def table2_rows(results) -> list[list[str]]:
@@ -1484,3 +573,555 @@ def _fmt(value, fmt: str) -> str:
         return fmt.format(value)
     except (ValueError, TypeError):
         return str(value)
+
+
+# ---------------------------------------------------------------------------------------------
+# The signing physicist's fields, references, signature
+# ---------------------------------------------------------------------------------------------
+
+#: What the report prints for a field nobody filled in: a line to write on.
+BLANK = "_" * 38
+
+
+def library_parts(res) -> str:
+    """The applicator library's part IDs per channel (RT Plan input), e.g.
+    ``"ring 110350-06 (Interstitial Ring Tube d=26mm, 60°); tandem 110307-06 (...)"``; ``""``
+    when the input has no library."""
+    channels = (res.geometry.metadata or {}).get("channels") or {}
+    parts = []
+    for name, info in channels.items():
+        if isinstance(info, dict) and info.get("library_part"):
+            desc = f" ({info['description']})" if info.get("description") else ""
+            parts.append(f"{name} {info['library_part']}{desc}")
+    return "; ".join(parts)
+
+
+def field_rows(res, fields: ReportFields | None) -> list[tuple[str, str]]:
+    """(label, value) of the fields the signing physicist fills in; :data:`BLANK` for the empty
+    ones. ``res`` is a CommissioningResult (for the library's part ID) or None (a batch)."""
+    f = fields or ReportFields()
+    serial = f.applicator_serial or BLANK
+    parts = library_parts(res) if res is not None else ""
+    if parts:
+        serial += f"   (library part ID: {parts})"
+    rows = [
+        ("Institution", f.institution or BLANK),
+        ("Physicist", f.physicist or BLANK),
+    ]
+    if res is not None:
+        rows.append(("Applicator serial / part no.", serial))
+    rows += [
+        ("Afterloader", f.afterloader or BLANK),
+        ("Source, calibration", f.source_calibration or BLANK),
+    ]
+    if f.label:
+        rows.append(("Label", f.label))
+    return rows
+
+
+def tg43_reference(source: str) -> str:
+    """The citation of the TG-43 consensus data of ``source`` (a shipped name or a folder), from
+    its ``meta.json``; ``""`` when the source cannot be read."""
+    try:
+        from tg43 import load_source
+
+        return load_source(source).reference
+    except Exception:  # a citation must never stop the report
+        return ""
+
+
+def _references(*texts: str) -> list:
+    refs = [t for t in texts if t]
+    if not refs:
+        return []
+    out = [heading("References", 2)]
+    out += [para(f"[{k}] {t}", "small") for k, t in enumerate(refs, start=1)]
+    return out
+
+
+def _fields_table(rows) -> Table:
+    width = layout.FRAME_WIDTH
+    return grid_table(
+        [[label, value] for label, value in rows],
+        [0.24 * width, 0.76 * width],
+        header_rows=0,
+        align="LEFT",
+    )
+
+
+def signature_block(fields: ReportFields | None = None) -> KeepTogether:
+    """Name, date and signature lines of the physicist who checked the report (the name
+    pre-filled from ``fields.physicist`` when given)."""
+    f = fields or ReportFields()
+    width = layout.FRAME_WIDTH
+    rows = [
+        ["Checked and approved by (name)", "Date", "Signature"],
+        [(f.physicist if f.physicist else "") + "\n\n" + "_" * 34, "\n\n" + "_" * 16,
+         "\n\n" + "_" * 30],
+    ]  # fmt: skip
+    table = grid_table(rows, [0.42 * width, 0.2 * width, 0.38 * width], align="LEFT")
+    return KeepTogether([heading("Signature", 1), table])
+
+
+def _free_notes(notes: Sequence[str]) -> list:
+    out = [heading("Notes of the physicist", 1)]
+    given = [n for n in notes if n and n.strip()]
+    if given:
+        out += [para(n) for n in given]
+    else:
+        out += [para("_" * 110, "small") for _ in range(2)]
+    return out
+
+
+# ---------------------------------------------------------------------------------------------
+# Page 1: text items as flowables
+# ---------------------------------------------------------------------------------------------
+
+
+def _conclusion_box(item: TextItem) -> Table:
+    colour = STATUS_COLOURS.get(item.label, "#757575")
+    table = Table([[para(item.text, "conclusion")]], colWidths=[layout.FRAME_WIDTH])
+    table.setStyle(
+        TableStyle(
+            [
+                ("FONTNAME", (0, 0), (-1, -1), layout.FONT),
+                ("BOX", (0, 0), (-1, -1), 2, colour),
+                ("BACKGROUND", (0, 0), (-1, -1), "#fafafa"),
+                ("TOPPADDING", (0, 0), (-1, -1), 4),
+                ("BOTTOMPADDING", (0, 0), (-1, -1), 5),
+            ]
+        )
+    )
+    return table
+
+
+def _run_table(items: list[TextItem]) -> Table:
+    """The run's fields and input files as one two-column table."""
+    width = layout.FRAME_WIDTH
+    rows = []
+    for it in items:
+        if it.kind == "file":
+            cell = para(
+                f"{escape(it.text)}<br/><font name='{layout.FONT_MONO}' size='6.5'>"
+                f"SHA-256 {escape(it.label)}</font>",
+                "cell",
+                markup=True,
+            )
+            rows.append(["", cell])
+        else:
+            rows.append([it.label, it.text])
+    return grid_table(rows, [0.24 * width, 0.76 * width], header_rows=0, align="LEFT")
+
+
+def items_flowables(items: Sequence[TextItem]) -> list:
+    """Page-1 text items as reportlab flowables (a heading kept with what follows it)."""
+    out: list = []
+    run: list[TextItem] = []
+    width = layout.FRAME_WIDTH
+    for it in [*items, TextItem("end")]:
+        if it.kind in ("field", "file"):
+            run.append(it)
+            continue
+        if run:
+            out.append(_run_table(run))
+            run = []
+        if it.kind == "heading":
+            out += [CondPageBreak(60), heading(it.text, 1)]
+        elif it.kind == "subheading":
+            out += [CondPageBreak(40), heading(it.text, 2)]
+        elif it.kind == "text":
+            out.append(para(it.text))
+        elif it.kind == "verdict":
+            out.append(para(f"{badge(it.label)}&nbsp; {escape(it.text)}", markup=True))
+        elif it.kind == "conclusion":
+            out += [layout.spacer(1.5), _conclusion_box(it), layout.spacer(1.5)]
+        elif it.kind == "note":
+            out.append(para(f"• {escape(it.text)}", "note", markup=True))
+        elif it.kind == "table" and it.rows:
+            widths = [0.56 * width, 0.22 * width, 0.22 * width]
+            out.append(grid_table([list(r) for r in it.rows], widths))
+            out.append(layout.spacer(1.5))
+    return out
+
+
+def summary_flowables(result, fields: ReportFields | None = None, notes=()) -> list:
+    """Page 1 and its continuation: title, the physicist's fields, :func:`page1_items`, the
+    references used there, free notes and the signature block."""
+    f = fields or ReportFields()
+    return [
+        heading("Commissioning report", 0),
+        para(result.applicator, "h1"),
+        _fields_table(field_rows(result, f)),
+        layout.spacer(2),
+        *items_flowables(page1_items(result)),
+        *_references(PAPER_REFERENCE),
+        *_free_notes([f.notes, *notes]),
+        signature_block(f),
+    ]
+
+
+# ---------------------------------------------------------------------------------------------
+# The other pages
+# ---------------------------------------------------------------------------------------------
+
+
+def positions_flowables(res) -> list:
+    """Dwell positions (the paper's Figure 6)."""
+    return [
+        heading("Dwell positions (paper Figure 6 [1])", 1),
+        para(
+            "Projected onto the ring plane (seen from cranial; numbers: relative position, mm) "
+            "and orthogonal to it. Reference as supplied and registered, simulated, centreline; "
+            "circled: flagged reference positions."
+        ),
+        layout.figure_image(positions_figure(res), 0.95 * layout.FRAME_WIDTH),
+        *_references(PAPER_REFERENCE),
+    ]
+
+
+def deviations_flowables(res) -> list:
+    """Deviation per dwell: distance, components, angle."""
+    return [
+        heading(f"Deviations from the {reference_name(res)}", 1),
+        para(deviation_caption(res)),
+        layout.figure_image(deviations_figure(res), 0.86 * layout.FRAME_WIDTH),
+    ]
+
+
+def _dose_col_widths(n: int) -> list[float]:
+    first = 0.2 if n > 4 else 0.25
+    return [layout.FRAME_WIDTH * w for w in [first, *([(1.0 - first) / (n - 1)] * (n - 1))]]
+
+
+def doses_flowables(res) -> list:
+    """Dose points (map) and the standard plans' dose table; the RT Plan's own doses."""
+    header, cells = dose_table(res)
+    out = [
+        heading("Dose points and standard-plan doses", 1),
+        layout.figure_image(dose_points_figure(res)),
+        para(dose_points_caption(res), "small"),
+        layout.spacer(2),
+        para(_dose_table_title(res) + " [2]."),
+        grid_table([header, *cells], _dose_col_widths(len(header))),
+    ]
+    own = res.doses[res.doses["plan"] == "rtplan"]
+    if not own.empty:
+        rows = [["RT Plan point", "TPS dose (Gy)", "ringqa dose (Gy)", "difference"]]
+        rows += [
+            [
+                str(r.point),
+                fmt_value(r.tps_dose_gy, "{:.4f}"),
+                fmt_value(r.dose_gy, "{:.4f}"),
+                f"{fmt_value(r.diff_pct, '{:+.2f}')} %",
+            ]
+            for r in own.itertuples()
+        ]
+        out += [
+            heading(
+                "The RT Plan's own dwells and times at its points: ringqa TG-43 beside the TPS", 2
+            ),
+            grid_table(rows),
+        ]
+    tg43 = tg43_reference(res.settings.source)
+    tg43 = f"TG-43 data of the source {res.settings.source}: {tg43}" if tg43 else ""
+    return [*out, *_references(PAPER_REFERENCE + " (dose points, Table 2)", tg43)]
+
+
+def dwell_table_flowables(res) -> list:
+    """The dwell-by-dwell table (its header repeats on every page it runs over)."""
+    table = dwell_table(res)
+    flags = reference_flags(res)
+    columns = list(table.columns)
+    supplied_col = columns.index(SUPPLIED_FLAG_COLUMN) if SUPPLIED_FLAG_COLUMN in columns else -1
+    rows = [columns, *table.to_numpy().tolist()]
+    row_colours, cell_colours = {}, {}
+    for k, (flag, raw) in enumerate(zip(flags["flag"], flags["flag_supplied"], strict=True)):
+        if flag in FLAG_COLOURS:
+            row_colours[k + 1] = FLAG_COLOURS[flag]
+        elif supplied_col >= 0 and raw in FLAG_COLOURS:
+            cell_colours[(k + 1, supplied_col)] = FLAG_COLOURS[raw]
+    return [
+        heading(f"Dwell by dwell: deviations from the {reference_name(res)}", 1),
+        para(
+            "along = distal positive, radial = outward in the ring plane, out of plane = cranial "
+            "positive; angle between source orientations. Shaded rows: reference position "
+            "infeasible (cannot lie in the lumen, red) or outside the channel (left out of the "
+            "verdicts, grey).",
+            "small",
+        ),
+        grid_table(rows, row_colours=row_colours, cell_colours=cell_colours, first_left=False),
+    ]
+
+
+def flatten(d: dict, prefix: str = "") -> dict:
+    """Nested dict -> ``{"a.b.c": value}``."""
+    out = {}
+    for k, v in d.items():
+        key = f"{prefix}{k}"
+        if isinstance(v, dict) and v:
+            out.update(flatten(v, key + "."))
+        else:
+            out[key] = v
+    return out
+
+
+def _setting_text(value) -> str:
+    if isinstance(value, list | tuple):
+        if len(value) > 6 or any(isinstance(v, list | tuple | dict) for v in value):
+            return f"({len(value)} values: results.json)"
+        return ", ".join(_fmt(v, "{}") for v in value)
+    if isinstance(value, dict):
+        return "{}"
+    return _fmt(value, "{}")
+
+
+def settings_rows(res) -> tuple[list[tuple[str, str]], list[tuple[str, str]]]:
+    """The effective settings (``result.settings`` as it is, without the scene) and the scene's
+    settings (user units), as (key, value text) rows."""
+    data = res.settings.as_dict()
+    scene = data.pop("scene", {}) or {}
+    run = [(k, _setting_text(v)) for k, v in flatten(data).items()]
+    sim = res.simulation
+    run += [
+        ("simulation status", f"{sim.status} {sim.message}".strip()),
+        ("simulation solve time", f"{sim.solve_time_s:.2f} s"),
+        ("elements", str(sim.n_elements)),
+    ]
+    if res.numerics is not None:
+        run.append(("numerical check runs", str(res.numerics.n_runs)))
+    run += [("engine warning", w) for w in sim.warnings]
+    scene_rows = [(k, _short(_setting_text(v))) for k, v in flatten(scene).items()]
+    return run, scene_rows or [("(engine defaults)", "")]
+
+
+def _short(text: str, width: int = 60) -> str:
+    """``text``, or its start and a pointer to results.json when longer than ``width``."""
+    return text if len(text) <= width else text[: width - 24].rstrip() + "... (results.json)"
+
+
+def _two_up(rows: list[tuple[str, str]]) -> list[list[str]]:
+    half = (len(rows) + 1) // 2
+    left, right = rows[:half], rows[half:]
+    right = right + [("", "")] * (len(left) - len(right))
+    return [[a, b, c, d] for (a, b), (c, d) in zip(left, right, strict=True)]
+
+
+def settings_flowables(res) -> list:
+    """The effective settings of the run and the scene."""
+    run, scene = settings_rows(res)
+    w = layout.FRAME_WIDTH
+    return [
+        heading("Settings of this run (effective values)", 1),
+        grid_table(
+            [["setting", "value"], *[[k, v] for k, v in run]],
+            [0.36 * w, 0.64 * w],
+            style="cell",
+            align="LEFT",
+        ),
+        heading("Scene (simulation settings, user units)", 1),
+        grid_table(
+            [["setting", "value", "setting", "value"], *_two_up(scene)],
+            [0.3 * w, 0.2 * w, 0.3 * w, 0.2 * w],
+            align="LEFT",
+        ),
+    ]
+
+
+def accuracy_flowables(res, table: pd.DataFrame) -> list:
+    """The accuracy/time study of the scene."""
+    return [
+        heading("Accuracy of the simulation settings", 1),
+        layout.figure_image(accuracy_figure(res, table)),
+        para(accuracy_caption(table)),
+    ]
+
+
+def _date(created_utc: str) -> str:
+    return created_utc.replace("T", " ")[:16] + " UTC" if created_utc else ""
+
+
+def page_stamp(result) -> layout.PageStamp:
+    """The running header/footer of one applicator's report."""
+    prov = result.provenance
+    digests = list(prov.inputs.values())
+    if len(digests) == 1:
+        inputs = f"input SHA-256 {digests[0][: layout.SHA_PREFIX]}"
+    elif digests:
+        joined = hashlib.sha256("".join(sorted(digests)).encode()).hexdigest()
+        inputs = f"{len(digests)} inputs, combined SHA-256 {joined[: layout.SHA_PREFIX]}"
+    else:
+        inputs = "input: applicator object given in Python (no file)"
+    return layout.PageStamp(
+        title=f"ringqa commissioning report: {result.applicator}",
+        software=prov.software,
+        date=_date(prov.created_utc),
+        inputs=inputs,
+    )
+
+
+def report_story(
+    result,
+    *,
+    fields: ReportFields | None = None,
+    notes: Sequence[str] = (),
+    accuracy: pd.DataFrame | None = None,
+    sections: Sequence[Section] = (),
+) -> list:
+    """All flowables of one applicator's report, page breaks included (see the module
+    docstring for the pages). ``sections`` add pages after the standard ones."""
+    pages = [
+        summary_flowables(result, fields, notes),
+        positions_flowables(result),
+        deviations_flowables(result),
+        doses_flowables(result),
+        dwell_table_flowables(result),
+        settings_flowables(result),
+    ]
+    if accuracy is not None:
+        pages.append(accuracy_flowables(result, accuracy))
+    pages += [list(section(result)) for section in sections]
+    story: list = []
+    for k, page in enumerate(pages):
+        if k:
+            story.append(PageBreak())
+        story += page
+    return story
+
+
+def report_figures(result, accuracy: pd.DataFrame | None = None) -> list:
+    """The report's figures of one CommissioningResult (positions, deviations, dose points,
+    accuracy when given), as :class:`matplotlib.figure.Figure` (no pyplot state to close)."""
+    figs = [positions_figure(result), deviations_figure(result), dose_points_figure(result)]
+    if accuracy is not None:
+        figs.append(accuracy_figure(result, accuracy))
+    return figs
+
+
+def write_pdf(
+    result,
+    path: Path,
+    *,
+    fields: ReportFields | None = None,
+    notes: Sequence[str] | str = (),
+    accuracy: pd.DataFrame | None = None,
+    sections: Sequence[Section] = (),
+) -> Path:
+    """Write the report PDF of one CommissioningResult.
+
+    Parameters
+    ----------
+    result : CommissioningResult
+    path : pathlib.Path
+        The PDF to write.
+    fields : ReportFields, optional
+        Institution, physicist, serial, afterloader, source calibration, notes (blank lines to
+        fill by hand when not given).
+    notes : str or sequence of str
+        Free notes printed on the first page (after ``fields.notes``).
+    accuracy : pandas.DataFrame, optional
+        The table of ``ringqa accuracy`` (accuracy.csv: ``time_s, max_err_mm, status,
+        pareto``) for an extra page.
+    sections : sequence of callables, optional
+        Extra pages: each ``section(result)`` returns reportlab flowables (build them with
+        :mod:`ringqa.report.layout`); each starts on a new page after the standard pages.
+
+    Returns
+    -------
+    pathlib.Path
+    """
+    if isinstance(notes, str):
+        notes = (notes,)
+    story = report_story(result, fields=fields, notes=notes, accuracy=accuracy, sections=sections)
+    return layout.build_pdf(
+        path,
+        story,
+        page_stamp(result),
+        title=f"ringqa commissioning report: {result.applicator}",
+        subject="HDR ring applicator commissioning",
+    )
+
+
+def write_batch_pdf(batch, path: Path, *, fields: ReportFields | None = None) -> Path:
+    """Cross-applicator report ``summary.pdf``: the same header/footer, Figure-5-like boxplots,
+    the summary table, the dose table over applicators, failures, signature block."""
+    from ringqa import __version__
+
+    results = batch.results
+    prov = results[0].provenance if results else None
+    digests = sorted(d for r in results for d in r.provenance.inputs.values())
+    joined = hashlib.sha256("".join(digests).encode()).hexdigest()[: layout.SHA_PREFIX]
+    n = len(results) + len(batch.failures)
+    stamp = layout.PageStamp(
+        title=f"ringqa commissioning: batch of {n} applicator(s)",
+        software=prov.software if prov else f"ringqa {__version__}",
+        date=_date(prov.created_utc) if prov else "",
+        inputs=f"{len(digests)} input file(s), combined SHA-256 {joined}"
+        if digests
+        else "inputs: shipped or Python applicators (no files)",
+    )
+    story = [
+        heading("Commissioning summary: all applicators", 0),
+        _fields_table(field_rows(None, fields)),
+        heading("Distances per applicator (paper Figure 5 [1])", 1),
+    ]
+    if results:
+        story.append(layout.figure_image(batch_distances_figure(batch), 0.9 * layout.FRAME_WIDTH))
+        story.append(
+            para(
+                "box: interquartile range, line: median, whiskers: extremes without outliers, "
+                "x: outliers.",
+                "small",
+            )
+        )
+    if any(r.reference == "centreline" for r in results):
+        story.append(
+            para(
+                "<font color='#c62828'>Applicators without a measured source path (the shipped "
+                "synthetic rings) are compared simulated vs CENTRELINE: there is no measurement "
+                "in those boxes.</font>",
+                markup=True,
+            )
+        )
+    cols = [
+        ("applicator", "applicator", "{}"),
+        ("reference", "ref.", "{}"),
+        ("median_dist_sim_mm", "sim. median (mm)", "{:.2f}"),
+        ("max_dist_sim_mm", "sim. max (mm)", "{:.2f}"),
+        ("max_dist_centreline_mm", "cl. max (mm)", "{:.2f}"),
+        ("max_abs_diff_surface_simulated_pct", "sim. surface max |dD| (%)", "{:.1f}"),
+        ("verdict", "verdict", "{}"),
+    ]
+    rows = [[c[1] for c in cols]]
+    rows += [[_fmt(row.get(k), f) for k, _, f in cols] for row in batch.summary.to_dict("records")]
+    w = layout.FRAME_WIDTH
+    story += [
+        heading("Summary", 1),
+        grid_table(rows, [0.3 * w, *([0.7 * w / 6] * 6)]),
+    ]
+    t2 = table2_rows(results)
+    if t2:
+        story += [
+            heading(
+                "|Dose difference| between the plans over the applicators, median (range), % "
+                "(paper Table 2 [1])",
+                2,
+            ),
+            grid_table(
+                [["plans (applicators)", "Point A", "lateral surface", "lateral 5 mm"], *t2]
+            ),
+        ]
+    if batch.failures:
+        story.append(heading("Failed", 2))
+        story += [
+            para(f"<font color='#c62828'>FAILED</font> {_esc(item)}: {_esc(err)}", markup=True)
+            for item, err in batch.failures
+        ]
+    f = fields or ReportFields()
+    story += [*_references(PAPER_REFERENCE), *_free_notes([f.notes]), signature_block(f)]
+    return layout.build_pdf(
+        path, story, stamp, title=stamp.title, subject="HDR ring applicator commissioning"
+    )
+
+
+def _esc(text) -> str:
+    return escape(str(text))

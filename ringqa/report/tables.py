@@ -16,7 +16,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from ringqa.jsonio import to_jsonable, write_json
+from ringqa.jsonio import csv_encoding, to_jsonable, write_json
 from ringqa.pipeline import BatchResult, CommissioningResult
 
 SCHEMA = "ringqa.commission/1"
@@ -43,7 +43,9 @@ def results_dict(result: CommissioningResult) -> dict:
             "verdicts": [v.as_dict() for v in result.verdicts],
             "summary": result.summary.as_row(),
             "notes": list(result.notes),
+            "warnings": result.warning_records(),
             "settings": result.settings.as_dict(),
+            "settings_origin": dict(getattr(result, "settings_origin", {}) or {}),
             "simulation": result.simulation.as_dict(),
             "dose_points": points,
             "doses": result.doses.to_dict("records"),
@@ -71,7 +73,7 @@ def write_tables(result: CommissioningResult, folder: Path) -> list[Path]:
         ("plan_dwells.csv", result.plan_dwells),
         ("summary.csv", pd.DataFrame([result.summary.as_row()])),
     ):
-        df.to_csv(folder / name, index=False, float_format=FLOAT_FORMAT)
+        df.to_csv(folder / name, index=False, float_format=FLOAT_FORMAT, encoding=csv_encoding(df))
         out.append(folder / name)
     write_json(folder / "results.json", results_dict(result), indent=2)
     out.append(folder / "results.json")
@@ -81,20 +83,25 @@ def write_tables(result: CommissioningResult, folder: Path) -> list[Path]:
 def write_batch_tables(batch: BatchResult, folder: Path) -> list[Path]:
     """The cross-applicator summary.csv, all_dwells.csv and batch.json of a BatchResult."""
     folder = Path(folder)
-    batch.summary.to_csv(folder / "summary.csv", index=False, float_format=FLOAT_FORMAT)
-    dwells = [r.dwells for r in batch.results]
-    if dwells:
-        pd.concat(dwells, ignore_index=True).to_csv(
-            folder / "all_dwells.csv", index=False, float_format=FLOAT_FORMAT
-        )
-    doses = [r.doses for r in batch.results]
-    if doses:
-        pd.concat(doses, ignore_index=True).to_csv(
-            folder / "all_doses.csv", index=False, float_format=FLOAT_FORMAT
-        )
+    summary = batch.summary
+    summary.to_csv(
+        folder / "summary.csv", index=False, float_format=FLOAT_FORMAT,
+        encoding=csv_encoding(summary),
+    )  # fmt: skip
+    for name, frames in (
+        ("all_dwells.csv", [r.dwells for r in batch.results]),
+        ("all_doses.csv", [r.doses for r in batch.results]),
+    ):
+        if frames:
+            table = pd.concat(frames, ignore_index=True)
+            table.to_csv(
+                folder / name, index=False, float_format=FLOAT_FORMAT,
+                encoding=csv_encoding(table),
+            )  # fmt: skip
     info = {
         "schema": "ringqa.commission-batch/1",
         "applicators": [r.applicator for r in batch.results],
+        "folders": [batch.label(i) for i in range(len(batch.results))],
         "failures": [{"input": i, "error": e} for i, e in batch.failures],
         "summary": batch.summary.to_dict("records"),
         "provenance": batch.results[0].provenance.as_dict() if batch.results else None,

@@ -17,7 +17,7 @@ DOSE_COLUMNS = {"applicator", "point", "plan", "dose_gy", "diff_pct"}
 JSON_KEYS = {"schema", "applicator", "input", "input_kind", "reference", "passed", "verdicts",
              "summary", "notes", "settings", "simulation", "dose_points", "doses", "geometry",
              "timings_s", "provenance", "files", "conclusion", "reference_check",
-             "numerical_check"}  # fmt: skip
+             "numerical_check", "settings_origin", "warnings"}  # fmt: skip
 
 
 #: The column order of summary.csv and the key order of results.json's typed sections, as

@@ -184,7 +184,7 @@ def build_channel(ck: Checker):
         measured = mm_to_m(ck.numbers("channel.measured_path_mm", sec["measured_path_mm"], ndim=2))
         if "measured_step_mm" not in sec:
             raise ck.fail("channel.measured_step_mm", "missing", "give the measured path's step")
-    return Channel(
+    channel = Channel(
         name=str(sec.get("channel", kind)),
         centreline=cl,
         lumen=lumen,
@@ -192,6 +192,13 @@ def build_channel(ck: Checker):
         measured_path_m=measured,
         measured_step_m=None if measured is None else mm_to_m(sec["measured_step_mm"]),
     )
+    from ringqa.geometry.shape_checks import check_channel_shape
+
+    try:
+        check_channel_shape(channel, "channel")
+    except RingQAError as exc:
+        raise SceneError(ck.origin + str(exc)) from None
+    return channel
 
 
 def _analytic_ring_frame(sec: dict):

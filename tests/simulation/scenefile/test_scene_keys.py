@@ -108,12 +108,13 @@ def test_replacing_the_channel_drops_the_files_channel_description():
     channel and the stale description is gone: the new channel is written inline."""
     s = load_scene("ring26-flexitron")
     assert scene_to_dict(s)["channel"]["applicator"] == "ring26x60"
-    other = arc_channel(radius_m=0.013, angle_rad=1.9 * np.pi, entry_m=0.1)  # 178 mm long
+    # 161 mm long (a 342 deg arc would come back 0.7 mm from its own entry: self-intersecting)
+    other = arc_channel(radius_m=0.013, angle_rad=1.5 * np.pi, entry_m=0.1)
     from ringqa.geometry import Centreline, Channel, Lumen
 
     length = other.centreline.length_m
     pts = other.centreline.position(np.linspace(0.0, length, 501))
-    ch = Channel("arc", Centreline.from_points(pts), Lumen.circular(1.5e-3, 1.4e-3), 0.17)
+    ch = Channel("arc", Centreline.from_points(pts), Lumen.circular(1.5e-3, 1.4e-3), 0.15)
     t = s.replace(channel=ch)
     assert t.channel_spec is None
     spec = scene_to_dict(t)["channel"]

@@ -1,0 +1,334 @@
+"""The report's page layout with reportlab: fonts, styles, running header/footer, tables, figures.
+
+Every page carries a running header (report title with the applicator's full name; software
+version and date) and footer (the input's SHA-256 prefix; ``page n/N``). Text and tables are
+reportlab flowables (fast, selectable, wrapped to the page); matplotlib is used for the figures
+only, embedded as PNG at :data:`FIGURE_DPI`.
+
+Fonts: DejaVu Sans (shipped with matplotlib, so present wherever ringqa runs) is registered as a
+TrueType font and embedded (subset) in the PDF: no Type 3 fonts, no unembedded base-14 fonts, and
+the degree sign, "±", "≤" print as written.
+
+Extra pages: :func:`ringqa.report.pdf.write_pdf` takes ``sections``, a list of callables
+``section(result) -> list of flowables``; each starts on a new page after the standard pages.
+Build them with :func:`heading`, :func:`para`, :func:`grid_table` and :func:`figure_image`.
+"""
+
+from __future__ import annotations
+
+import functools
+import importlib.util
+from dataclasses import dataclass
+from pathlib import Path
+from xml.sax.saxutils import escape
+
+from reportlab.lib import colors
+from reportlab.lib.enums import TA_LEFT
+from reportlab.lib.pagesizes import A4
+from reportlab.lib.styles import ParagraphStyle
+from reportlab.lib.units import mm
+from reportlab.pdfbase import pdfmetrics
+from reportlab.pdfbase.ttfonts import TTFont
+from reportlab.pdfgen import canvas as rl_canvas
+from reportlab.platypus import (
+    Flowable,
+    Paragraph,
+    SimpleDocTemplate,
+    Spacer,
+    Table,
+    TableStyle,
+)
+
+#: Resolution of the embedded figures (dots per inch): sharp on paper, small and fast.
+FIGURE_DPI = 150
+PAGE = A4
+MARGIN_X = 15 * mm
+MARGIN_TOP = 17 * mm
+MARGIN_BOTTOM = 15 * mm
+#: Width of the text frame, points.
+FRAME_WIDTH = PAGE[0] - 2 * MARGIN_X
+FONT = "DejaVuSans"
+FONT_BOLD = "DejaVuSans-Bold"
+FONT_ITALIC = "DejaVuSans-Oblique"
+FONT_MONO = "DejaVuSansMono"
+STATUS_COLOURS = {
+    "PASS": "#2e7d32",
+    "WARN": "#ef6c00",
+    "FAIL": "#c62828",
+    "ACTION": "#c62828",
+    "ERROR": "#c62828",
+}
+#: Number of hexadecimal digits of the input's SHA-256 printed in the footer.
+SHA_PREFIX = 12
+
+
+def _matplotlib_fonts() -> Path:
+    """The folder of the TrueType fonts shipped with matplotlib (found without importing it)."""
+    spec = importlib.util.find_spec("matplotlib")
+    if spec is None or not spec.submodule_search_locations:
+        raise RuntimeError("matplotlib is not installed: the report needs its DejaVu fonts")
+    return Path(next(iter(spec.submodule_search_locations))) / "mpl-data" / "fonts" / "ttf"
+
+
+@functools.cache
+def register_fonts() -> None:
+    """Register DejaVu Sans (regular, bold, oblique) and DejaVu Sans Mono with reportlab."""
+    folder = _matplotlib_fonts()
+    for name, file in (
+        (FONT, "DejaVuSans.ttf"),
+        (FONT_BOLD, "DejaVuSans-Bold.ttf"),
+        (FONT_ITALIC, "DejaVuSans-Oblique.ttf"),
+        (FONT_MONO, "DejaVuSansMono.ttf"),
+    ):
+        pdfmetrics.registerFont(TTFont(name, str(folder / file)))
+    pdfmetrics.registerFontFamily(
+        FONT, normal=FONT, bold=FONT_BOLD, italic=FONT_ITALIC, boldItalic=FONT_BOLD
+    )
+
+
+@functools.cache
+def styles() -> dict[str, ParagraphStyle]:
+    """The paragraph styles by name: title, h1, h2, body, small, mono, cell, cellhead, field."""
+    register_fonts()
+    base = ParagraphStyle(
+        "body", fontName=FONT, fontSize=8.3, leading=10.2, alignment=TA_LEFT, spaceAfter=2
+    )
+
+    def s(name, **kw):
+        return ParagraphStyle(name, parent=base, **kw)
+
+    return {
+        "title": s("title", fontName=FONT_BOLD, fontSize=14, leading=17, spaceAfter=4),
+        "h1": s("h1", fontName=FONT_BOLD, fontSize=11, leading=13.5, spaceBefore=5, spaceAfter=2),
+        "h2": s("h2", fontName=FONT_BOLD, fontSize=8.8, leading=11, spaceBefore=3, spaceAfter=2),
+        "body": base,
+        "small": s("small", fontSize=7.3, leading=9, spaceAfter=1.5),
+        "note": s("note", fontSize=7.8, leading=9.6, leftIndent=8, bulletIndent=0, spaceAfter=1),
+        "mono": s("mono", fontName=FONT_MONO, fontSize=6.8, leading=8.3, spaceAfter=0),
+        "cell": s("cell", fontSize=7.3, leading=8.8, spaceAfter=0),
+        "cellhead": s("cellhead", fontName=FONT_BOLD, fontSize=7.3, leading=8.8, spaceAfter=0),
+        "conclusion": s("conclusion", fontName=FONT_BOLD, fontSize=10, leading=12.5),
+    }
+
+
+def para(text: str, style: str = "body", *, markup: bool = False) -> Paragraph:
+    """A paragraph of plain ``text`` (escaped; newlines kept) in the named style.
+
+    ``markup=True`` passes reportlab's inline markup (``<b>``, ``<font>``) through unescaped.
+    """
+    body = text if markup else escape(str(text)).replace("\n", "<br/>")
+    return Paragraph(body, styles()[style])
+
+
+def heading(text: str, level: int = 1) -> Paragraph:
+    """A heading (level 0: the page title, 1: a section, 2: a sub-section)."""
+    return para(text, {0: "title", 1: "h1"}.get(level, "h2"))
+
+
+def badge(status: str) -> str:
+    """Inline markup of a verdict status on its colour (white bold text)."""
+    colour = STATUS_COLOURS.get(status, "#757575")
+    return f'<font backColor="{colour}" color="white"><b>&nbsp;{escape(status)}&nbsp;</b></font>'
+
+
+def grid_table(
+    rows,
+    col_widths=None,
+    *,
+    header_rows: int = 1,
+    style: str = "cell",
+    align: str = "CENTER",
+    first_left: bool = True,
+    row_colours: dict[int, str] | None = None,
+    cell_colours: dict[tuple[int, int], str] | None = None,
+    repeat_header: bool = True,
+) -> Table:
+    """A ruled table of text cells (wrapped to the column widths; the header rows repeat when
+    the table runs over a page).
+
+    Parameters
+    ----------
+    rows : sequence of sequence of str
+        The header row(s) first.
+    col_widths : sequence of float, optional
+        Column widths, points (default: equal shares of the frame width).
+    row_colours, cell_colours : dict, optional
+        Background colours of body rows (index in ``rows``) or single cells ``(row, col)``.
+    """
+    ncol = len(rows[0])
+    if col_widths is None:
+        col_widths = [FRAME_WIDTH / ncol] * ncol
+    cells = [
+        [
+            para(c, "cellhead" if r < header_rows else style) if isinstance(c, str) else c
+            for c in row
+        ]
+        for r, row in enumerate(rows)
+    ]
+    commands = [
+        ("FONTNAME", (0, 0), (-1, -1), FONT),  # the table's own default is Helvetica
+        ("GRID", (0, 0), (-1, -1), 0.4, colors.HexColor("#9e9e9e")),
+        ("BACKGROUND", (0, 0), (-1, header_rows - 1), colors.HexColor("#eeeeee")),
+        ("VALIGN", (0, 0), (-1, -1), "MIDDLE"),
+        ("TOPPADDING", (0, 0), (-1, -1), 1.2),
+        ("BOTTOMPADDING", (0, 0), (-1, -1), 1.6),
+        ("LEFTPADDING", (0, 0), (-1, -1), 2.5),
+        ("RIGHTPADDING", (0, 0), (-1, -1), 2.5),
+    ]
+    for r, colour in (row_colours or {}).items():
+        commands.append(("BACKGROUND", (0, r), (-1, r), colors.HexColor(colour)))
+    for (r, c), colour in (cell_colours or {}).items():
+        commands.append(("BACKGROUND", (c, r), (c, r), colors.HexColor(colour)))
+    table = Table(
+        cells,
+        colWidths=col_widths,
+        repeatRows=header_rows if repeat_header else 0,
+        hAlign="LEFT",
+        style=TableStyle(commands),
+    )
+    for row in cells:
+        for k, cell in enumerate(row):
+            if isinstance(cell, Paragraph) and not (first_left and k == 0):
+                cell.style = ParagraphStyle(
+                    cell.style.name + "-c", parent=cell.style, alignment={"CENTER": 1}.get(align, 0)
+                )
+    return table
+
+
+def figure_image(fig, width: float = FRAME_WIDTH, dpi: int = FIGURE_DPI) -> Flowable:
+    """A matplotlib Figure as an embedded image ``width`` points wide (its aspect kept).
+
+    The figure is drawn by the Agg canvas at ``dpi`` (no pyplot, no backend switch) and handed
+    to reportlab as pixels (no PNG encoding and decoding on the way; the PDF stores them
+    Flate-compressed, lossless).
+    """
+    import numpy as np
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from PIL import Image as PILImage
+    from reportlab.lib.utils import ImageReader
+
+    if not isinstance(fig.canvas, FigureCanvasAgg):
+        FigureCanvasAgg(fig)
+    fig.set_dpi(dpi)
+    fig.canvas.draw()
+    rgb = np.asarray(fig.canvas.buffer_rgba())[..., :3]
+    w_in, h_in = fig.get_size_inches()
+    return PixelImage(
+        ImageReader(PILImage.fromarray(np.ascontiguousarray(rgb))), width, width * h_in / w_in
+    )
+
+
+class PixelImage(Flowable):
+    """An image given as pixels (a reportlab ImageReader), drawn ``width`` x ``height`` points
+    and centred in the frame."""
+
+    def __init__(self, reader, width: float, height: float):
+        super().__init__()
+        self.reader, self.width, self.height = reader, width, height
+        self.hAlign = "CENTER"
+
+    def wrap(self, avail_width, avail_height):
+        return self.width, self.height
+
+    def draw(self):
+        self.canv.drawImage(self.reader, 0, 0, self.width, self.height)
+
+
+def spacer(height_mm: float) -> Spacer:
+    """Vertical space, mm."""
+    return Spacer(1, height_mm * mm)
+
+
+@dataclass(frozen=True)
+class PageStamp:
+    """What the running header and footer of every page say.
+
+    Attributes
+    ----------
+    title : str
+        Header, left: the report and the applicator's full name.
+    software : str
+        Header, right: ``ringqa <version>``.
+    date : str
+        Header, right: the run's date (UTC).
+    inputs : str
+        Footer, left: the input file's SHA-256 prefix (or what stands for it).
+    """
+
+    title: str
+    software: str
+    date: str
+    inputs: str
+
+
+class _NumberedCanvas(rl_canvas.Canvas):
+    """A canvas that knows the page count when it saves: draws "page n/N" on every page."""
+
+    def __init__(self, *args, stamp: PageStamp, **kwargs):
+        super().__init__(*args, **kwargs)
+        self._stamp = stamp
+        self._pages: list[dict] = []
+
+    def showPage(self):
+        self._pages.append(dict(self.__dict__))
+        self._startPage()
+
+    def save(self):
+        total = len(self._pages)
+        for state in self._pages:
+            self.__dict__.update(state)
+            self._draw_stamp(total)
+            super().showPage()
+        super().save()
+
+    def _draw_stamp(self, total: int) -> None:
+        st = self._stamp
+        w, h = PAGE
+        self.saveState()
+        self.setStrokeColor(colors.HexColor("#9e9e9e"))
+        self.setLineWidth(0.5)
+        y_head = h - MARGIN_TOP + 6 * mm
+        self.line(MARGIN_X, y_head - 1.8 * mm, w - MARGIN_X, y_head - 1.8 * mm)
+        self.setFont(FONT, 7.5)
+        right = f"{st.software}  ·  {st.date}"
+        right_w = pdfmetrics.stringWidth(right, FONT, 7.5)
+        title = st.title
+        room = w - 2 * MARGIN_X - right_w - 6 * mm
+        while pdfmetrics.stringWidth(title, FONT_BOLD, 7.5) > room and len(title) > 10:
+            title = title[:-2]  # only when extremely long; the full name is in the body
+        self.setFont(FONT_BOLD, 7.5)
+        self.drawString(MARGIN_X, y_head, title)
+        self.setFont(FONT, 7.5)
+        self.drawRightString(w - MARGIN_X, y_head, right)
+        y_foot = MARGIN_BOTTOM - 7 * mm
+        self.line(MARGIN_X, y_foot + 3 * mm, w - MARGIN_X, y_foot + 3 * mm)
+        self.drawString(MARGIN_X, y_foot, st.inputs)
+        self.drawRightString(w - MARGIN_X, y_foot, f"page {self._pageNumber}/{total}")
+        self.restoreState()
+
+
+def build_pdf(path, story: list, stamp: PageStamp, *, title: str, subject: str = "") -> Path:
+    """Lay ``story`` (flowables) out on A4 pages with the running header/footer and write
+    ``path``.
+
+    Returns
+    -------
+    pathlib.Path
+    """
+    register_fonts()
+    path = Path(path)
+    doc = SimpleDocTemplate(
+        str(path),
+        pagesize=PAGE,
+        leftMargin=MARGIN_X,
+        rightMargin=MARGIN_X,
+        topMargin=MARGIN_TOP,
+        bottomMargin=MARGIN_BOTTOM,
+        title=title,
+        author=stamp.software,
+        subject=subject,
+        creator=stamp.software,
+        initialFontName=FONT,  # else the canvas adds an unembedded Helvetica
+    )
+    doc.build(story, canvasmaker=functools.partial(_NumberedCanvas, stamp=stamp))
+    return path

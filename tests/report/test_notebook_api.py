@@ -1,0 +1,63 @@
+"""The notebook conventions of CommissioningResult (pylinac-like): ``to_frames()``,
+``plot_*()`` returning matplotlib Figures without touching pyplot or the backend, and
+``publish_pdf(path, fields=, notes=)``."""
+
+from __future__ import annotations
+
+import matplotlib
+import pandas as pd
+import pytest
+
+from ringqa.report import ReportFields
+from tests.report.conftest import pdf_pages_text
+
+
+def test_to_frames(fake_result):
+    """The tables as DataFrames: equal to the result's own, copies (editing one leaves the
+    result alone); summary one row with summary.csv's columns; one row per verdict."""
+    frames = fake_result.to_frames()
+    assert set(frames) == {"dwells", "doses", "plan_dwells", "summary", "verdicts", "notes"}
+    pd.testing.assert_frame_equal(frames["dwells"], fake_result.dwells)
+    pd.testing.assert_frame_equal(frames["doses"], fake_result.doses)
+    pd.testing.assert_frame_equal(frames["plan_dwells"], fake_result.plan_dwells)
+    assert list(frames["summary"].columns) == list(fake_result.summary.as_row())
+    assert len(frames["summary"]) == 1
+    assert frames["summary"].loc[0, "verdict"] == fake_result.summary.verdict
+    assert list(frames["verdicts"]["status"]) == [v.status for v in fake_result.verdicts]
+    assert list(frames["notes"]["note"]) == list(fake_result.notes)
+    frames["dwells"].loc[:, "x_mm"] = 1e9
+    assert (fake_result.dwells["x_mm"] != 1e9).all()
+
+
+@pytest.mark.parametrize(
+    ("method", "n_axes"), [("plot_positions", 2), ("plot_deviations", 3), ("plot_doses", 2)]
+)
+def test_plots_return_figures_without_pyplot(fake_result, method, n_axes):
+    """Each plot is a Figure with its axes; pyplot's figure list and the backend are unchanged
+    (the figures are made without pyplot); the title defaults to the applicator."""
+    from matplotlib.figure import Figure
+
+    backend = matplotlib.get_backend()
+    import matplotlib.pyplot as plt
+
+    before = plt.get_fignums()
+    fig = getattr(fake_result, method)()
+    assert isinstance(fig, Figure)
+    assert len(fig.axes) == n_axes
+    assert plt.get_fignums() == before
+    assert matplotlib.get_backend() == backend
+    assert fig.get_suptitle() == fake_result.applicator
+    fig.canvas.draw()  # renders headless
+
+
+def test_publish_pdf(fake_result, tmp_path):
+    """publish_pdf writes the same report as ringqa commission, with the fields and notes."""
+    path = fake_result.publish_pdf(
+        tmp_path / "r.pdf",
+        fields=ReportFields(physicist="Dr. B. Checker"),
+        notes="Ring 3 of the spare set.",
+    )
+    pages = pdf_pages_text(path)
+    first = " ".join(" ".join(pages[:2]).split())
+    assert "Dr. B. Checker" in first and "Ring 3 of the spare set." in first
+    assert f"page 1/{len(pages)}" in " ".join(pages[0].split())
