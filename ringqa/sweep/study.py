@@ -219,8 +219,8 @@ def run_sweep(
             "samples_cpu_sum": float(np.nansum(samples.cpu_seconds)),
             "mean_per_sample": sample_s / max(1, len(samples.index)),
             "mean_cpu_per_sample": float(np.nanmean(samples.cpu_seconds))
-            if len(samples.index)
-            else float("nan"),
+            if np.isfinite(samples.cpu_seconds).any()
+            else None,
             "total": time.perf_counter() - t_start,
         },
         "nominal": {
