@@ -32,6 +32,7 @@ COMMANDS: dict[str, str] = {
     "commission": "ringqa.cli.commission",
     "needle": "ringqa.cli.needle",
     "config": "ringqa.cli.config",
+    "sweep": "ringqa.cli.sweep",
 }
 
 

@@ -155,6 +155,23 @@ def add_parser(subparsers) -> None:
         help="accuracy.csv of 'ringqa accuracy' for the simulation settings used (adds a "
         "report page)",
     )
+    p.add_argument(
+        "--sweep",
+        type=Path,
+        default=None,
+        metavar="SPEC",
+        help="also run the uncertainty sweep SPEC (docs/sweeps.md) on this input and write "
+        "uncertainty.png and uncertainty.csv (per-dwell and per-point intervals) beside the "
+        "report (single applicator only)",
+    )
+    p.add_argument(
+        "--uncertainty",
+        type=int,
+        default=None,
+        metavar="N",
+        help="as --sweep with the shipped data/sweeps/ring26-uncertainty.toml parameters and N "
+        "samples",
+    )
     p.add_argument("--no-pdf", action="store_true", help="write the CSV/JSON files only")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
@@ -282,6 +299,11 @@ def run(args: argparse.Namespace) -> int:
             "--centreline-correction: give one applicator (each applicator has its own frame; "
             "a correction segment belongs to one)"
         )
+    sweep_spec = None
+    if args.sweep is not None or args.uncertainty is not None:
+        if not single:
+            raise RingQAError("--sweep/--uncertainty: give one applicator (a sweep is per input)")
+        sweep_spec = _sweep_spec(args, items[0])  # checked before the simulations
     if single:
         res = commission(items[0], settings, progress=not args.quiet)
         write_report(
@@ -289,6 +311,8 @@ def run(args: argparse.Namespace) -> int:
             export=args.export,
         )  # fmt: skip
         print_warnings(res)
+        if sweep_spec is not None:
+            _write_uncertainty(sweep_spec, args)
         verdicts = "; ".join(f"{v.status} {v.check}" for v in res.verdicts)
         print(
             f"ringqa commission: {res.applicator} ({res.reference} reference): {verdicts} "
@@ -309,3 +333,36 @@ def run(args: argparse.Namespace) -> int:
             print(f"ringqa commission: error: {item}: {err}", file=sys.stderr)
         return 2
     return 0
+
+
+def _sweep_spec(args, item):
+    """The sweep spec of --sweep / --uncertainty N, its input set to the commissioned one."""
+    from ringqa.paths import data_dir
+    from ringqa.sweep import load_spec
+
+    if args.sweep is not None and args.uncertainty is not None:
+        raise RingQAError("--sweep and --uncertainty: give one of them")
+    path = args.sweep or data_dir() / "sweeps" / "ring26-uncertainty.toml"
+    sets = {"input": str(Path(item).resolve()) if Path(item).exists() else str(item)}
+    if args.uncertainty is not None:
+        sets["samples"] = args.uncertainty
+    return load_spec(path, sets)
+
+
+def _write_uncertainty(spec, args) -> None:
+    """Run the sweep in a temporary folder; put uncertainty.png and uncertainty.csv (the
+    sweep's summary.csv) in the commissioning output folder, each written atomically."""
+    import tempfile
+
+    from ringqa.outdir import atomic_write_bytes
+    from ringqa.sweep import run_sweep
+
+    with tempfile.TemporaryDirectory(prefix="ringqa-sweep-") as tmp:
+        res = run_sweep(spec, Path(tmp) / "sweep", progress=not args.quiet)
+        atomic_write_bytes(args.out / "uncertainty.png", (res.out / "uncertainty.png").read_bytes())
+        atomic_write_bytes(args.out / "uncertainty.csv", (res.out / "summary.csv").read_bytes())
+    r = res.record
+    print(
+        f"ringqa commission: uncertainty sweep {r['n_ok']} of {r['n_runs']} samples ok -> "
+        f"{args.out / 'uncertainty.png'}, uncertainty.csv"
+    )

@@ -1,0 +1,332 @@
+"""``run_sweep``: spec -> nominal run -> samples on Dask (streamed to samples.h5) -> outputs.
+
+Order (nothing is written before the spec, the output folder, the nominal run and the
+scheduler have all been checked):
+
+1. the output folder is checked (:func:`ringqa.outdir.check_writable`; a folder holding only a
+   ``samples.h5`` of the same spec is a sweep to resume);
+2. the design is drawn (:mod:`ringqa.sweep.sampling`);
+3. the nominal run (every parameter at its centre) runs in this process: it must succeed, gives
+   the dwell and point labels and the positions the spread is measured from, and warms the numba
+   cache the workers then load;
+4. the cluster is reached or started (:mod:`ringqa.sweep.execute`);
+5. the samples not yet in ``DIR/samples.h5`` run in batches; each finished batch is appended;
+6. ``summary.csv``, ``sensitivity.csv``, ``sweep.json`` and ``uncertainty.png`` are written
+   through :func:`ringqa.outdir.staged_output` (``samples.h5`` carried over).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import platform
+import signal
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from ringqa.errors import RingQAError
+from ringqa.outdir import check_writable, staged_output
+from ringqa.sweep.analysis import sensitivity, summary
+from ringqa.sweep.runner import Job, SampleRecord, commission_settings
+from ringqa.sweep.sampling import design, n_runs, salib_problem
+from ringqa.sweep.spec import SweepSpec
+from ringqa.sweep.store import SAMPLES_NAME, SampleStore, StoredSamples, read_samples
+
+__all__ = ["SweepResult", "job_of", "nominal_values", "run_sweep"]
+
+
+@dataclass(frozen=True)
+class SweepResult:
+    """What a sweep produced.
+
+    Attributes
+    ----------
+    out : Path
+        The output folder.
+    samples : StoredSamples
+    summary : DataFrame
+        ``summary.csv``.
+    sensitivity : DataFrame
+        ``sensitivity.csv``.
+    record : dict
+        ``sweep.json``.
+    """
+
+    out: Path
+    samples: StoredSamples
+    summary: pd.DataFrame
+    sensitivity: pd.DataFrame
+    record: dict
+
+
+def job_of(spec: SweepSpec) -> Job:
+    """The :class:`~ringqa.sweep.runner.Job` the workers receive."""
+    return Job(spec.input, dict(spec.settings), dict(spec.fixed), spec.names, spec.seed)
+
+
+def nominal_values(spec: SweepSpec) -> list:
+    """Every parameter at its centre (mean, midpoint, median, first grid value)."""
+    return [p.nominal for p in spec.parameters]
+
+
+def _nominal(job: Job, values) -> tuple[SampleRecord, np.ndarray, object]:
+    """The nominal run in this process: its record, the reference dwells (mm), the result."""
+    from ringqa.errors import RingQAError
+    from ringqa.pipeline import commission
+    from ringqa.pipeline.uncertainty import Perturbation, perturbed_engine
+    from ringqa.sweep.runner import record_of
+
+    t0 = time.perf_counter()
+    settings, pert = commission_settings(job, values)
+    try:
+        res = commission(
+            job.input,
+            settings,
+            engine=perturbed_engine(Perturbation.from_values(pert, (job.seed, -1))),
+        )
+    except RingQAError as exc:
+        raise RingQAError(
+            f"the nominal run (every parameter at its centre) failed: {exc}"
+        ) from None
+    rec = record_of(res, -1, tuple(values), time.perf_counter() - t0, "parent")
+    ref = res.dwells[res.dwells["path"] == res.reference]
+    return rec, ref[["x_mm", "y_mm", "z_mm"]].to_numpy(float), res
+
+
+def _versions() -> dict:
+    import importlib.metadata as md
+
+    from ringqa import __version__
+
+    out = {"ringqa": __version__, "python": platform.python_version()}
+    for name in ("numpy", "numba", "dask", "distributed", "SALib", "h5py", "scipy"):
+        try:
+            out[name] = md.version(name)
+        except md.PackageNotFoundError:  # pragma: no cover
+            out[name] = None
+    return out
+
+
+def run_sweep(
+    spec: SweepSpec,
+    out: str | Path,
+    *,
+    scheduler: str | None = None,
+    workers: int | None = None,
+    progress: bool = False,
+    client=None,
+    partial: bool = False,
+) -> SweepResult:
+    """Run a sweep (see the module docstring); ``client``: an existing
+    ``distributed.Client`` (tests), else :func:`~ringqa.sweep.execute.connect`; ``partial``:
+    run nothing, write the outputs from the samples already in ``samples.h5`` (a long study
+    looked at while it is unfinished; ``--partial``)."""
+    from ringqa.sweep.execute import connect, stream
+
+    t_start = time.perf_counter()
+    out = check_writable(out, ours=(SAMPLES_NAME,))
+    h5 = out / SAMPLES_NAME
+    if h5.exists():  # a sweep to resume: refuse another spec's samples before any work
+        with SampleStore(h5, spec.digest(), spec.names, (), ()) as st:
+            n_done_before = len(st.done())
+    elif partial:
+        raise RingQAError(f"--partial: {h5} does not exist: no finished samples to summarise")
+    else:
+        n_done_before = 0
+    table = design(spec)
+    job = job_of(spec)
+    nominal = nominal_values(spec)
+    with contextlib.ExitStack() as stack:
+        t_cluster = time.perf_counter()
+        cl = client
+        if (
+            cl is None and scheduler and not partial
+        ):  # an unreachable scheduler fails before the nominal run
+            cl = stack.enter_context(connect(scheduler, workers))
+        cluster_s = time.perf_counter() - t_cluster
+        t0 = time.perf_counter()
+        nom_rec, reference_mm, nom_res = _nominal(job, nominal)
+        nominal_s = time.perf_counter() - t0
+        # a local cluster starts after the nominal run warmed the numba cache
+        if cl is None and not partial:
+            t_cluster = time.perf_counter()
+            cl = stack.enter_context(connect(None, workers))
+            cluster_s = time.perf_counter() - t_cluster
+        n_workers = 0 if cl is None else len(cl.scheduler_info().get("workers", {}))
+        out.mkdir(parents=True, exist_ok=True)
+        with SampleStore(
+            h5, spec.digest(), spec.names, nom_rec.dwell_ids, nom_rec.point_names
+        ) as st:
+            done = st.done()
+            todo = [] if partial else [(i, table[i]) for i in range(len(table)) if i not in done]
+            bar = _bar(len(table), len(done), progress)
+            t_run = time.perf_counter()
+
+            guard = _AppendGuard()
+
+            def on_batch(records: list[SampleRecord]) -> None:
+                with guard:
+                    st.append(records)
+                bar.update(len(records))
+
+            try:
+                with guard.installed():
+                    if todo:
+                        stream(cl, job, todo, spec.batch_size, on_batch, nominal)
+            finally:
+                bar.close()
+            run_s = time.perf_counter() - t_run
+    samples = read_samples(h5, limit=len(table))
+    summ = summary(samples, nom_rec.positions_mm)
+    sens = sensitivity(samples, spec.names, salib_problem(spec) if spec.method == "sobol" else None)
+    failures = [
+        {"index": int(i), "values": [float(v) for v in vals], "message": m}
+        for i, vals, ok, m in zip(
+            samples.index, samples.values, samples.ok, samples.message, strict=True
+        )
+        if not ok
+    ]
+    n_new = len(todo)
+    sample_s = float(np.sum(samples.seconds))
+    record = {
+        "spec": dict(spec.raw),
+        "spec_file": spec.path,
+        "spec_digest": spec.digest(),
+        "seed": spec.seed,
+        "method": spec.method,
+        "n_runs": n_runs(spec),
+        "partial": bool(partial and len(samples.index) < len(table)),
+        "n_ok": int(samples.ok.sum()),
+        "n_failed": int((~samples.ok).sum()),
+        "resumed_from": n_done_before,
+        "computed_now": n_new,
+        "versions": _versions(),
+        "execution": {
+            "scheduler": scheduler or "LocalCluster (processes)",
+            "workers": n_workers,
+            "batch_size": spec.batch_size,
+            "workers_used": sorted(set(samples.worker)),
+        },
+        "timings_s": {
+            "nominal_run": nominal_s,
+            "cluster_start": cluster_s,
+            "samples_wall": run_s,
+            "samples_wall_sum": sample_s,
+            "samples_cpu_sum": float(np.nansum(samples.cpu_seconds)),
+            "mean_per_sample": sample_s / max(1, len(samples.index)),
+            "mean_cpu_per_sample": float(np.nanmean(samples.cpu_seconds))
+            if np.isfinite(samples.cpu_seconds).any()
+            else None,
+            "total": time.perf_counter() - t_start,
+        },
+        "nominal": {
+            "values": dict(zip(spec.names, nominal, strict=True)),
+            "max_deviation_mm": float(np.max(nom_rec.dwell["deviation_mm"])),
+            "max_numerical_error_mm": float(np.max(nom_rec.dwell["numerical_error_mm"])),
+        },
+        "spread_vs_numerics": _spread_vs_numerics(summ),
+        "parameters": [
+            {"key": p.key, "distribution": p.distribution, **p.args, "source": p.source}
+            for p in spec.parameters
+        ],
+        "failures": failures,
+    }
+    _write(
+        out,
+        summ,
+        sens,
+        record,
+        samples,
+        nom_rec.positions_mm,
+        reference_mm,
+        f"{nom_res.applicator}: {spec.path}",
+    )
+    return SweepResult(out, samples, summ, sens, record)
+
+
+def _spread_vs_numerics(summ: pd.DataFrame) -> dict:
+    """Largest per-dwell sd of the parameter spread (shift) and largest mean numerical error."""
+    shift = summ[summ["quantity"] == "shift_mm"]["sd"].to_numpy(float)
+    num = summ[summ["quantity"] == "numerical_error_mm"]["mean"].to_numpy(float)
+    a = float(np.nanmax(shift)) if np.isfinite(shift).any() else float("nan")
+    b = float(np.nanmax(num)) if np.isfinite(num).any() else float("nan")
+    return {
+        "max_sd_shift_mm": a,
+        "max_mean_numerical_error_mm": b,
+        "dominant": "parameters" if a > b else "numerics",
+    }
+
+
+def _write(out, summ, sens, record, samples, nominal_mm, reference_mm, title) -> None:
+    from ringqa.jsonio import write_json
+    from ringqa.sweep.figures import uncertainty_figure
+
+    with staged_output(out, ours=(SAMPLES_NAME,)) as stage:
+        summ.to_csv(stage / "summary.csv", index=False, float_format="%.6g")
+        sens.to_csv(stage / "sensitivity.csv", index=False, float_format="%.6g")
+        write_json(stage / "sweep.json", record)
+        fig = uncertainty_figure(samples, nominal_mm, reference_mm, summ, title)
+        fig.savefig(stage / "uncertainty.png", dpi=110)
+
+
+class _AppendGuard:
+    """SIGINT/SIGTERM while samples stream: stop the sweep (KeyboardInterrupt), but never in the
+    middle of appending a batch to samples.h5 (a signal then waits for the append to finish),
+    so an interrupted sweep keeps a readable file with every finished sample."""
+
+    def __init__(self) -> None:
+        self.busy = False
+        self.pending: int | None = None
+
+    def _handler(self, signum, frame) -> None:
+        if self.busy:
+            self.pending = signum
+            return
+        raise KeyboardInterrupt(signal.Signals(signum).name)
+
+    def __enter__(self) -> None:
+        self.busy = True
+
+    def __exit__(self, *exc) -> None:
+        self.busy = False
+        if self.pending is not None:
+            signum, self.pending = self.pending, None
+            raise KeyboardInterrupt(signal.Signals(signum).name)
+
+    @contextlib.contextmanager
+    def installed(self):
+        """The handler for SIGINT and SIGTERM (main thread only; restored after)."""
+        import threading
+
+        if threading.current_thread() is not threading.main_thread():
+            yield
+            return
+        previous = {}
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            old = signal.getsignal(sig)
+            if old is None or old is signal.SIG_IGN:
+                continue
+            previous[sig] = old
+            signal.signal(sig, self._handler)
+        try:
+            yield
+        finally:
+            for sig, old in previous.items():
+                signal.signal(sig, old)
+
+
+def _bar(total: int, done: int, show: bool):
+    from tqdm import tqdm
+
+    return tqdm(
+        total=total,
+        initial=done,
+        disable=not show,
+        unit="sample",
+        file=sys.stderr,
+        desc="ringqa sweep",
+    )

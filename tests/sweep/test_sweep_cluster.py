@@ -1,0 +1,190 @@
+"""A real dask.distributed LocalCluster of PROCESSES, reached through its scheduler address as a
+remote cluster would be: a small sweep runs, streams to samples.h5, resumes, and each sample's
+numbers do not depend on the worker that ran it."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pandas as pd
+import pytest
+
+from ringqa.cli import main
+from ringqa.sweep import load_spec
+from ringqa.sweep.analysis import SUMMARY_COLUMNS
+from ringqa.sweep.runner import run_sample
+from ringqa.sweep.sampling import design
+from ringqa.sweep.store import read_samples
+from ringqa.sweep.study import job_of
+
+
+def test_sweep_through_scheduler_address_resumes_and_is_worker_independent(
+    local_cluster, tmp_path, spec_writer, capsys
+):
+    """3 samples, then the same command with samples=5: the second run computes only samples 3
+    and 4 (resumed, the first three untouched). Sample 1 re-run here in the test process gives
+    bit-identical positions to the worker's (the seed of a sample is (seed, i) only), and the
+    outputs hold the contract columns."""
+    spec = spec_writer(tmp_path, samples=3)
+    out = tmp_path / "out"
+    addr = local_cluster.scheduler_address
+    assert main(["sweep", str(spec), "--out", str(out), "--scheduler", addr, "--quiet"]) == 0
+    first = read_samples(out / "samples.h5")
+    assert list(first.index) == [0, 1, 2] and first.ok.all()
+    assert (
+        main(
+            [
+                "sweep",
+                str(spec),
+                "--out",
+                str(out),
+                "--scheduler",
+                addr,
+                "--quiet",
+                "--set",
+                "samples=5",
+            ]
+        )
+        == 0
+    )
+    assert "5 of 5 samples ok (0 failed, 2 computed now)" in capsys.readouterr().out
+    s = read_samples(out / "samples.h5")
+    assert list(s.index) == [0, 1, 2, 3, 4]
+    with h5py.File(out / "samples.h5") as f:
+        assert f["index"].shape == (5,)  # nothing recomputed or duplicated
+    for k in ("x_mm", "deviation_mm", "dose_diff_pct"):
+        np.testing.assert_array_equal(s.arrays[k][:3], first.arrays[k])
+    # the workers are other processes than this one
+    assert all(not w.endswith(f":{__import__('os').getpid()}") for w in s.worker)
+
+    sp = load_spec(spec, {"samples": 5})
+    rec = run_sample(job_of(sp), 1, design(sp)[1])
+    np.testing.assert_array_equal(rec.positions_mm[:, 0], s.arrays["x_mm"][1])
+    np.testing.assert_array_equal(rec.dwell["deviation_mm"], s.arrays["deviation_mm"][1])
+
+    summ = pd.read_csv(out / "summary.csv")
+    assert tuple(summ.columns) == SUMMARY_COLUMNS
+    dev = summ[summ["quantity"] == "deviation_mm"]
+    assert (dev["n_ok"] == 5).all() and (dev["n_failed"] == 0).all()
+    assert (dev["p2_5"] <= dev["mean"]).all() and (dev["mean"] <= dev["p97_5"]).all()
+    sens = pd.read_csv(out / "sensitivity.csv")
+    assert set(sens["parameter"]) == set(sp.names)
+    record = json.loads((out / "sweep.json").read_text())
+    assert record["resumed_from"] == 3 and record["computed_now"] == 2
+    assert record["seed"] == 11 and record["versions"]["distributed"]
+    assert (out / "uncertainty.png").stat().st_size > 10_000
+
+    # --partial with samples=7: nothing runs (no scheduler needed), the outputs cover the 5
+    # stored samples and say the sweep is partial
+    capsys.readouterr()
+    args = ["sweep", str(spec), "--out", str(out), "--quiet", "--partial", "--set", "samples=7"]
+    assert main(args) == 0
+    assert "5 of 7 samples ok (0 failed, 0 computed now)" in capsys.readouterr().out
+    record = json.loads((out / "sweep.json").read_text())
+    assert record["partial"] is True and record["n_ok"] == 5
+
+
+def test_a_different_spec_does_not_mix_into_finished_samples(
+    local_cluster, tmp_path, spec_writer, capsys
+):
+    """Re-running into the folder with another seed is refused (one line, exit 2) and
+    samples.h5 is unchanged."""
+    spec = spec_writer(tmp_path, samples=2)
+    out = tmp_path / "out"
+    addr = local_cluster.scheduler_address
+    assert main(["sweep", str(spec), "--out", str(out), "--scheduler", addr, "--quiet"]) == 0
+    before = (out / "samples.h5").read_bytes()
+    capsys.readouterr()
+    code = main(
+        ["sweep", str(spec), "--out", str(out), "--scheduler", addr, "--quiet", "--set", "seed=12"]
+    )
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and len(err.splitlines()) == 1 and "different spec" in err
+    assert (out / "samples.h5").read_bytes() == before
+
+
+@pytest.mark.slow
+def test_killing_a_worker_mid_sweep_loses_nothing(
+    local_cluster, tmp_path, spec_writer, monkeypatch
+):
+    """SIGKILL one worker process right after the first batch was stored: Dask reruns the lost
+    task on the other worker (its nanny restarts the killed one), every sample ends in
+    samples.h5 exactly once, and the batch stored before the kill is kept."""
+    import os
+    import signal
+    import threading
+
+    from distributed import Client
+
+    from ringqa.sweep import run_sweep
+    from ringqa.sweep.store import SampleStore
+
+    spec = load_spec(spec_writer(tmp_path, samples=8), {"batch_size": 1})
+    out = tmp_path / "out"
+    first_stored = threading.Event()
+    original = SampleStore.append
+
+    def append(self, records):
+        original(self, records)
+        first_stored.set()
+
+    monkeypatch.setattr(SampleStore, "append", append)
+    with Client(local_cluster.scheduler_address) as client:
+        pids = list(client.run(os.getpid).values())
+        result = {}
+        t = threading.Thread(
+            target=lambda: result.update(r=run_sweep(spec, out, client=client)), daemon=True
+        )
+        t.start()
+        assert first_stored.wait(300)
+        os.kill(pids[0], signal.SIGKILL)
+        t.join(600)
+    s = result["r"].samples
+    assert list(s.index) == list(range(8)) and s.ok.all()
+
+
+@pytest.mark.slow
+def test_interrupted_sweep_resumes_without_recomputing(tmp_path, spec_writer):
+    """A real ``ringqa sweep`` process stopped with SIGINT after its first stored sample exits
+    130 and keeps samples.h5; the same command again computes only the samples not stored
+    (computed now = 6 - stored), each index once."""
+    import os
+    import re
+    import signal
+    import subprocess
+    import sys
+
+    spec = spec_writer(tmp_path, samples=6)
+    out = tmp_path / "out"
+    cmd = [
+        sys.executable,
+        "-m",
+        "ringqa",
+        "sweep",
+        str(spec),
+        "--out",
+        str(out),
+        "--workers",
+        "1",
+        "--set",
+        "batch_size=1",
+    ]
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[2])}
+    proc = subprocess.Popen(cmd, stderr=subprocess.PIPE, stdout=subprocess.PIPE, env=env)
+    seen = b""
+    while not re.search(rb"[1-5]/6", seen):
+        ch = proc.stderr.read(1)
+        assert ch, seen.decode(errors="replace")
+        seen += ch
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 130, (seen + err).decode(errors="replace")
+    stored = len(read_samples(out / "samples.h5").index)
+    assert 1 <= stored <= 6
+    done = subprocess.run([*cmd, "--quiet"], capture_output=True, text=True, env=env, timeout=600)
+    assert done.returncode == 0, done.stderr
+    assert f"6 of 6 samples ok (0 failed, {6 - stored} computed now)" in done.stdout
+    assert list(read_samples(out / "samples.h5").index) == list(range(6))
