@@ -306,13 +306,14 @@ def run(args: argparse.Namespace) -> int:
         sweep_spec = _sweep_spec(args, items[0])  # checked before the simulations
     if single:
         res = commission(items[0], settings, progress=not args.quiet)
+        sections, extra = (), None
+        if sweep_spec is not None:
+            sections, extra = _run_uncertainty(sweep_spec, args)
         write_report(
             res, args.out, pdf=not args.no_pdf, accuracy_csv=args.accuracy_csv, fields=fields,
-            export=args.export,
+            export=args.export, sections=sections, extra_files=extra,
         )  # fmt: skip
         print_warnings(res)
-        if sweep_spec is not None:
-            _write_uncertainty(sweep_spec, args)
         verdicts = "; ".join(f"{v.status} {v.check}" for v in res.verdicts)
         print(
             f"ringqa commission: {res.applicator} ({res.reference} reference): {verdicts} "
@@ -349,20 +350,23 @@ def _sweep_spec(args, item):
     return load_spec(path, sets)
 
 
-def _write_uncertainty(spec, args) -> None:
-    """Run the sweep in a temporary folder; put uncertainty.png and uncertainty.csv (the
-    sweep's summary.csv) in the commissioning output folder, each written atomically."""
+def _run_uncertainty(spec, args) -> tuple[tuple, dict[str, bytes]]:
+    """Run the sweep in a temporary folder; return the report's uncertainty page (a section)
+    and the files it adds to the output folder (``uncertainty.png``, and ``uncertainty.csv``:
+    the sweep's summary.csv), written with the report in one staged folder."""
     import tempfile
 
-    from ringqa.outdir import atomic_write_bytes
+    from ringqa.report.uncertainty import uncertainty_section
     from ringqa.sweep import run_sweep
 
     with tempfile.TemporaryDirectory(prefix="ringqa-sweep-") as tmp:
         res = run_sweep(spec, Path(tmp) / "sweep", progress=not args.quiet)
-        atomic_write_bytes(args.out / "uncertainty.png", (res.out / "uncertainty.png").read_bytes())
-        atomic_write_bytes(args.out / "uncertainty.csv", (res.out / "summary.csv").read_bytes())
+        png = (res.out / "uncertainty.png").read_bytes()
+        csv = (res.out / "summary.csv").read_bytes()
     r = res.record
     print(
-        f"ringqa commission: uncertainty sweep {r['n_ok']} of {r['n_runs']} samples ok -> "
-        f"{args.out / 'uncertainty.png'}, uncertainty.csv"
+        f"ringqa commission: uncertainty sweep {r['n_ok']} of {r['n_runs']} samples ok "
+        "(report page 'Uncertainty', uncertainty.png, uncertainty.csv)"
     )
+    section = uncertainty_section(res.summary, png, r)
+    return (section,), {"uncertainty.png": png, "uncertainty.csv": csv}

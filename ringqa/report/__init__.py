@@ -12,7 +12,7 @@ Public API::
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 import pandas as pd
@@ -62,9 +62,12 @@ def read_accuracy_csv(path) -> pd.DataFrame:
 
 
 def _write_one(
-    result, folder: Path, pdf: bool, accuracy=None, fields=None, export=None, sections=()
-) -> None:
+    result, folder: Path, pdf: bool, accuracy=None, fields=None, export=None, sections=(),
+    extra_files=None,
+) -> None:  # fmt: skip
     write_tables(result, folder)
+    for name, data in (extra_files or {}).items():
+        (folder / name).write_bytes(data)
     if export is not None:
         from ringqa.io.export_tps import write_exports
 
@@ -94,6 +97,7 @@ def write_report(
     fields: ReportFields | None = None,
     export: bool = False,
     sections: Sequence = (),
+    extra_files: Mapping[str, bytes] | None = None,
 ) -> Path:
     """Write one applicator's files into ``out_dir`` (staged: all or nothing).
 
@@ -102,7 +106,9 @@ def write_report(
     clinic configuration). ``export``: also write ``export/`` (:mod:`ringqa.io.export_tps`:
     ``source_path_<channel>.csv``, and ``RP_simulated.dcm`` for an RT Plan input).
     ``sections``: extra report pages, callables ``section(result) -> list of reportlab
-    flowables`` (see :func:`ringqa.report.pdf.write_pdf`).
+    flowables`` (see :func:`ringqa.report.pdf.write_pdf`). ``extra_files``: more files of the
+    run (name -> bytes, e.g. the uncertainty sweep's ``uncertainty.csv``), written in the same
+    staged folder (all or nothing).
 
     Returns
     -------
@@ -112,7 +118,7 @@ def write_report(
     accuracy = None if accuracy_csv is None else read_accuracy_csv(accuracy_csv)
     (checked,) = _checked_exports([result], export)
     with staged_output(out_dir) as stage:
-        _write_one(result, stage, pdf, accuracy, fields, checked, sections)
+        _write_one(result, stage, pdf, accuracy, fields, checked, sections, extra_files)
     return Path(out_dir)
 
 

@@ -8,16 +8,18 @@ import pytest
 
 from ringqa.cli import main
 from ringqa.sweep.analysis import SUMMARY_COLUMNS
+from tests.report.conftest import pdf_pages_text
 
 
 @pytest.mark.slow
 def test_commission_with_uncertainty_writes_figure_and_intervals(tmp_path, capsys):
     """Two samples of the shipped spec's parameters on ring26x60 (a local cluster of this
     machine's cores): uncertainty.png and uncertainty.csv (the summary's contract columns, every
-    dwell of dwells.csv present) are written next to dwells.csv."""
+    dwell of dwells.csv present) are written next to dwells.csv, and the report's last page is
+    the uncertainty page."""
     out = tmp_path / "out"
     code = main(
-        ["commission", "ring26x60", "--out", str(out), "--no-pdf", "--quiet", "--uncertainty", "2"]
+        ["commission", "ring26x60", "--out", str(out), "--quiet", "--uncertainty", "2"]
     )
     assert code == 0, capsys.readouterr().err
     csv = pd.read_csv(out / "uncertainty.csv")
@@ -27,6 +29,9 @@ def test_commission_with_uncertainty_writes_figure_and_intervals(tmp_path, capsy
     assert set(csv["dwell"].dropna().astype(int)) == set(simulated)
     assert (csv[csv["quantity"] == "deviation_mm"]["n_ok"] == 2).all()
     assert (out / "uncertainty.png").stat().st_size > 10_000
+    last = pdf_pages_text(out / "report.pdf")[-1]
+    assert "Uncertainty of the simulated positions and doses" in last
+    assert "2 of 2 sampled commissioning runs succeeded" in last
 
 
 def test_commission_with_a_bad_sweep_spec_writes_nothing(tmp_path, capsys):
