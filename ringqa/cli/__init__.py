@@ -12,6 +12,7 @@ traceback (exit status 1).
 from __future__ import annotations
 
 import argparse
+import contextlib
 import errno
 import importlib
 import signal
@@ -30,7 +31,11 @@ COMMANDS: dict[str, str] = {
     "accuracy": "ringqa.cli.accuracy",
     "commission": "ringqa.cli.commission",
     "needle": "ringqa.cli.needle",
+    "warmup": "ringqa.cli.warmup",
 }
+
+#: commands that run numba kernels: while one compiles, stderr says so (ringqa/cli/_jit.py)
+JIT_COMMANDS = frozenset({"tg43-demo", "simulate", "accuracy", "commission", "needle", "warmup"})
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -46,6 +51,15 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _jit_notice(command: str):
+    """The compile notice for a command that runs numba kernels (nothing for the others)."""
+    if command in JIT_COMMANDS:
+        from ringqa.cli._jit import compile_notice
+
+        return compile_notice()
+    return contextlib.nullcontext()
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run the command line; return the exit status."""
     parser = build_parser()
@@ -54,7 +68,7 @@ def main(argv: list[str] | None = None) -> int:
         parser.print_help()
         return 2
     try:
-        with running_command(args.command):
+        with running_command(args.command), _jit_notice(args.command):
             return int(args.func(args) or 0)
     except RingQAError as exc:
         print(f"ringqa {args.command}: error: {exc}", file=sys.stderr)
