@@ -51,13 +51,33 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def _jit_notice(command: str):
-    """The compile notice for a command that runs numba kernels (nothing for the others)."""
-    if command in JIT_COMMANDS:
-        from ringqa.cli._jit import compile_notice
+#: commands that run the simulation engine: on an empty numba cache a helper process compiles
+#: the engine's leaf kernels beside them (ringqa/cli/_precompile.py)
+ENGINE_COMMANDS = frozenset({"simulate", "accuracy", "commission", "warmup"})
 
-        return compile_notice()
-    return contextlib.nullcontext()
+
+@contextlib.contextmanager
+def _jit_notice(command: str):
+    """The compile notice and, on an empty cache, the compile helper, for a command that runs
+    numba kernels (nothing for the others)."""
+    if command not in JIT_COMMANDS:
+        yield
+        return
+    from ringqa.cli._jit import compile_notice
+
+    helper = None
+    if command in ENGINE_COMMANDS:
+        from ringqa.cli._precompile import start_helper
+
+        helper = start_helper()
+    try:
+        with compile_notice(helper=helper is not None):
+            yield
+    finally:
+        if helper is not None:
+            from ringqa.cli._precompile import stop_helper
+
+            stop_helper(helper)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -30,7 +30,7 @@ GROUPS = (
 
 NOTICE = (
     "ringqa: compiling the numerical kernels once (first run with this numba cache, about "
-    "{est} s in all); later runs load them and start at once"
+    "{est} s in all{how}); later runs load them and start at once"
 )
 
 
@@ -59,8 +59,9 @@ def kernel_label(dispatcher, args) -> str:
 class _Listener:
     """numba event listener (built lazily so that importing this module does not import numba)."""
 
-    def __init__(self, stream: TextIO, estimate_s: float) -> None:
+    def __init__(self, stream: TextIO, estimate_s: float, helper: bool = False) -> None:
         self.stream = stream
+        self.helper = helper
         self.estimate_s = estimate_s
         self.depth = 0
         self.announced = False
@@ -74,7 +75,9 @@ class _Listener:
             if not self.announced:
                 self.announced = True
                 self.t_first = self.t0
-                print(NOTICE.format(est=round(self.estimate_s)), file=self.stream, flush=True)
+                how = ", two processes" if self.helper else ""
+                text = NOTICE.format(est=round(self.estimate_s), how=how)
+                print(text, file=self.stream, flush=True)
         self.depth += 1
 
     def end(self, ev) -> None:
@@ -93,15 +96,19 @@ class _Listener:
 
 
 @contextmanager
-def compile_notice(stream: TextIO | None = None, estimate_s: float = COMPILE_ESTIMATE_S):
+def compile_notice(
+    stream: TextIO | None = None, estimate_s: float = COMPILE_ESTIMATE_S, helper: bool = False
+):
     """Print a notice and per-kernel progress to ``stream`` (stderr) while numba compiles.
+
+    ``helper``: a compile helper process runs beside (the notice says so).
 
     Yields the listener; its ``compiled`` list holds ``(label, seconds)`` per top-level kernel
     compiled inside the block (empty when every kernel came from the cache).
     """
     from numba.core import event
 
-    lis = _Listener(stream if stream is not None else sys.stderr, estimate_s)
+    lis = _Listener(stream if stream is not None else sys.stderr, estimate_s, helper)
 
     class _L(event.Listener):
         def on_start(self, ev):
