@@ -10,6 +10,8 @@ Every figure is a fresh process (``subprocess``) with its own ``NUMBA_CACHE_DIR`
   of ``--reps``), split into imports, numba compilation (sum of the top-level ``numba:compile``
   events: numba fires them only on a cache miss) and the rest (input, simulation, dose, report);
   also the number of kernels compiled;
+- the CPU seconds of each run (the command and its compile helper, ``RUSAGE_CHILDREN``)
+  and of its compiles in the command's process: less sensitive to load than wall times;
 - **warm run**: the same command again on the cache the first run filled (median);
 - **import**: ``import ringqa.cli`` and ``import ringqa.pipeline`` (what commission imports
   before it reads the input), median of 5.
@@ -25,6 +27,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import resource
 import statistics
 import subprocess
 import sys
@@ -41,21 +44,24 @@ t0 = time.perf_counter()
 import ringqa.cli
 t_cli = time.perf_counter() - t0
 from numba.core import event
-depth = [0]; start = [0.0]; comp = []
+depth = [0]; start = [0.0, 0.0]; comp = []; cpu = []
 class L(event.Listener):
     def on_start(self, ev):
         if depth[0] == 0:
             start[0] = time.perf_counter()
+            start[1] = time.process_time()
         depth[0] += 1
     def on_end(self, ev):
         depth[0] -= 1
         if depth[0] == 0:
             comp.append(time.perf_counter() - start[0])
+            cpu.append(time.process_time() - start[1])
 event.register("numba:compile", L())
 rc = ringqa.cli.main(sys.argv[1:])
 wall = time.perf_counter() - t0
 print("BENCH" + json.dumps({"rc": rc, "in_process_s": wall, "cli_import_s": t_cli,
-                            "compile_s": sum(comp), "n_compiled": len(comp)}))
+                            "compile_s": sum(comp), "compile_cpu_s": sum(cpu),
+                            "n_compiled": len(comp)}))
 """
 
 IMPORT = r"""
@@ -77,17 +83,21 @@ def commission_run(root: Path, cache: str) -> dict:
     """One ``ringqa commission`` on the example in a fresh process; wall and phase split (s)."""
     with tempfile.TemporaryDirectory() as out:
         args = [str(root / EXAMPLE), "--register", "plane-height", "--out", f"{out}/o"]
+        ru0 = resource.getrusage(resource.RUSAGE_CHILDREN)
         t0 = _now()
         p = subprocess.run(
             [sys.executable, "-c", DRIVER, "commission", *args],
             env=_env(root, cache), cwd=root, capture_output=True, text=True, check=False,
         )  # fmt: skip
         wall = _now() - t0
+        ru1 = resource.getrusage(resource.RUSAGE_CHILDREN)
     line = next((x for x in p.stdout.splitlines() if x.startswith("BENCH")), None)
     if line is None:
         raise SystemExit(f"commission failed under {root}:\n{p.stderr[-2000:]}")
     rec = json.loads(line[5:])
     rec["wall_s"] = wall
+    # CPU of the command and of its compile helper (less sensitive to load than the wall)
+    rec["cpu_s"] = (ru1.ru_utime - ru0.ru_utime) + (ru1.ru_stime - ru0.ru_stime)
     rec["noticed"] = "compiling the numerical kernels once" in p.stderr
     return rec
 
@@ -149,13 +159,16 @@ def figures(r: dict) -> dict[str, float]:
     cold, warm = r["cold"], r["warm"]
     return {
         "first run, empty cache (s)": _med([c["wall_s"] for c in cold]),
+        "  CPU of it, all processes (s)": _med([c["cpu_s"] for c in cold]),
         "  of which numba compile (s)": _med([c["compile_s"] for c in cold]),
+        "  numba compile CPU, the command's process (s)": _med([c["compile_cpu_s"] for c in cold]),
         "  of which imports of ringqa.cli (s)": _med([c["cli_import_s"] for c in cold]),
         "  rest: input, simulation, dose, report (s)": _med(
             [c["in_process_s"] - c["compile_s"] - c["cli_import_s"] for c in cold]
         ),
         "kernels compiled on the first run": _med([c["n_compiled"] for c in cold]),
         "warm run (s)": _med([c["wall_s"] for c in warm]),
+        "  CPU of it (s)": _med([c["cpu_s"] for c in warm]),
         "kernels compiled on the warm run": _med([c["n_compiled"] for c in warm]),
         "import ringqa.cli (s)": _med(r["imp_cli"]),
         "import ringqa.pipeline (s)": _med(r["imp_pipe"]),
@@ -184,12 +197,12 @@ def main(argv=None) -> int:
         c["noticed"] for c in res["after"]["warm"]
     )
     print()
-    print(f"{'figure (medians; wall times measured under load)':46s} {'before':>9s} "
+    print(f"{'figure (medians; wall times measured under load)':50s} {'before':>9s} "
           f"{'after':>9s} {'ratio':>7s}")  # fmt: skip
     for key, val in after.items():
         b = before[key] if before else float("nan")
         ratio = val / b if before and b else float("nan")
-        print(f"{key:46s} {b:9.2f} {val:9.2f} {ratio:7.2f}")
+        print(f"{key:50s} {b:9.2f} {val:9.2f} {ratio:7.2f}")
     print(f"compile notice on the first run only: {notice}")
     return 0
 

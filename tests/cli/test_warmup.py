@@ -63,3 +63,35 @@ def test_warmup_command(capsys):
     assert main(["warmup"]) == 0
     out = capsys.readouterr().out
     assert "flexitron, microselectron cables" in out
+
+
+def test_precompile_leaves_match_the_kernels():
+    """Every leaf the compile helper compiles exists and its signature has one type per
+    parameter of the kernel (a kernel that gains or loses a parameter must update LEAVES, or the
+    helper would compile a signature no run asks for); codes map to C-contiguous arrays."""
+    import inspect
+
+    from numba import types
+
+    from ringqa.cli._precompile import LEAVES, leaf, numba_types
+
+    for module, name, codes in LEAVES:
+        fn = leaf(module, name).py_func
+        assert len(inspect.signature(fn).parameters) == len(codes), name
+    assert numba_types(("f2", "i1", "b1")) == (
+        types.float64[:, ::1],
+        types.int64[::1],
+        types.boolean,
+    )
+
+
+def test_no_helper_on_a_warm_cache(monkeypatch):
+    """The helper starts only on an empty cache: with Newton's cache index present (this test
+    session has run the engine) or RINGQA_NO_PRECOMPILE set, start_helper starts nothing."""
+    from ringqa.cli._precompile import start_helper
+    from ringqa.simulation.engine import warm_up
+
+    warm_up()
+    assert start_helper() is None
+    monkeypatch.setenv("RINGQA_NO_PRECOMPILE", "1")
+    assert start_helper() is None
