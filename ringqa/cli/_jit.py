@@ -17,8 +17,9 @@ import time
 from contextlib import contextmanager
 from typing import TextIO
 
-#: a rough figure for the first-run notice (s): the example's kernels on 2 cores (docs/speed.md)
-COMPILE_ESTIMATE_S = 30
+#: a rough figure for the first-run notice (s): the example's kernels on 2 cores with the compile
+#: helper, about 10 s CPU in each process (docs/speed.md)
+COMPILE_ESTIMATE_S = 20
 
 #: kernel module prefix -> the group named in the progress line
 GROUPS = (
