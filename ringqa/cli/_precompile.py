@@ -4,13 +4,13 @@ numba compiles one function at a time per process. On an empty cache ``ringqa co
 compiles the geometry kernels, then Newton (whose assembler compiles every effect's kernel inside
 it), then the predictor and the output kernels, one after the other (docs/speed.md). The effects'
 kernels take array and scalar arguments only, so their signatures are known before any run: a
-helper process compiles them into numba's disk cache (first the TG-43 kernel, which a commission
-needs last, then :data:`LEAVES`, in the REVERSE of the order the command asks for them) while
-the command compiles the geometry kernels and then Newton from the first effect on. When the
-command's Newton reaches a kernel the helper has finished, numba loads it from the cache instead
-of compiling it; the two meet somewhere in the list, so on two cores the leaves cost about half
-their serial time. Answers do not change: the same kernels with the same signatures, compiled
-the same way (``benchmarks/compare_dwells.py``).
+helper process compiles them into numba's disk cache (:data:`LEAVES`, in the REVERSE of the order
+the command asks for them, then the TG-43 kernel, which a commission needs only after its
+simulations) while the command compiles the geometry kernels and then Newton from the first
+effect on. When the command's Newton reaches a kernel the helper has finished, numba loads it
+from the cache instead of compiling it; the two meet somewhere in the list, so on two cores the
+leaves cost about half their serial time. Answers do not change: the same kernels with the same
+signatures, compiled the same way (``benchmarks/compare_dwells.py``).
 
 The helper starts only when Newton's cache index does not exist (an empty or dropped cache), is
 silent, and is ended when the command ends. ``python -m ringqa.cli._precompile`` runs it.
@@ -86,12 +86,8 @@ def compile_dose() -> None:
 
 
 def compile_leaves() -> int:
-    """Compile (or load) the TG-43 kernel, then every leaf kernel; the number of leaves compiled
-    without error."""
-    try:
-        compile_dose()
-    except Exception:  # the command compiles it itself
-        pass
+    """Compile (or load) every leaf kernel, then the TG-43 kernel (a commission needs it last,
+    after its simulations); the number of leaves compiled without error."""
     done = 0
     for module, name, codes in LEAVES:
         try:
@@ -99,6 +95,10 @@ def compile_leaves() -> int:
             done += 1
         except Exception:  # a stale signature only costs time: the command compiles it itself
             continue
+    try:
+        compile_dose()
+    except Exception:  # the command compiles it itself
+        pass
     return done
 
 
