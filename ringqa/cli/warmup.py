@@ -1,6 +1,6 @@
 """``ringqa warmup``: compile the numerical kernels ``ringqa commission`` runs, once, with progress.
 
-    ringqa warmup            # what commission uses (about half a minute on 2 cores)
+    ringqa warmup            # what commission uses (about 15 s on 2 cores, empty cache)
     ringqa warmup --all      # also the engine's other effects (torsion, gravity, wall damping,
                              # the dynamic solver): what `ringqa simulate` scenes may switch on
 
