@@ -12,6 +12,7 @@ traceback (exit status 1).
 from __future__ import annotations
 
 import argparse
+import contextlib
 import errno
 import importlib
 import logging
@@ -33,7 +34,11 @@ COMMANDS: dict[str, str] = {
     "needle": "ringqa.cli.needle",
     "config": "ringqa.cli.config",
     "sweep": "ringqa.cli.sweep",
+    "warmup": "ringqa.cli.warmup",
 }
+
+#: commands that run numba kernels: while one compiles, stderr says so (ringqa/cli/_jit.py)
+JIT_COMMANDS = frozenset({"tg43-demo", "simulate", "accuracy", "commission", "needle", "warmup"})
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -61,6 +66,35 @@ def build_parser() -> argparse.ArgumentParser:
     for module_name in COMMANDS.values():
         importlib.import_module(module_name).add_parser(sub)
     return parser
+
+
+#: commands that run the simulation engine: on an empty numba cache a helper process compiles
+#: the engine's leaf kernels beside them (ringqa/cli/_precompile.py)
+ENGINE_COMMANDS = frozenset({"simulate", "accuracy", "commission", "warmup"})
+
+
+@contextlib.contextmanager
+def _jit_notice(command: str):
+    """The compile notice and, on an empty cache, the compile helper, for a command that runs
+    numba kernels (nothing for the others)."""
+    if command not in JIT_COMMANDS:
+        yield
+        return
+    from ringqa.cli._jit import compile_notice
+
+    helper = None
+    if command in ENGINE_COMMANDS:
+        from ringqa.cli._precompile import start_helper
+
+        helper = start_helper()
+    try:
+        with compile_notice(helper=helper is not None):
+            yield
+    finally:
+        if helper is not None:
+            from ringqa.cli._precompile import stop_helper
+
+            stop_helper(helper)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -129,7 +163,7 @@ def configure_logging(verbose: int, log_file: Path | None) -> list[logging.Handl
 def _run(args: argparse.Namespace) -> int:
     """Run the chosen sub-command; errors the user can fix -> one line, exit 2."""
     try:
-        with running_command(args.command):
+        with running_command(args.command), _jit_notice(args.command):
             return int(args.func(args) or 0)
     except RingQAError as exc:
         print(f"ringqa {args.command}: error: {exc}", file=sys.stderr)

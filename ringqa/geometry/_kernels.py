@@ -424,9 +424,12 @@ def frames_at(knots, coef, s_tab, nor_tab, s_arr):
     nor = np.empty((k, 3))
     for i in range(k):
         p, t, n = frame_at(knots, coef, s_tab, nor_tab, s_arr[i])
-        pos[i] = p
-        tan[i] = t
-        nor[i] = n
+        # element copies, not ``pos[i] = p``: an array slice assignment compiles numba's
+        # shape-mismatch error formatting (strings), ~3 s of a cold start (docs/speed.md)
+        for c in range(3):
+            pos[i, c] = p[c]
+            tan[i, c] = t[c]
+            nor[i, c] = n[c]
     return pos, tan, nor
 
 

@@ -189,7 +189,8 @@ def newton(effects, q, st, sw, n_free, tol_abs, max_iter, max_step, r, B, energi
         if flip:
             for i in range(n_free):
                 rhs[i] = -rhs[i]
-        q0[:] = q
+        for i in range(q.shape[0]):  # element copies: an array slice assignment compiles
+            q0[i] = q[i]  # numba's shape-mismatch error formatting (~3 s of cold start)
         lam = scale
         for _ls in range(9):
             update_chain(q0, rhs, lam, nd, n_nodes, n_free, q)
@@ -204,7 +205,8 @@ def newton(effects, q, st, sw, n_free, tol_abs, max_iter, max_step, r, B, energi
             counters[3] += 1
         # the last trial's residual is that of the new q: reuse it (its Jacobian is built at
         # the top of the next iteration if Newton goes on: not after the converging step)
-        r[:] = r_try
+        for i in range(r.shape[0]):
+            r[i] = r_try[i]
         fresh = True
         need_jac = True
         if mx * lam < 1e-15:

@@ -1,0 +1,97 @@
+"""The compile notice (ringqa/cli/_jit.py) and ``ringqa warmup``."""
+
+from __future__ import annotations
+
+import io
+
+from numba import njit
+
+from ringqa.cli import main
+from ringqa.cli._jit import compile_notice, kernel_label
+
+
+def test_notice_printed_on_a_compile_and_silent_when_compiled():
+    """A kernel compiled inside the block: the notice and one progress line naming it; the same
+    kernel called again (compiled: what a warm cache looks like to numba's compile event): no
+    output at all."""
+
+    @njit(cache=False)
+    def twice(x):
+        return 2.0 * x
+
+    out = io.StringIO()
+    with compile_notice(out) as lis:
+        assert twice(1.5) == 3.0
+    text = out.getvalue()
+    assert "compiling the numerical kernels once" in text
+    assert "later runs" in text
+    assert [label for label, _ in lis.compiled] == [f"{__name__}: twice"]
+    assert text.count("compiled ") == 1
+
+    out2 = io.StringIO()
+    with compile_notice(out2) as lis2:
+        assert twice(2.5) == 5.0
+    assert out2.getvalue() == ""
+    assert lis2.compiled == []
+
+
+def test_kernel_label_names_the_effects_of_newton():
+    """Newton's specialisation is named by the effects in its args tuple (each once, in order),
+    other kernels by group and function."""
+
+    class Disp:
+        def __init__(self, fn):
+            self.py_func = fn
+
+    def newton():  # stands in for ringqa.simulation.solvers.newton.newton
+        pass
+
+    newton.__module__ = "ringqa.simulation.solvers.newton"
+    args = "(Tuple((AxialArgs(array), ContactArgs(ChannelArgs(float64)), TetherArgs(f))), q)"
+    assert kernel_label(Disp(newton), args) == "simulation: newton (axial, contact, tether)"
+
+    def rows():
+        pass
+
+    rows.__module__ = "tg43._kernels"
+    assert kernel_label(Disp(rows), "(int64,)") == "TG-43 dose: rows"
+
+
+def test_warmup_command(capsys):
+    """``ringqa warmup`` runs the commissioning scene of both cable presets commission picks
+    (Flexitron, microSelectron) and says so on stdout."""
+    assert main(["warmup"]) == 0
+    out = capsys.readouterr().out
+    assert "flexitron, microselectron cables" in out
+
+
+def test_precompile_leaves_match_the_kernels():
+    """Every leaf the compile helper compiles exists and its signature has one type per
+    parameter of the kernel (a kernel that gains or loses a parameter must update LEAVES, or the
+    helper would compile a signature no run asks for); codes map to C-contiguous arrays."""
+    import inspect
+
+    from numba import types
+
+    from ringqa.cli._precompile import LEAVES, leaf, numba_types
+
+    for module, name, codes in LEAVES:
+        fn = leaf(module, name).py_func
+        assert len(inspect.signature(fn).parameters) == len(codes), name
+    assert numba_types(("f2", "i1", "b1")) == (
+        types.float64[:, ::1],
+        types.int64[::1],
+        types.boolean,
+    )
+
+
+def test_no_helper_on_a_warm_cache(monkeypatch):
+    """The helper starts only on an empty cache: with Newton's cache index present (this test
+    session has run the engine) or RINGQA_NO_PRECOMPILE set, start_helper starts nothing."""
+    from ringqa.cli._precompile import start_helper
+    from ringqa.simulation.engine import warm_up
+
+    warm_up()
+    assert start_helper() is None
+    monkeypatch.setenv("RINGQA_NO_PRECOMPILE", "1")
+    assert start_helper() is None
