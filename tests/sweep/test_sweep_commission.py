@@ -18,9 +18,7 @@ def test_commission_with_uncertainty_writes_figure_and_intervals(tmp_path, capsy
     dwell of dwells.csv present) are written next to dwells.csv, and the report's last page is
     the uncertainty page."""
     out = tmp_path / "out"
-    code = main(
-        ["commission", "ring26x60", "--out", str(out), "--quiet", "--uncertainty", "2"]
-    )
+    code = main(["commission", "ring26x60", "--out", str(out), "--quiet", "--uncertainty", "2"])
     assert code == 0, capsys.readouterr().err
     csv = pd.read_csv(out / "uncertainty.csv")
     assert tuple(csv.columns) == SUMMARY_COLUMNS
