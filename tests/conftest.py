@@ -57,3 +57,10 @@ def no_user_config(monkeypatch):
     """No test reads the developer's own clinic configuration (``RINGQA_CONFIG`` empty: none);
     tests of the user configuration set the variable themselves."""
     monkeypatch.setenv("RINGQA_CONFIG", "")
+
+
+@pytest.fixture(autouse=True)
+def no_compile_notice(monkeypatch):
+    """The commands' stderr holds only what they say, cold numba cache or warm (the notice and
+    the compile helper have their own tests: tests/cli/test_warmup.py)."""
+    monkeypatch.setenv("RINGQA_COMPILE_NOTICE", "0")

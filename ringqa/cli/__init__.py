@@ -16,6 +16,7 @@ import contextlib
 import errno
 import importlib
 import logging
+import os
 import signal
 import sys
 from pathlib import Path
@@ -76,8 +77,9 @@ ENGINE_COMMANDS = frozenset({"simulate", "accuracy", "commission", "warmup"})
 @contextlib.contextmanager
 def _jit_notice(command: str):
     """The compile notice and, on an empty cache, the compile helper, for a command that runs
-    numba kernels (nothing for the others)."""
-    if command not in JIT_COMMANDS:
+    numba kernels (nothing for the others; ``RINGQA_COMPILE_NOTICE=0`` turns both off, e.g. for
+    a test that reads the command's own stderr lines on a cold cache)."""
+    if command not in JIT_COMMANDS or os.environ.get("RINGQA_COMPILE_NOTICE", "1") == "0":
         yield
         return
     from ringqa.cli._jit import compile_notice
