@@ -906,10 +906,29 @@ def _two_up(rows: list[tuple[str, str]]) -> list[list[str]]:
     return [[a, b, c, d] for (a, b), (c, d) in zip(left, right, strict=True)]
 
 
+def origin_rows(res) -> list[list[str]]:
+    """Where each configurable setting came from (``result.settings_origin``: configuration
+    key -> ``default``, ``user config <path>``, ``--config <path>`` or ``command line``): the
+    changed ones by key, the defaults counted in one row."""
+    origin = dict(getattr(res, "settings_origin", {}) or {})
+    changed = [[k, v] for k, v in sorted(origin.items()) if v != "default"]
+    n_default = sum(1 for v in origin.values() if v == "default")
+    if n_default:
+        changed.append([f"{n_default} other settings", "default"])
+    return changed
+
+
 def settings_flowables(res) -> list:
-    """The effective settings of the run and the scene."""
+    """The effective settings of the run, where each came from, and the scene."""
     run, scene = settings_rows(res)
     w = layout.FRAME_WIDTH
+    origins = origin_rows(res)
+    origin_part = []
+    if origins:
+        origin_part = [
+            heading("Where the settings came from (ringqa config show)", 1),
+            grid_table([["setting", "from"], *origins], [0.36 * w, 0.64 * w], align="LEFT"),
+        ]
     return [
         heading("Settings of this run (effective values)", 1),
         grid_table(
@@ -918,6 +937,7 @@ def settings_flowables(res) -> list:
             style="cell",
             align="LEFT",
         ),
+        *origin_part,
         heading("Scene (simulation settings, user units)", 1),
         grid_table(
             [["setting", "value", "setting", "value"], *_two_up(scene)],

@@ -272,6 +272,31 @@ def test_keys_table_in_docs(repo_root):
     assert config_keys_table() in text
 
 
+def test_every_key_shows_in_the_report(fake_inputs, write_config, tmp_path):
+    """``ringqa commission --config site.toml`` with every key changed, PDF written: the report's
+    text carries each report field, the changed tolerances, dose-point offsets, plan and
+    simulation values on the settings page, and the file as the origin of each key."""
+    from tests.report.conftest import pdf_pages_text
+
+    path = write_config(_toml(dict(CHANGED)))
+    out = tmp_path / "out"
+    code = main(["commission", "fakeA", "--config", str(path), "--out", str(out), "--quiet"])
+    assert code == 0
+    text = " ".join(pdf_pages_text(out / "report.pdf"))
+    flat = " ".join(text.split())
+    for key, value in CHANGED.items():
+        if key.startswith("report."):
+            assert value in flat, key
+    for row in ("position_limits_mm 0.5, 3.0", "dose_action_pct 3.0", "prescription_gy 6.0",
+                "plan_step_mm 10.0", "tandem_dwells 3", "dose_points.point_a_height_mm 25.0",
+                "dose_points.point_a_lateral_mm 21.0", "dose_points.surface_offset_mm 6.0",
+                "dose_points.depth_mm 4.0", "source flexisource", "sk_U 30000.0",
+                "cable microselectron", "register rigid", "stem_mm -"):  # fmt: skip
+        assert row in flat, row
+    for key in CHANGED:
+        assert f"{key} --config {path}" in flat, key
+
+
 def test_report_fields_reach_the_report_writer(fake_inputs, write_config, tmp_path, monkeypatch):
     """[report] of the configuration is handed to the PDF writer as ReportFields (the writer is
     replaced by a recorder: the layout is another part's)."""
