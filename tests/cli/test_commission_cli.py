@@ -215,3 +215,32 @@ def test_user_folder_with_measured_path(tmp_path):
     np.testing.assert_allclose(cl["dist_to_measured_mm"], 0.5, atol=0.01)
     np.testing.assert_allclose(cl["radial_mm"], -0.5, atol=0.01)
     assert json.loads((out / "results.json").read_text())["reference"] == "measured"
+
+
+@pytest.mark.slow
+def test_batch_of_two_plans_of_the_same_model_keeps_both(tmp_path, repo_root, capsys):
+    """Two copies of the example RT Plan (the same applicator model, same name) in one batch:
+    two subfolders (the name, then the name with "-2"), each with its report and ringqa's marker,
+    and two rows in summary.csv (coarse settings: only the folders and rows are checked)."""
+    import shutil
+
+    plan = repo_root / EXAMPLE
+    a, b = tmp_path / "RP_a.dcm", tmp_path / "RP_b.dcm"
+    shutil.copy(plan, a)
+    shutil.copy(plan, b)
+    out = tmp_path / "out"
+    fast = [
+        "--set",
+        "solver.increment_mm=1.0",
+        "--set",
+        "discretisation.element_length_mm.cable=3.0",
+    ]
+    code = main(["commission", str(a), str(b), "--out", str(out), "--quiet", *fast])
+    assert code == 0, capsys.readouterr().err
+    summary = pd.read_csv(out / "summary.csv")
+    assert len(summary) == 2
+    folders = sorted(p for p in out.iterdir() if p.is_dir())
+    assert len(folders) == 2 and folders[1].name == folders[0].name + "-2"
+    for f in folders:
+        assert (f / "report.pdf").stat().st_size > 10_000
+        assert (f / ".ringqa-output.json").exists()
