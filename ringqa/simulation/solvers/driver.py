@@ -340,4 +340,11 @@ def _progress_bar(scene, schedule, u_start: float):
         abs(b - a)
         for a, b in zip([u_start] + [p[0] for p in path[:-1]], [p[0] for p in path], strict=True)
     )
-    return tqdm(total=round(total * 1e3, 3), unit="mm", desc=scene.name or "simulate")
+    return tqdm(
+        total=round(total * 1e3, 3),
+        unit="mm",
+        desc=scene.name or "simulate",
+        # the advance is a float: print it in mm to 0.1 (not 77.24000000000001/146.44)
+        bar_format="{desc}: {percentage:3.0f}%|{bar}| {n:.1f}/{total:.1f} mm "
+        "[{elapsed}<{remaining}]",
+    )
