@@ -28,6 +28,7 @@ output in DIR completely; a DIR holding other files is refused before any work).
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import sys
 from pathlib import Path
 
@@ -62,6 +63,14 @@ def add_parser(subparsers) -> None:
         help="clinic configuration (TOML: tolerances, plan, dose points, cable, report fields; "
         "see docs/config.md); command-line options override it. 'ringqa config show' prints "
         "the settings in force",
+    )
+    p.add_argument(
+        "--label",
+        action="append",
+        metavar="LABEL",
+        help="a label for each input, in order (e.g. the applicator's serial number; repeat "
+        "for several inputs): printed on its report and, in a batch, the name of its folder "
+        "(default: the applicator's name; a repeated name gets -2, -3 ...)",
     )
     p.add_argument(
         "--example",
@@ -281,6 +290,7 @@ def print_warnings(res, prefix: str = "") -> None:
 def run(args: argparse.Namespace) -> int:
     from ringqa.outdir import check_writable
     from ringqa.pipeline import commission, commission_batch
+    from ringqa.pipeline.batch import check_labels
     from ringqa.report import write_batch, write_report
 
     config = effective(args)
@@ -304,7 +314,11 @@ def run(args: argparse.Namespace) -> int:
         if not single:
             raise RingQAError("--sweep/--uncertainty: give one applicator (a sweep is per input)")
         sweep_spec = _sweep_spec(args, items[0])  # checked before the simulations
+    labels = args.label
+    check_labels(labels, len(items))
     if single:
+        if labels:
+            fields = dataclasses.replace(fields, label=labels[0])
         res = commission(items[0], settings, progress=not args.quiet)
         sections, extra = (), None
         if sweep_spec is not None:
@@ -320,7 +334,7 @@ def run(args: argparse.Namespace) -> int:
             f"-> {args.out}"
         )
         return 0
-    batch = commission_batch(items, settings, progress=not args.quiet)
+    batch = commission_batch(items, settings, progress=not args.quiet, labels=labels)
     write_batch(
         batch, args.out, pdf=not args.no_pdf, progress=not args.quiet, fields=fields,
         export=args.export,

@@ -3,7 +3,7 @@ stop the others."""
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -66,6 +66,7 @@ def commission_batch(
     *,
     engine: Engine | None = None,
     progress: bool = True,
+    labels: Sequence[str] | None = None,
 ) -> BatchResult:
     """Run :func:`commission` on each input; collect results and failures.
 
@@ -79,6 +80,10 @@ def commission_batch(
         The simulation engine (default: ringqa's).
     progress : bool
         Show a tqdm progress bar over the applicators on stderr.
+    labels : sequence of str, optional
+        One label per input (e.g. the applicator's serial number): its output folder's name
+        and its ``folder`` in summary.csv; default: the applicator's name. Repeated labels
+        get ``-2``, ``-3``... (never two inputs in one folder).
 
     Returns
     -------
@@ -88,14 +93,15 @@ def commission_batch(
     from tqdm import tqdm
 
     items = list(inputs)
+    check_labels(labels, len(items))
     results: list[CommissioningResult] = []
     failures: list[tuple[str, str]] = []
     rows = []
-    labels: list[str] = []
+    folders: list[str] = []
     taken: set[str] = set()
     bar = tqdm(items, desc="commission", unit="applicator", disable=not progress)
-    for item in bar:
-        label = _label(item)
+    for k, item in enumerate(bar):
+        label = _label(item) if labels is None else str(labels[k])
         bar.set_postfix_str(label)
         try:
             res = commission(item, settings, engine=engine)
@@ -107,9 +113,18 @@ def commission_batch(
             rows.append({"applicator": label, "verdict": "ERROR", "error": reason})
             continue
         results.append(res)
-        labels.append(unique_label(res.applicator, taken))
-        rows.append({**res.summary.as_row(), "error": "", "folder": labels[-1]})
-    return BatchResult(tuple(results), tuple(failures), pd.DataFrame(rows), tuple(labels))
+        folders.append(unique_label(res.applicator if labels is None else label, taken))
+        rows.append({**res.summary.as_row(), "error": "", "folder": folders[-1]})
+    return BatchResult(tuple(results), tuple(failures), pd.DataFrame(rows), tuple(folders))
+
+
+def check_labels(labels: Sequence[str] | None, n_inputs: int) -> None:
+    """Refuse labels (``--label``) that are not one per input (RingQAError)."""
+    if labels is not None and len(labels) != n_inputs:
+        raise RingQAError(
+            f"--label: {len(labels)} label(s) for {n_inputs} input(s); give one --label per "
+            "input, in the order of the inputs"
+        )
 
 
 def unique_label(name: str, taken: set[str]) -> str:

@@ -12,6 +12,7 @@ Public API::
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
@@ -147,7 +148,8 @@ def write_batch(
                  total=len(batch.results))
         ):  # fmt: skip
             sub = stage / batch.label(i)
-            _write_one(res, sub, pdf, None, fields, exp, sections)
+            own = dataclasses.replace(fields or ReportFields(), label=batch.label(i))
+            _write_one(res, sub, pdf, None, own, exp, sections)
             # each applicator's folder is recognisably ringqa's own (copied out on its own, it
             # is replaced whole by a later run like any output folder)
             write_json(sub / MARKER_NAME, marker_record(), indent=2, end="\n")

@@ -244,3 +244,35 @@ def test_batch_of_two_plans_of_the_same_model_keeps_both(tmp_path, repo_root, ca
     for f in folders:
         assert (f / "report.pdf").stat().st_size > 10_000
         assert (f / ".ringqa-output.json").exists()
+
+
+def test_labels_name_the_batch_folders_and_the_reports(fake_world, tmp_path):
+    """``--label SN-1 --label SN-1`` on two inputs: folders SN-1 and SN-1-2 (a repeated label
+    never shares a folder), summary.csv's ``folder`` column and each report's "Label" field
+    say which is which."""
+    from tests.report.conftest import pdf_pages_text
+
+    out = tmp_path / "out"
+    argv = ["commission", "fake26", "fake26", "--out", str(out), "--quiet",
+            "--label", "SN-1", "--label", "SN-1"]  # fmt: skip
+    assert main(argv) == 0
+    assert sorted(p.name for p in out.iterdir() if p.is_dir()) == ["SN-1", "SN-1-2"]
+    assert list(pd.read_csv(out / "summary.csv")["folder"]) == ["SN-1", "SN-1-2"]
+    first_page = pdf_pages_text(out / "SN-1-2" / "report.pdf")[0]
+    assert "Label SN-1-2" in " ".join(first_page.split())
+
+
+def test_label_on_a_single_run_is_printed(fake_world, tmp_path):
+    from tests.report.conftest import pdf_pages_text
+
+    out = tmp_path / "out"
+    assert main(["commission", "fake26", "--out", str(out), "--quiet", "--label", "SN 4711"]) == 0
+    assert "Label SN 4711" in " ".join(pdf_pages_text(out / "report.pdf")[0].split())
+
+
+def test_labels_must_be_one_per_input(fake_world, tmp_path, capsys):
+    out = tmp_path / "out"
+    assert main(["commission", "fake26", "fake26", "--out", str(out), "--label", "A"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "1 label(s) for 2 input(s)" in err
+    assert not out.exists()
