@@ -313,7 +313,7 @@ def run(args: argparse.Namespace) -> int:
     if args.sweep is not None or args.uncertainty is not None:
         if not single:
             raise RingQAError("--sweep/--uncertainty: give one applicator (a sweep is per input)")
-        sweep_spec = _sweep_spec(args, items[0])  # checked before the simulations
+        sweep_spec = sweep_spec_for(args, items[0], settings)  # checked before the simulations
     labels = args.label
     check_labels(labels, len(items))
     if single:
@@ -350,8 +350,15 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _sweep_spec(args, item):
-    """The sweep spec of --sweep / --uncertainty N, its input set to the commissioned one."""
+#: the commissioning settings a --sweep / --uncertainty run takes over from the command (so
+#: the uncertainty page judges the same comparison as the report's verdicts)
+SWEEP_SETTINGS = ("register", "cable", "source", "prescription_gy", "dose_action_pct", "stem_mm")
+
+
+def sweep_spec_for(args, item, settings=None):
+    """The sweep spec of --sweep / --uncertainty N, its input set to the commissioned one and
+    its commissioning settings (registration, cable, source, prescription, action level, stem)
+    to the command's: the samples vary only the spec's parameters."""
     from ringqa.paths import data_dir
     from ringqa.sweep import load_spec
 
@@ -361,13 +368,20 @@ def _sweep_spec(args, item):
     sets = {"input": str(Path(item).resolve()) if Path(item).exists() else str(item)}
     if args.uncertainty is not None:
         sets["samples"] = args.uncertainty
+    for name in SWEEP_SETTINGS if settings is not None else ():
+        value = getattr(settings, name, None)
+        if value is not None and (name != "source" or isinstance(value, str)):
+            sets[f"settings.{name}"] = value
+    if settings is not None and settings.sk_U is not None:
+        sets["settings.sk_u"] = settings.sk_U
     return load_spec(path, sets)
 
 
 def _run_uncertainty(spec, args) -> tuple[tuple, dict[str, bytes]]:
     """Run the sweep in a temporary folder; return the report's uncertainty page (a section)
-    and the files it adds to the output folder (``uncertainty.png``, and ``uncertainty.csv``:
-    the sweep's summary.csv), written with the report in one staged folder."""
+    and the files it adds to the output folder (``uncertainty.png``; ``uncertainty.csv``: the
+    sweep's summary.csv; ``uncertainty_sweep.json``: its sweep.json), written with the report in
+    one staged folder."""
     import tempfile
 
     from ringqa.report.uncertainty import uncertainty_section
@@ -377,10 +391,15 @@ def _run_uncertainty(spec, args) -> tuple[tuple, dict[str, bytes]]:
         res = run_sweep(spec, Path(tmp) / "sweep", progress=not args.quiet)
         png = (res.out / "uncertainty.png").read_bytes()
         csv = (res.out / "summary.csv").read_bytes()
+        record = (res.out / "sweep.json").read_bytes()
     r = res.record
     print(
         f"ringqa commission: uncertainty sweep {r['n_ok']} of {r['n_runs']} samples ok "
         "(report page 'Uncertainty', uncertainty.png, uncertainty.csv)"
     )
     section = uncertainty_section(res.summary, png, r)
-    return (section,), {"uncertainty.png": png, "uncertainty.csv": csv}
+    return (section,), {
+        "uncertainty.png": png,
+        "uncertainty.csv": csv,
+        "uncertainty_sweep.json": record,  # spec, seed, versions, timings, every failure
+    }

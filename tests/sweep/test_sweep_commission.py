@@ -43,3 +43,23 @@ def test_commission_with_a_bad_sweep_spec_writes_nothing(tmp_path, capsys):
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "sd = 0: a standard deviation must be > 0" in err
     assert not out.exists()
+
+
+def test_the_sweep_takes_the_commissioning_settings(tmp_path):
+    """``commission --register plane-height --cable microselectron --uncertainty 4``: the sweep
+    spec (the shipped one, which has no [settings]) gets the command's registration, cable,
+    prescription and action level, so the uncertainty page judges the same comparison as the
+    report's verdicts; its samples and input are the command's."""
+    import argparse
+
+    from ringqa.cli.commission import sweep_spec_for
+    from ringqa.pipeline import CommissionSettings
+
+    settings = CommissionSettings(register="plane-height", cable="microselectron",
+                                  prescription_gy=6.5, dose_action_pct=4.0)  # fmt: skip
+    args = argparse.Namespace(sweep=None, uncertainty=4)
+    spec = sweep_spec_for(args, "ring26x60", settings)
+    assert spec.samples == 4
+    assert spec.settings["register"] == "plane-height"
+    assert spec.settings["cable"] == "microselectron"
+    assert spec.settings["prescription_gy"] == 6.5 and spec.settings["dose_action_pct"] == 4.0
