@@ -70,7 +70,8 @@ def _pin_title(ax) -> bool:
     more (13 % of the six shipped rings' PDF time, issue 16). Without top ticks and with no
     offset text (checked here with the axis' own locator and formatter, as the draw would) the
     automatic place is the default one (y = 1 in axes coordinates): pinning it there draws the
-    same pixels. Otherwise the title stays automatic.
+    same pixels. Otherwise the title stays automatic. (A figure changed afterwards, e.g. by a
+    notebook's ``ax.set_ylim`` that brings an offset text, keeps the pinned height.)
 
     Returns
     -------
