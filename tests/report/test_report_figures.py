@@ -1,0 +1,86 @@
+"""The report's figures drawn faster without a pixel changing (issue 16).
+
+Axes titles are pinned at their default height (``plots._pin_title``) where matplotlib's
+automatic placing could not move them; drawing then skips a second measurement of the tick
+labels. The figures must be pixel-identical to the automatically placed ones, and a title that an
+offset text ("+1e3", "1e-7") could collide with must stay automatic.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from ringqa.pipeline import plots
+
+FIGURES = ("positions_figure", "deviations_figure", "dose_points_figure")
+
+
+def _pixels(fig) -> np.ndarray:
+    fig.set_dpi(60)  # small and quick; the placing does not depend on the resolution
+    fig.canvas.draw()
+    return np.asarray(fig.canvas.buffer_rgba()).copy()
+
+
+def test_pinned_titles_draw_the_same_pixels(fake_result, monkeypatch):
+    """Each report figure with pinned titles equals, pixel for pixel, the one matplotlib places
+    itself (``_pin_title`` switched off); some titles are pinned (else the test would compare a
+    figure with itself): the positions and dose figures' (mm coordinates, no offset text).
+    The deviations figure's title is on the top one of three axes sharing x (tick labels off,
+    matplotlib's tick position "unknown"): left automatic."""
+    real = plots._pin_title
+    for name in FIGURES:
+        pinned: list[bool] = []
+
+        def spy(ax, pinned=pinned):
+            pinned.append(real(ax))
+            return pinned[-1]
+
+        monkeypatch.setattr(plots, "_pin_title", spy)
+        fast = _pixels(getattr(plots, name)(fake_result))
+        monkeypatch.setattr(plots, "_pin_title", lambda ax: False)
+        auto = _pixels(getattr(plots, name)(fake_result))
+        assert any(pinned) is (name != "deviations_figure"), (name, pinned)
+        assert fast.shape == auto.shape
+        assert np.array_equal(fast, auto), name
+
+
+def _axes_with(y, title="a title long enough to run over the top left corner of the axes"):
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(3, 2))
+    FigureCanvasAgg(fig)
+    ax = fig.add_subplot()
+    ax.plot([0.0, 1.0], y)
+    ax.set_title(title, fontsize=9)
+    return fig, ax
+
+
+@pytest.mark.parametrize(
+    ("y", "pinned"),
+    [
+        ((0.0, 5.0), True),  # plain tick labels: nothing to avoid
+        ((1000.001, 1000.002), False),  # offset text "+1e3" above the axes
+        ((0.0, 1e-7), False),  # order of magnitude "1e-7" above the axes
+    ],
+)
+def test_title_stays_automatic_when_an_offset_text_shows(y, pinned):
+    """Pinned only without offset text; with one, matplotlib still lifts the title above it
+    (the title's lower edge at or above the offset text's upper edge, in pixels)."""
+    fig, ax = _axes_with(y)
+    assert plots._pin_title(ax) is pinned
+    fig.canvas.draw()
+    offset = ax.yaxis.offsetText
+    assert bool(offset.get_text()) is not pinned
+    if not pinned:
+        renderer = fig.canvas.get_renderer()
+        top = offset.get_window_extent(renderer).y1
+        assert ax.title.get_window_extent(renderer).y0 >= top - 0.5
+
+
+def test_top_ticks_keep_the_title_automatic():
+    """Tick labels on top of the axes can push the title up: not pinned."""
+    _fig, ax = _axes_with((0.0, 5.0))
+    ax.xaxis.tick_top()
+    assert plots._pin_title(ax) is False
