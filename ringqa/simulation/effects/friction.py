@@ -124,14 +124,15 @@ def add_friction(p, q, st, sw, r, B, jac):
     v_reg = max(p.v_reg, p.slip_min * st.floor_scale / dt)
     return friction_kernel(
         q, st.q_hist, st.q_start, st.nd, st.kl, sw.link, sw.alpha, sw.ro, sw.p, sw.n, sw.H,
-        sw.F, sw.dF, p.law, p.mu_s, p.mu_k, p.v_brk, v_reg, dt, p.torsion, p.monotone, r, B, jac,
+        sw.F, sw.dF, -p.law if p.monotone else p.law, p.mu_s, p.mu_k, p.v_brk, v_reg, dt,
+        p.torsion, r, B, jac,
     )  # fmt: skip
 
 
 @njit(cache=True)
 def friction_kernel(
     q, q_prev, q_start, nd, kl, samp_link, samp_alpha, samp_ro, samp_p, samp_n, samp_H, samp_F,
-    samp_dF, law, mu_s, mu_k, v_brk, v_reg, dt, torsion, monotone, r, B, jac,
+    samp_dF, law, mu_s, mu_k, v_brk, v_reg, dt, torsion, r, B, jac,
 ):  # fmt: skip
     """Regularised friction at each contact sample: F_t = -F_n mu(|v|) v / |v|.
 
@@ -141,7 +142,13 @@ def friction_kernel(
     DOFs. Jacobian exact except for the rotation of n and t within the step. Returns the
     dissipated work over the step (J, >= 0), taken over the step's actual slip (from
     ``q_start``; with backward Euler that is the slip the velocity comes from).
+
+    ``law`` is 1 (Coulomb) or 2 (Stribeck); negative (-1, -2) the same law with the Jacobian's
+    slope along the slip floored at zero (:attr:`FrictionArgs.monotone`; the signature stays the
+    one ``ringqa warmup`` precompiles).
     """
+    monotone = law < 0
+    law = abs(law)
     work = 0.0
     A = np.empty((3, 3))
     K = np.empty((3, 3))
