@@ -165,7 +165,7 @@ STRESS_47 = {
 @pytest.mark.slow  # ~1-2 s
 def test_backward_stepwise_pauses_with_stribeck_friction():
     """Stress scene 47 (the benchmark's slowest before the change: 37 089 Newton iterations, 480
-    failed attempts; now ~8 300 and ~90). Bounds 16 000 / 250 fail the old solver by 2.3x / 1.9x.
+    failed attempts; now ~8 900 and ~90). Bounds 16 000 / 250 fail the old solver by 2.3x / 1.9x.
     The soft 1e5 N/m wall lets the capsule sink about a third of the 0.17 mm clearance (F / k,
     not a step-size artefact: docs/engine.md)."""
     res = simulate(load_scene(STRESS_47))
