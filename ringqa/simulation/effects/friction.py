@@ -49,8 +49,8 @@ class FrictionArgs(NamedTuple):
     monotone : bool
         Jacobian only: the friction tangent along the slip is floored at zero (the falling
         branch of the Stribeck law, ``d mu / dv < 0``, is given a zero slope). The residual, and
-        so the converged answer, is unchanged. Used for the retry of a dynamic step whose exact-
-        Jacobian attempt failed (:mod:`ringqa.simulation.solvers.stepper`).
+        so the converged answer, is unchanged. Used on the pause steps of dynamic stepwise
+        motion (:mod:`ringqa.simulation.solvers.stepper`).
     """
 
     law: int
