@@ -117,6 +117,12 @@ class Model:
         self._tether = next(i for i, u in enumerate(units) if isinstance(u, Tether))
         self.contact_on = any(isinstance(u, Contact) for u in units)
         self.names = tuple(u.name for u in units)
+        #: the effects with the friction Jacobian's falling branch floored (None: no friction)
+        self.monotone_effects = (
+            self.effects_with(friction=self.unit("friction").monotone_args())
+            if "friction" in self.names and self.dynamic
+            else None
+        )
         self._stored = [i for i, u in enumerate(units) if u.energy == "stored"]
         self._work = {u.name: i for i, u in enumerate(units) if u.energy == "dissipated"}
         # arrays

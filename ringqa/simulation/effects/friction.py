@@ -46,6 +46,11 @@ class FrictionArgs(NamedTuple):
         The chain carries twist DOFs (4 per node): friction loads them.
     active : bool
         False suspends friction (the initial static equilibrium).
+    monotone : bool
+        Jacobian only: the friction tangent along the slip is floored at zero (the falling
+        branch of the Stribeck law, ``d mu / dv < 0``, is given a zero slope). The residual, and
+        so the converged answer, is unchanged. Used on the pause steps of dynamic stepwise
+        motion (:mod:`ringqa.simulation.solvers.stepper`).
     """
 
     law: int
@@ -56,6 +61,7 @@ class FrictionArgs(NamedTuple):
     slip_min: float
     torsion: bool
     active: bool
+    monotone: bool = False
 
 
 @njit(cache=True)
@@ -118,7 +124,8 @@ def add_friction(p, q, st, sw, r, B, jac):
     v_reg = max(p.v_reg, p.slip_min * st.floor_scale / dt)
     return friction_kernel(
         q, st.q_hist, st.q_start, st.nd, st.kl, sw.link, sw.alpha, sw.ro, sw.p, sw.n, sw.H,
-        sw.F, sw.dF, p.law, p.mu_s, p.mu_k, p.v_brk, v_reg, dt, p.torsion, r, B, jac,
+        sw.F, sw.dF, -p.law if p.monotone else p.law, p.mu_s, p.mu_k, p.v_brk, v_reg, dt,
+        p.torsion, r, B, jac,
     )  # fmt: skip
 
 
@@ -135,7 +142,13 @@ def friction_kernel(
     DOFs. Jacobian exact except for the rotation of n and t within the step. Returns the
     dissipated work over the step (J, >= 0), taken over the step's actual slip (from
     ``q_start``; with backward Euler that is the slip the velocity comes from).
+
+    ``law`` is 1 (Coulomb) or 2 (Stribeck); negative (-1, -2) the same law with the Jacobian's
+    slope along the slip floored at zero (:attr:`FrictionArgs.monotone`; the signature stays the
+    one ``ringqa warmup`` precompiles).
     """
+    monotone = law < 0
+    law = abs(law)
     work = 0.0
     A = np.empty((3, 3))
     K = np.empty((3, 3))
@@ -202,6 +215,10 @@ def friction_kernel(
             r[nd * (j + 1) + 3] -= w1 * mt
         if not jac:
             continue
+        if monotone and phi + psi * vm * vm < 0.0:
+            # the law's slope along the slip, d mu / dv = phi + psi v^2, is negative (Stribeck's
+            # falling branch): give the Jacobian a zero slope there instead
+            psi = -phi / (vm * vm)
         # A = F (phi I + psi v v^T) / dt ;  d(-Ft)/dp = A P + phi v (dF n)^T, where
         # P = d(w_t)/dp = I - n n^T - n (H w)^T - (n.w) H  (H = dn/dp, the distance Hessian)
         Hd = samp_H[i]
@@ -301,3 +318,7 @@ class Friction(Effect):
 
     def suspended_args(self) -> FrictionArgs:
         return self.args()._replace(active=False)
+
+    def monotone_args(self) -> FrictionArgs:
+        """The args with the Jacobian's falling-branch slope floored at zero (``monotone``)."""
+        return self.args()._replace(monotone=True)

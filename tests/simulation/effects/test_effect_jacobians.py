@@ -145,3 +145,34 @@ def test_one_assembler_three_uses_agree_bit_for_bit():
     _, B_again = assemble_at(m, m.effects, q, st, jac=True, fresh=False)
     np.testing.assert_array_equal(B_again, B_full)
     np.testing.assert_array_equal(m.energies, e_full)  # a Jacobian-only call leaves them
+
+
+def test_monotone_friction_changes_the_jacobian_only_on_the_falling_branch():
+    """``FrictionArgs.monotone`` (the retry and pause-step Jacobian, solvers/stepper.py) floors
+    the Stribeck law's slope along the slip at zero where ``d mu / dv < 0``: the residual must be
+    the same bit for bit (the converged answer is the same law's), and the Jacobian must change
+    only at contact samples sliding on the falling branch. Slips of ~2 um over a 1 ms step
+    (v ~ 2 mm/s = 2 v_brk, where mu falls from mu_s towards mu_k) put samples there; with
+    Coulomb's monotone tanh the flag may change nothing beyond round-off."""
+    for law, changes in (("stribeck", True), ("coulomb", False)):
+        m = _model(Effects(friction=law), dynamic=True)
+        q, _ = _perturbed(m)  # partly in contact
+        qp = q - np.random.default_rng(3).normal(scale=2e-6, size=q.shape)
+        st = m.step(qp, np.zeros(m.n_all), 1e-3)
+        exact = tuple(u.args() for u in m.units if u.name in ("contact", "friction"))
+        mono = tuple(
+            u.monotone_args() if u.name == "friction" else u.args()
+            for u in m.units
+            if u.name in ("contact", "friction")
+        )
+        s_hint = m.samples.s.copy()  # the closest-point search starts from these hints
+        r0, B0 = assemble_at(m, exact, q, st)
+        assert int(np.sum(m.samples.F > 0)) >= 3
+        m.samples.s[:] = s_hint
+        r1, B1 = assemble_at(m, mono, q, st)
+        assert np.array_equal(r0, r1)
+        change = float(np.max(np.abs(B1 - B0)) / np.max(np.abs(B0)))
+        if changes:
+            assert change > 1e-6
+        else:  # tanh's slope is >= 0: only round-off in saturated samples (~1e-17) is floored
+            assert change < 1e-12
