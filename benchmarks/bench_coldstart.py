@@ -1,8 +1,7 @@
 """Cold start and warm start-up of ``ringqa commission`` on the example, before vs after.
 
-    .venv/bin/python benchmarks/bench_coldstart.py                      # 3 reps, baseline ../main
-    .venv/bin/python benchmarks/bench_coldstart.py --reps 1 --baseline /path/to/old/checkout
-    .venv/bin/python benchmarks/bench_coldstart.py --baseline none     # this checkout only
+    .venv/bin/python benchmarks/bench_coldstart.py                      # 3 reps, this checkout
+    .venv/bin/python benchmarks/bench_coldstart.py --reps 2 --baseline /path/to/old/checkout
 
 Every figure is a fresh process (``subprocess``) with its own ``NUMBA_CACHE_DIR``:
 
@@ -33,6 +32,9 @@ import subprocess
 import sys
 import tempfile
 from pathlib import Path
+
+from _baseline import add_baseline_option
+from _baseline import trees as baseline_trees
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLE = Path("data/examples/oncentra_ring26x60/RP_ring26x60_oncentra43.dcm")
@@ -178,15 +180,9 @@ def figures(r: dict) -> dict[str, float]:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--reps", type=int, default=3)
-    ap.add_argument(
-        "--baseline",
-        default=str(ROOT.parents[1] / "main"),
-        help="checkout measured as 'before' (default /work/main); 'none' to skip",
-    )
+    add_baseline_option(ap)
     args = ap.parse_args(argv)
-    trees = {"after": ROOT}
-    if args.baseline != "none":
-        trees = {"before": Path(args.baseline).resolve(), "after": ROOT}
+    trees = baseline_trees(args.baseline)
     print(f"bench_coldstart: {args.reps} rep(s), {os.cpu_count()} cores; "
           f"trees: {', '.join(f'{k}={v}' for k, v in trees.items())}", flush=True)  # fmt: skip
     res = measure(trees, args.reps)

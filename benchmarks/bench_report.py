@@ -1,7 +1,7 @@
 """CPU time of the PDF reports, before vs after (issue 16: the report speed).
 
-    .venv/bin/python benchmarks/bench_report.py                     # 3 reps, baseline /work/main
-    .venv/bin/python benchmarks/bench_report.py --baseline none     # this checkout only
+    .venv/bin/python benchmarks/bench_report.py                     # 3 reps, this checkout
+    .venv/bin/python benchmarks/bench_report.py --baseline /path/to/old/checkout
 
 For each checkout (this one and ``--baseline``, through ``PYTHONPATH``, interleaved) a fresh
 process commissions the Oncentra example (``--register plane-height``) and the six shipped
@@ -22,6 +22,9 @@ import statistics
 import subprocess
 import sys
 from pathlib import Path
+
+from _baseline import add_baseline_option
+from _baseline import trees as baseline_trees
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -70,15 +73,9 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--reps", type=int, default=3)
     ap.add_argument("--passes", type=int, default=3)
-    ap.add_argument(
-        "--baseline",
-        default=str(ROOT.parents[1] / "main"),
-        help="checkout measured as 'before' (default /work/main); 'none' to skip",
-    )
+    add_baseline_option(ap)
     args = ap.parse_args(argv)
-    trees = {"after": ROOT}
-    if args.baseline != "none":
-        trees = {"before": Path(args.baseline).resolve(), "after": ROOT}
+    trees = baseline_trees(args.baseline)
     recs: dict[str, list[dict]] = {k: [] for k in trees}
     for i in range(args.reps):
         for name, root in trees.items():

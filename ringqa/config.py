@@ -25,6 +25,7 @@ report's fields. A bad file is refused with one line naming the file, the key an
 
 from __future__ import annotations
 
+import dataclasses
 import difflib
 import logging
 import math
@@ -477,14 +478,9 @@ class EffectiveConfig:
 
     def report_fields(self) -> ReportFields:
         """The report's free-text fields (``[report]``)."""
-        v = self.values
+        keys = {f"report.{f.name}": f.name for f in dataclasses.fields(ReportFields)}
         return ReportFields(
-            institution=v["report.institution"],
-            physicist=v["report.physicist"],
-            afterloader=v["report.afterloader"],
-            applicator_serial=v["report.applicator_serial"],
-            source_calibration=v["report.source_calibration"],
-            notes=v["report.notes"],
+            **{name: self.values[k] for k, name in keys.items() if k in self.values}
         )
 
     def show(self) -> str:

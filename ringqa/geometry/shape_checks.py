@@ -140,14 +140,23 @@ def check_channel_shape(channel, where: str) -> None:
         )
 
 
-def capsule_pass_radius_m(capsule_length_m: float, capsule_r_m: float, r_b_m: float) -> float:
-    """The smallest bend radius (m) a rigid capsule passes in a lumen of radius ``r_b_m``:
-    ``L^2 / (16 c)`` with clearance ``c = r_b - a`` (module docstring); ``inf`` without
-    clearance."""
+def capsule_bow_m(capsule_length_m: float, curvature_per_m: float) -> float:
+    """How far a straight rigid capsule of length ``L`` bows across a bend of curvature
+    ``kappa`` (m): the sagitta ``L^2 kappa / 8`` (to first order)."""
+    return capsule_length_m**2 * curvature_per_m / 8.0
+
+
+def capsule_pass_radius_m(
+    capsule_length_m: float, capsule_r_m: float, r_b_m: float, bow_clearances: float = 2.0
+) -> float:
+    """The smallest bend radius (m) a rigid capsule passes in a lumen of radius ``r_b_m``: its
+    bow ``L^2 / (8 R)`` may take ``bow_clearances`` times the clearance ``c = r_b - a`` (2: the
+    whole width left, ``L^2 / (16 c)``, module docstring; the engine refuses only past 2.5);
+    ``inf`` without clearance."""
     c = r_b_m - capsule_r_m
     if c <= 0:
         return math.inf
-    return capsule_length_m**2 / (16.0 * c)
+    return capsule_length_m**2 / (8.0 * bow_clearances * c)
 
 
 def tight_bend_warning(channel, capsule_length_m: float, capsule_r_m: float, where: str) -> str:

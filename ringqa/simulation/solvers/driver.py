@@ -22,6 +22,7 @@ from dataclasses import asdict
 
 import numpy as np
 
+from ringqa.geometry.shape_checks import capsule_bow_m, capsule_pass_radius_m
 from ringqa.provenance import Provenance
 from ringqa.simulation.effects.base import Samples
 from ringqa.simulation.model import Model
@@ -103,8 +104,9 @@ def check_rigid_links_fit(model: Model, advances_m: np.ndarray) -> None:
             continue
         k_max = float(np.max(kap))
         length = float(chain.link_len[j])
-        c = rb_min - float(chain.link_ro[j])
-        bow = length**2 * k_max / 8.0
+        r_o = float(chain.link_ro[j])
+        c = rb_min - r_o
+        bow = capsule_bow_m(length, k_max)
         if bow - 2.0 * c > RIGID_EXCESS_REFUSE * c:
             from ringqa.simulation.scene import SceneError
 
@@ -112,13 +114,13 @@ def check_rigid_links_fit(model: Model, advances_m: np.ndarray) -> None:
             fits = 2.0 + RIGID_EXCESS_REFUSE  # bow <= fits * c passes
             raise SceneError(
                 f"instrument section {name!r} (rigid, {length * 1e3:.1f} mm long, radius "
-                f"{chain.link_ro[j] * 1e3:.3f} mm) cannot pass the channel's tightest bend "
+                f"{r_o * 1e3:.3f} mm) cannot pass the channel's tightest bend "
                 f"(radius {1e3 / k_max:.1f} mm) in a lumen of radius {rb_min * 1e3:.3f} mm: it "
                 f"bows {bow * 1e3:.3f} mm across the channel, which leaves it "
                 f"{2 * c * 1e3:.3f} mm; a lumen of radius >= "
-                f"{(chain.link_ro[j] + bow / fits) * 1e3:.3f} mm or a bend of radius >= "
-                f"{length**2 / (8.0 * fits * c) * 1e3:.1f} mm lets it through (check the lumen "
-                "diameter, the channel and the instrument preset)"
+                f"{(r_o + bow / fits) * 1e3:.3f} mm or a bend of radius >= "
+                f"{capsule_pass_radius_m(length, r_o, rb_min, fits) * 1e3:.1f} mm lets it through "
+                "(check the lumen diameter, the channel and the instrument preset)"
             )
 
 
