@@ -4,7 +4,9 @@ A pause of 50 ms at ``solver.time_step_s`` = 1 ms: the step doubles after every 
 solved without a cut, up to PAUSE_MAX_FACTOR (16) time steps, so an uncut pause is
 1 + 2 + 4 + 8 + 16 = 31 ms and then 19 ms left: 19 < 1.25 x 16 ms, so the last step takes the
 whole remainder (no sliver step) and lands on the pause's end, where the dwell is recorded.
-A cut step shrinks the pause step to the sub-step that worked; a moving step resets it.
+A cut step shrinks the pause step to the sub-step that worked; a moving step resets it, and so
+does a pause step in which a node still moved faster than PAUSE_REST_SPEED_FRACTION (0.2) of
+motion.speed (0.5 m/s here: 0.1 m/s).
 """
 
 from __future__ import annotations
@@ -14,7 +16,12 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from ringqa.simulation.solvers.schedule import PAUSE_MAX_FACTOR, Leg, Schedule
+from ringqa.simulation.solvers.schedule import (
+    PAUSE_MAX_FACTOR,
+    PAUSE_REST_SPEED_FRACTION,
+    Leg,
+    Schedule,
+)
 
 DT = 1e-3
 
@@ -30,10 +37,11 @@ def schedule():
     return Schedule(model, np.array([0.01]), history_free=False)
 
 
-def _pause(schedule, dwell_s, cuts=None):
-    """Walk one pause as the driver does; ``cuts`` maps a step's index to its sub-step count.
-    Returns the steps (s)."""
+def _pause(schedule, dwell_s, cuts=None, speeds=None):
+    """Walk one pause as the driver does; ``cuts`` maps a step's index to its sub-step count,
+    ``speeds`` to its fastest node's speed (m/s; else 0). Returns the steps (s)."""
     cuts = cuts or {}
+    speeds = speeds or {}
     leg = Leg(0, 0.0, [0], 0.0, dwell_s)
     left = dwell_s
     steps = []
@@ -41,7 +49,7 @@ def _pause(schedule, dwell_s, cuts=None):
         du, dt = schedule.next_step(0.0, leg, left)
         assert du == 0.0
         steps.append(dt)
-        schedule.adapt(cuts.get(len(steps) - 1, 1), 12)
+        schedule.adapt(cuts.get(len(steps) - 1, 1), 12, speeds.get(len(steps) - 1, 0.0))
         left -= dt
     return steps
 
@@ -67,3 +75,13 @@ def test_a_cut_shrinks_the_pause_step_and_moving_resets_it(schedule):
     du, dt = schedule.next_step(0.0, moving, 0.0)
     assert du > 0 and dt == pytest.approx(DT)
     assert _pause(schedule, 0.003)[0] == pytest.approx(DT)
+
+
+def test_the_pause_step_grows_only_once_the_cable_has_slowed_down(schedule):
+    # steps 0 and 1 still slide at 0.3 m/s (> 0.1 m/s): 1, 1 ms; then 1, 2, 4 ms ...
+    fast = 1.5 * PAUSE_REST_SPEED_FRACTION * 0.5
+    steps = _pause(schedule, 0.02, speeds={0: fast, 1: fast})
+    assert steps[:5] == pytest.approx([1e-3, 1e-3, 1e-3, 2e-3, 4e-3], abs=1e-15)
+    # a fast step after growth sets the step back to solver.time_step_s
+    steps = _pause(schedule, 0.02, speeds={2: fast})
+    assert steps[:5] == pytest.approx([1e-3, 2e-3, 4e-3, 1e-3, 2e-3], abs=1e-15)
