@@ -82,6 +82,9 @@ def test_the_pause_step_grows_only_once_the_cable_has_slowed_down(schedule):
     fast = 1.5 * PAUSE_REST_SPEED_FRACTION * 0.5
     steps = _pause(schedule, 0.02, speeds={0: fast, 1: fast})
     assert steps[:5] == pytest.approx([1e-3, 1e-3, 1e-3, 2e-3, 4e-3], abs=1e-15)
-    # a fast step after growth sets the step back to solver.time_step_s
+
+
+def test_a_fast_pause_step_sets_the_step_back(schedule):
+    fast = 1.5 * PAUSE_REST_SPEED_FRACTION * 0.5
     steps = _pause(schedule, 0.02, speeds={2: fast})
     assert steps[:5] == pytest.approx([1e-3, 2e-3, 4e-3, 1e-3, 2e-3], abs=1e-15)
