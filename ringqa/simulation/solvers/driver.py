@@ -237,7 +237,7 @@ def run(scene, advances_m: np.ndarray, progress: bool = False) -> SimResult:
             if bar is not None:
                 bar.update(min(round(abs(du) * 1e3, 3), max(bar.total - bar.n, 0.0)))
             recorder.step(q, u, time_s, monitor.push)
-            schedule.adapt(out.sub, out.last_iters)
+            schedule.adapt(out.sub, out.last_iters, out.rest_speed_m_s)
             status, message = monitor.jam(u, du)
         if status != STATUS_SUCCESS:
             break

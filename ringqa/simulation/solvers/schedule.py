@@ -6,6 +6,21 @@ the steps are ``solver.increment_m`` long (a frictionless, undamped scene has no
 increment doubles after easy steps up to ``JUMP_FACTOR`` increments: it "jumps" to the requested
 advances); dynamically they are time steps of ``solver.time_step_s`` on a trapezoidal velocity
 profile (:func:`ramped_step`) with the pauses of stepwise motion simulated.
+
+A simulated pause (the input at rest) needs no input-time resolution: the cable only relaxes
+under friction at rest, once the motion the stop left has died out. Its time step starts at
+``solver.time_step_s`` and doubles after every pause step solved in one piece (without a cut) in
+which no node moved faster than :data:`PAUSE_REST_SPEED_FRACTION` of ``motion.speed``, up to
+:data:`PAUSE_MAX_FACTOR` time steps; a faster step sets it back to ``solver.time_step_s``, a cut
+one shrinks it to the sub-step that worked (issue 18: docs/engine.md, "Dynamic pauses with
+friction"). The rule is not "in few Newton iterations": with friction a pause step takes 10-40
+at every step size (the tanh's stick region is ``v_reg h`` wide); and not "as soon as solved":
+the cable still slides for 5-15 ms after the stop, and coarse steps there moved stress scene 2's
+dwells by up to 0.56 mm. The
+last pause step lands on the pause's end, where the dwell is recorded (a remainder under a
+quarter step is taken with it). BDF2 takes the changing steps with its variable-step weights
+(ratio 2 at most, below its zero-stability limit 1 + sqrt 2); the grown pause steps themselves
+are backward Euler (:mod:`.stepper`).
 """
 
 from __future__ import annotations
@@ -19,6 +34,12 @@ JUMP_FACTOR = 8
 #: dynamic runs: the input accelerates from rest to motion.speed over this time and decelerates
 #: likewise into every stop (a jump to full speed in one time step is an impulse ~ 1/dt)
 MOTION_RAMP_S = 0.01
+#: dynamic pauses: the pause's time step may grow up to this many ``solver.time_step_s``
+PAUSE_MAX_FACTOR = 16
+#: dynamic pauses: the pause's step grows only while no node moved faster than this fraction of
+#: ``motion.speed`` over the last pause step (the cable has nearly stopped: right after the
+#: input stops its nodes still slide at up to 0.3-0.7 of the input speed for 5-15 ms)
+PAUSE_REST_SPEED_FRACTION = 0.2
 
 
 @dataclass(frozen=True)
@@ -67,6 +88,8 @@ class Schedule:
         self.history_free = history_free
         self.inc = model.increment
         self.t_move = 0.0  # time since the input last started from rest (dynamic)
+        self.pause_dt = model.time_step if self.dynamic else 0.0  # next pause step (s)
+        self.in_pause = False  # the last step handed out was a pause step
 
     def legs(self):
         """The waypoints in travel order as :class:`Leg` s."""
@@ -106,17 +129,36 @@ class Schedule:
                 )  # fmt: skip
                 du = float(np.sign(remaining)) * du
                 self.t_move += dt
+                self.in_pause = False
+                self.pause_dt = self.model.time_step
             else:
                 du = 0.0
-                dt = min(self.model.time_step, dwell_left)
+                dt = self.pause_dt
+                if dwell_left < 1.25 * dt:  # land on the pause's end, no sliver step after
+                    dt = dwell_left
+                self.in_pause = True
             return du, dt
         inc = self.inc
         du = min(max(target - u, -inc), inc)  # np.clip without its per-call cost
         return du, abs(du) / self.model.speed
 
-    def adapt(self, sub: int, last_iters: int) -> None:
-        """After an accepted step: grow a history-free run's increment after an easy step,
-        shrink it after a cut one."""
+    def adapt(self, sub: int, last_iters: int, rest_speed_m_s: float = 0.0) -> None:
+        """After an accepted step: grow a history-free run's increment (a dynamic pause's time
+        step) after an easy step, shrink it after a cut one.
+
+        ``rest_speed_m_s``: a pause step's fastest node displacement over its time (m/s;
+        :class:`~ringqa.simulation.solvers.stepper.StepOutcome`).
+        """
+        if self.dynamic:
+            if self.in_pause:
+                base = self.model.time_step
+                if sub > 1:
+                    self.pause_dt = max(base, self.pause_dt / sub)
+                elif rest_speed_m_s > PAUSE_REST_SPEED_FRACTION * self.model.speed:
+                    self.pause_dt = base
+                else:
+                    self.pause_dt = min(2.0 * self.pause_dt, PAUSE_MAX_FACTOR * base)
+            return
         base = self.model.increment
         if self.history_free and sub == 1 and last_iters <= 6:
             self.inc = min(2 * self.inc, JUMP_FACTOR * base)

@@ -21,7 +21,14 @@ iterations per step and failed attempts every few steps):
   and the Newton direction is not a descent direction of |r|^2); the residual is unchanged, so
   the converged answer is the same law's. On for pause steps only (from their first attempt):
   retrying other failed dynamic steps with it converged them to another root of the (then
-  non-unique) implicit step and worsened a BDF2 run's work balance from 0.7 % to 1.05 %.
+  non-unique) implicit step and worsened a BDF2 run's work balance from 0.7 % to 1.05 %;
+- a pause step longer than ``solver.time_step_s`` (the schedule grows the pause's step once the
+  cable has come to rest: :mod:`.schedule`) is taken with backward Euler also in a BDF2 run (the
+  integrator without its history; the history it leaves is the ordinary one, so the next step
+  is BDF2 again). BDF2's two-step history at rest carries the last steps' creep into the step
+  (``v_h = a v_n - b v_{n-1}``): on stress scene 42 (Coulomb, wall damping, 90 ms pauses) the
+  grown BDF2 pause steps were cut 50 times, as backward Euler 29; and the answer moved less
+  against a 4x finer run (docs/engine.md, "Dynamic pauses with friction").
 """
 
 from __future__ import annotations
@@ -64,6 +71,11 @@ class StepOutcome(NamedTuple):
         The step's friction, wall-damping and tether work (J).
     status, res : int, float
         Newton's status and residual (N) of the last sub-step tried.
+    rest_speed_m_s : float
+        A pause step's largest node displacement over the step divided by its time (m/s):
+        how fast the cable still moves with the input at rest (0 for other steps and when
+        not ok; :meth:`ringqa.simulation.solvers.schedule.Schedule.adapt` grows the pause's
+        step only once it is small).
     """
 
     ok: bool
@@ -80,6 +92,7 @@ class StepOutcome(NamedTuple):
     stabilisation_j: float
     status: int
     res: float
+    rest_speed_m_s: float = 0.0
 
 
 class Stepper:
@@ -114,6 +127,7 @@ class Stepper:
         # Jacobian with its falling branch floored (module docstring)
         pause = integ.dynamic and du == 0.0
         monotone = pause and model.monotone_effects is not None
+        be = pause and dt > model.time_step * (1.0 + 1e-9)
         iters_total = 0
         attempts = 0
         while True:
@@ -136,7 +150,8 @@ class Stepper:
                 q_try = q_try.copy() if pause else integ.predictor(q_try, v_try, h)
                 model.predict(q_try, du / sub, u + du * (k + 1) / sub, integ.slides)
                 q_ref = q_try.copy()
-                out = integ.solve(effects, q_try, qp, v_try, h, q_ref, hist_try)
+                # a grown pause step is backward Euler (BDF2 without its history; docstring)
+                out = integ.solve(effects, q_try, qp, v_try, h, q_ref, None if be else hist_try)
                 iters_step += out.iters
                 if out.status != 0:
                     good = False
@@ -152,9 +167,13 @@ class Stepper:
                     stab_step += stab * float(np.sum(dq**2)) / h
             iters_total += iters_step
             if good:
+                speed = 0.0
+                if pause:
+                    dq = (q_try - q_prev).reshape(model.n_nodes, model.nd)[:, :3]
+                    speed = float(np.max(np.abs(dq))) / dt
                 return StepOutcome(
                     True, q_try, v_try, hist_try, iters_total, out.iters, sub, fallback, attempts,
-                    fr_step, damp_step, stab_step, 0, out.res,
+                    fr_step, damp_step, stab_step, 0, out.res, speed,
                 )  # fmt: skip
             if not fallback and not integ.dynamic and stab == 0.0 and sub >= FALLBACK_AFTER:
                 # snap-through / stall: retry the step with the fallback stabilisation
