@@ -158,6 +158,8 @@ class Model:
         self._pred_plain = np.zeros(self.n_all)
         self._pred_du = np.nan
         self._pred_u = np.nan
+        self._pred_hints = np.zeros(self.samples.s.size)
+        self._extrapolated = False
 
     # -- construction helpers ------------------------------------------------------------
     def _chain(self, inst, u_deep: float, approach: float):
@@ -267,6 +269,17 @@ class Model:
             effects, q, st, self.samples, self.n_free, self.tol_abs, self.max_iter,
             self.max_step, self.r, self.B, self.energies, self.counters,
         )  # fmt: skip
+        if out[0] != 0 and self._extrapolated:
+            # the extrapolated start failed: try the plain slide before the step is retried
+            # (with the fallback stabilisation)
+            q[:] = self._pred_plain
+            self.samples.s[:] = self._pred_hints
+            again = self._newton_call(
+                effects, q, st, self.samples, self.n_free, self.tol_abs, self.max_iter,
+                self.max_step, self.r, self.B, self.energies, self.counters,
+            )  # fmt: skip
+            out = (again[0], out[1] + again[1], again[2])
+        self._extrapolated = False
         if out[0] != 0 or out[1] > EXTRAPOLATE_MAX_ITERS:
             self._pred_u = np.nan  # a hard step: the next one starts from the plain slide
         return out
@@ -323,14 +336,17 @@ class Model:
         """In place: slide the free nodes ``du`` along the channel (if ``slide``), put the driven
         nodes at input advance ``u_new``, restore the link lengths (one kernel call).
 
-        Quasi-static load steps without an always-on tether also extrapolate: when this step
+        Quasi-static forward load steps without an always-on tether also extrapolate (retraction
+        reverses the friction and stays with the plain slide): when this step
         continues the previous one (same ``du``, it starts where that one ended)
         :data:`EXTRAPOLATE_FRACTION` of the previous step's Newton correction (its solution minus
         its plain slide prediction) is added and the link lengths restored. A retried or cut step
-        does not continue the previous one: it starts from the plain slide.
+        does not continue the previous one: it starts from the plain slide; so does a solve from an
+        extrapolated start that fails (:meth:`solve` tries the plain slide before it returns).
         """
         ext = (
             slide
+            and du > 0.0
             and self.extrapolate
             and self._pred_du == du
             and abs(self._pred_u + du - u_new) <= 1e-9 * abs(du)
@@ -345,7 +361,9 @@ class Model:
             self._pred_plain[:] = q
             self._pred_du = du
             self._pred_u = u_new
+            self._extrapolated = ext
             if ext:
+                self._pred_hints[:] = self.samples.s
                 q += EXTRAPOLATE_FRACTION * corr
                 K.restore_lengths(q, self.nd, self.n_nodes, self.chain.link_len)
 
