@@ -154,7 +154,7 @@ class Model:
         self.tol_abs = self.tol * max(f_ref, 1e-2)
         self.max_step = 0.5 * self.clearance
         #: load-step predictor: extrapolate the previous step's correction (:meth:`predict`)
-        self.extrapolate = self.stab == 0.0 and not self.dynamic
+        self.extrapolate = EXTRAPOLATE_FRACTION > 0 and self.stab == 0.0 and not self.dynamic
         self._pred_plain = np.zeros(self.n_all)
         self._pred_du = np.nan
         self._pred_u = np.nan

@@ -6,11 +6,12 @@ import numpy as np
 
 import ringqa.simulation.model as model_mod
 from ringqa.simulation import simulate
-from ringqa.simulation.scenefile import load_scene
+from ringqa.simulation.scenefile import load_scene, scene_with_overrides
 
 
 def _runs(monkeypatch, scene):
-    """The scene solved with the plain slide predictor (fraction 0) and as shipped."""
+    """The scene solved with the plain slide predictor (fraction 0: the predictor before the
+    change, bit for bit) and as shipped."""
     monkeypatch.setattr(model_mod, "EXTRAPOLATE_FRACTION", 0.0)
     plain = simulate(scene)
     monkeypatch.undo()
@@ -40,8 +41,9 @@ def test_retraction_keeps_the_plain_slide(monkeypatch):
     episode): backward steps use the plain slide, and the retraction after an insertion that
     did extrapolate ends where the plain predictor's run ends to round-off (the insertion's
     states agree to the Newton tolerance, ~1e-10 m; a bound of 1e-9 m = 1e-6 mm)."""
-    scene = load_scene(
-        "ring13-push100", {"motion.kind": "retract", "motion.step_mm": 5.0, "motion.span_mm": 40.0}
+    scene = scene_with_overrides(
+        load_scene("ring13-push100"),
+        {"motion.kind": "retract", "motion.step_mm": 5.0, "motion.span_mm": 40.0},
     )
     plain, new = _runs(monkeypatch, scene)
     assert plain.status == new.status == 0
