@@ -24,6 +24,7 @@ import numpy as np
 
 from ringqa.geometry.shape_checks import capsule_bow_m, capsule_pass_radius_m
 from ringqa.provenance import Provenance
+from ringqa.simulation._kernels import restore_lengths
 from ringqa.simulation.effects.base import Samples
 from ringqa.simulation.model import Model
 from ringqa.simulation.result import (
@@ -176,6 +177,7 @@ def warm_kernels(model: Model) -> None:
         model.table.args(), sw.s.copy(), model._cum, model.cft, model._node_sample,
     )  # fmt: skip
     max_penetration(sw.z, sw.w)
+    restore_lengths(q.copy(), model.nd, model.n_nodes, model.chain.link_len)  # the extrapolation
     lump_to_nodes(sw.link, sw.alpha, sw.F, np.zeros(model.n_nodes))
     if model.dynamic:
         combine(1.0, q, 0.0, q, q.copy())
