@@ -23,6 +23,9 @@ can stand in for :mod:`ringqa.simulation`: :func:`default_engine` is the real on
 
 from __future__ import annotations
 
+import os
+import pickle
+import signal
 import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
@@ -71,6 +74,12 @@ PROBE_FACTORS = (0.4, 0.35)
 RESOLVE_FACTORS = (0.2, 0.1)
 #: Numerical error (max over the dwells) above which the report warns, mm.
 NUMERICAL_ERROR_WARN_MM = 0.1
+#: Run the independent engine runs of the numerical check two at a time (the commissioning run
+#: here, the refined one in a forked child process; the probes likewise) where ``os.fork`` exists
+#: and the machine has two cores. The results are those of running them one after the other (the
+#: child runs the same code on the same scene); a batch's worker processes switch it off (they
+#: already use the cores).
+CONCURRENT_RUNS = True
 
 
 class SimulationJammedError(RingQAError):
@@ -375,6 +384,83 @@ def _run_with_retries(engine: Engine, scene, advances, progress: bool) -> _Run:
     return _Run(res, status, pos_m, ok, scene, time.perf_counter() - t0, note)
 
 
+class _Forked:
+    """A call running in a forked child process (:data:`CONCURRENT_RUNS`); :meth:`result` waits
+    for it. When the child could not be started, or did not hand a result back (an exception,
+    a result that cannot be pickled, a killed child), :meth:`result` makes the call here
+    instead, so the outcome (and any error) is the sequential one."""
+
+    def __init__(self, fn: Callable[[], Any]):
+        self._fn = fn
+        self._pid = 0
+        self._fd = -1
+        if not (CONCURRENT_RUNS and hasattr(os, "fork") and (os.cpu_count() or 1) >= 2):
+            return
+        try:
+            r, w = os.pipe()
+            pid = os.fork()
+        except OSError:
+            return
+        if pid == 0:  # the child: run, hand the pickled result over, leave without clean-up
+            code = 1
+            try:
+                os.close(r)
+                signal.signal(signal.SIGINT, signal.SIG_DFL)
+                signal.signal(signal.SIGTERM, signal.SIG_DFL)
+                try:
+                    data = pickle.dumps(("ok", fn()), protocol=pickle.HIGHEST_PROTOCOL)
+                except Exception:
+                    data = pickle.dumps(("failed", None))
+                with os.fdopen(w, "wb") as f:
+                    f.write(data)
+                code = 0
+            finally:
+                os._exit(code)
+        os.close(w)
+        self._pid, self._fd = pid, r
+
+    def result(self):
+        """The call's result (from the child, else made here)."""
+        if self._pid:
+            try:
+                with os.fdopen(self._fd, "rb") as f:
+                    data = f.read()
+            finally:
+                self._fd = -1
+                self.cancel()
+            try:
+                tag, value = pickle.loads(data)
+            except Exception:
+                tag, value = "failed", None
+            if tag == "ok":
+                return value
+        return self._fn()
+
+    def cancel(self) -> None:
+        """Stop the child (its result is not needed) and reap it."""
+        if self._fd >= 0:
+            os.close(self._fd)
+            self._fd = -1
+        if self._pid:
+            pid, self._pid = self._pid, 0
+            try:
+                os.kill(pid, signal.SIGKILL)
+            except ProcessLookupError:
+                pass
+            os.waitpid(pid, 0)
+
+
+def _run_two(first: Callable[[], _Run], second: Callable[[], _Run]) -> tuple[_Run, _Run]:
+    """``(first(), second())``: ``second`` in a forked child while ``first`` runs here."""
+    other = _Forked(second)
+    try:
+        a = first()
+    except BaseException:
+        other.cancel()
+        raise
+    return a, other.result()
+
+
 def _jammed(app, run: _Run, advances, s_ref_mm: float) -> SimulationJammedError:
     got_adv = np.asarray(getattr(run.res, "advances_mm", advances), dtype=float).reshape(-1)
     n = min(run.pos_m.shape[0], got_adv.size)
@@ -612,7 +698,19 @@ def simulate_dwells(
             a.pos_m[_dwell_rows(a, advances, wanted)] - b.pos_m[_dwell_rows(b, advances, wanted)],
             axis=1))  # fmt: skip
 
-    runs = [_run_with_retries(engine, scene, advances, progress)]
+    # the refined run's scene does not depend on the commissioning run's result (unless that
+    # run had to be retried with a finer increment): run both at once
+    ahead = _Forked(lambda: _run_with_retries(engine, refine(scene, REFINE_FACTOR), advances,
+                                              False))  # fmt: skip
+    try:
+        runs = [_run_with_retries(engine, scene, advances, progress)]
+    except BaseException:
+        ahead.cancel()
+        raise
+    if runs[0].ok and runs[0].scene is scene:
+        runs.append(ahead.result())
+    else:
+        ahead.cancel()
     while True:
         if not runs[-1].ok:
             raise _jammed(app, runs[-1], advances, s_ref_mm)
@@ -631,8 +729,12 @@ def simulate_dwells(
     probes: list[_Run] = []
     if any(_stabilised(r) for r in (coarse, fine)):
         # stalls and snaps make the path branch; probe where with two more refined runs
-        for factor in PROBE_FACTORS:
-            probe = _run_with_retries(engine, refine(coarse.scene, factor), advances, progress)
+        def probe_run(factor: float) -> Callable[[], _Run]:
+            return lambda: _run_with_retries(engine, refine(coarse.scene, factor), advances,
+                                             progress and factor == PROBE_FACTORS[0])  # fmt: skip
+
+        done = _run_two(*(probe_run(f) for f in PROBE_FACTORS))  # independent: both at once
+        for probe in done:
             if probe.ok:
                 probes.append(probe)
                 error_mm = np.maximum(error_mm, distance(probe, fine))
@@ -642,8 +744,11 @@ def simulate_dwells(
     if probes and branch_mm > NUMERICAL_ERROR_WARN_MM:
         # the path branches at these settings: settle it with two much finer runs
         base = runs[0].scene
-        pair = [_run_with_retries(engine, refine(base, f), advances, progress)
-                for f in RESOLVE_FACTORS]  # fmt: skip
+        f_coarse, f_fine = RESOLVE_FACTORS
+        pair = _run_two(  # independent: both at once
+            lambda: _run_with_retries(engine, refine(base, f_fine), advances, progress),
+            lambda: _run_with_retries(engine, refine(base, f_coarse), advances, False),
+        )[::-1]
         runs += pair
         if all(r.ok for r in pair):
             coarse, fine = pair
