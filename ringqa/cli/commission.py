@@ -181,6 +181,15 @@ def add_parser(subparsers) -> None:
         help="as --sweep with the shipped data/sweeps/ring26-uncertainty.toml parameters and N "
         "samples",
     )
+    p.add_argument(
+        "--workers",
+        type=int,
+        default=None,
+        metavar="N",
+        help="processes commissioning a batch's applicators and rendering their reports at "
+        "once (default: 2 on a machine with 2 or more cores, else 1; the results are the same "
+        "as with 1)",
+    )
     p.add_argument("--no-pdf", action="store_true", help="write the CSV/JSON files only")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
@@ -316,6 +325,11 @@ def run(args: argparse.Namespace) -> int:
         sweep_spec = sweep_spec_for(args, items[0], settings)  # checked before the simulations
     labels = args.label
     check_labels(labels, len(items))
+    if args.workers is not None and args.workers < 1:
+        raise RingQAError(
+            f"--workers {args.workers}: must be a whole number >= 1 (1: one applicator after "
+            "the other)"
+        )
     if single:
         if labels:
             fields = dataclasses.replace(fields, label=labels[0])
@@ -334,10 +348,11 @@ def run(args: argparse.Namespace) -> int:
             f"-> {args.out}"
         )
         return 0
-    batch = commission_batch(items, settings, progress=not args.quiet, labels=labels)
+    batch = commission_batch(items, settings, progress=not args.quiet, labels=labels,
+                             workers=args.workers)  # fmt: skip
     write_batch(
         batch, args.out, pdf=not args.no_pdf, progress=not args.quiet, fields=fields,
-        export=args.export,
+        export=args.export, workers=args.workers,
     )  # fmt: skip
     for res in batch.results:
         print_warnings(res, prefix=f"{res.applicator}: ")
