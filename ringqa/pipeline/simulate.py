@@ -78,7 +78,8 @@ NUMERICAL_ERROR_WARN_MM = 0.1
 #: here, the refined one in a forked child process; the probes likewise) where ``os.fork`` exists
 #: and the machine has two cores. The results are those of running them one after the other (the
 #: child runs the same code on the same scene); a batch's worker processes switch it off (they
-#: already use the cores).
+#: already use the cores). Only ringqa's own engine is run so: a stand-in engine's side effects
+#: (a test's record of its calls) stay in this process.
 CONCURRENT_RUNS = True
 
 
@@ -390,11 +391,11 @@ class _Forked:
     a result that cannot be pickled, a killed child), :meth:`result` makes the call here
     instead, so the outcome (and any error) is the sequential one."""
 
-    def __init__(self, fn: Callable[[], Any]):
+    def __init__(self, fn: Callable[[], Any], fork: bool = True):
         self._fn = fn
         self._pid = 0
         self._fd = -1
-        if not (CONCURRENT_RUNS and hasattr(os, "fork") and (os.cpu_count() or 1) >= 2):
+        if not (fork and CONCURRENT_RUNS and hasattr(os, "fork") and (os.cpu_count() or 1) >= 2):
             return
         try:
             r, w = os.pipe()
@@ -418,6 +419,11 @@ class _Forked:
                 os._exit(code)
         os.close(w)
         self._pid, self._fd = pid, r
+
+    @property
+    def forked(self) -> bool:
+        """The call runs in a child process."""
+        return self._pid != 0
 
     def result(self):
         """The call's result (from the child, else made here)."""
@@ -450,9 +456,19 @@ class _Forked:
             os.waitpid(pid, 0)
 
 
-def _run_two(first: Callable[[], _Run], second: Callable[[], _Run]) -> tuple[_Run, _Run]:
-    """``(first(), second())``: ``second`` in a forked child while ``first`` runs here."""
-    other = _Forked(second)
+def _own_engine(engine: Engine) -> bool:
+    """``engine`` runs ringqa's own simulation (its runs may go to a forked child)."""
+    import ringqa.simulation
+
+    return engine.simulate is getattr(ringqa.simulation, "simulate", None)
+
+
+def _run_two(
+    first: Callable[[], _Run], second: Callable[[], _Run], fork: bool = True
+) -> tuple[_Run, _Run]:
+    """``(first(), second())``: ``second`` in a forked child while ``first`` runs here (with
+    ``fork``)."""
+    other = _Forked(second, fork)
     try:
         a = first()
     except BaseException:
@@ -700,17 +716,18 @@ def simulate_dwells(
 
     # the refined run's scene does not depend on the commissioning run's result (unless that
     # run had to be retried with a finer increment): run both at once
+    fork = _own_engine(engine)
     ahead = _Forked(lambda: _run_with_retries(engine, refine(scene, REFINE_FACTOR), advances,
-                                              False))  # fmt: skip
+                                              False), fork)  # fmt: skip
     try:
         runs = [_run_with_retries(engine, scene, advances, progress)]
     except BaseException:
         ahead.cancel()
         raise
-    if runs[0].ok and runs[0].scene is scene:
+    if ahead.forked and runs[0].ok and runs[0].scene is scene:
         runs.append(ahead.result())
     else:
-        ahead.cancel()
+        ahead.cancel()  # not started, or not needed: the loop below runs what is needed
     while True:
         if not runs[-1].ok:
             raise _jammed(app, runs[-1], advances, s_ref_mm)
@@ -733,7 +750,7 @@ def simulate_dwells(
             return lambda: _run_with_retries(engine, refine(coarse.scene, factor), advances,
                                              progress and factor == PROBE_FACTORS[0])  # fmt: skip
 
-        done = _run_two(*(probe_run(f) for f in PROBE_FACTORS))  # independent: both at once
+        done = _run_two(*(probe_run(f) for f in PROBE_FACTORS), fork)  # independent: at once
         for probe in done:
             if probe.ok:
                 probes.append(probe)
@@ -748,6 +765,7 @@ def simulate_dwells(
         pair = _run_two(  # independent: both at once
             lambda: _run_with_retries(engine, refine(base, f_fine), advances, progress),
             lambda: _run_with_retries(engine, refine(base, f_coarse), advances, False),
+            fork,
         )[::-1]
         runs += pair
         if all(r.ok for r in pair):
