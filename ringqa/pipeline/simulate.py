@@ -24,11 +24,10 @@ can stand in for :mod:`ringqa.simulation`: :func:`default_engine` is the real on
 from __future__ import annotations
 
 import os
-import pickle
-import signal
 import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -37,6 +36,7 @@ from ringqa.errors import RingQAError, SimulationError
 from ringqa.geometry import Channel
 from ringqa.geometry.stem import trim_to_stem
 from ringqa.pipeline.dwells import PathDwells
+from ringqa.pipeline.forked import ForkedCall
 from ringqa.pipeline.result import SimulationInfo
 from ringqa.units import m_to_mm, mm_to_m
 
@@ -385,82 +385,31 @@ def _run_with_retries(engine: Engine, scene, advances, progress: bool) -> _Run:
     return _Run(res, status, pos_m, ok, scene, time.perf_counter() - t0, note)
 
 
-class _Forked:
-    """A call running in a forked child process (:data:`CONCURRENT_RUNS`); :meth:`result` waits
-    for it. When the child could not be started, or did not hand a result back (an exception,
-    a result that cannot be pickled, a killed child), :meth:`result` makes the call here
-    instead, so the outcome (and any error) is the sequential one."""
-
-    def __init__(self, fn: Callable[[], Any], fork: bool = True):
-        self._fn = fn
-        self._pid = 0
-        self._fd = -1
-        if not (fork and CONCURRENT_RUNS and hasattr(os, "fork") and (os.cpu_count() or 1) >= 2):
-            return
-        try:
-            r, w = os.pipe()
-            pid = os.fork()
-        except OSError:
-            return
-        if pid == 0:  # the child: run, hand the pickled result over, leave without clean-up
-            code = 1
-            try:
-                os.close(r)
-                signal.signal(signal.SIGINT, signal.SIG_DFL)
-                signal.signal(signal.SIGTERM, signal.SIG_DFL)
-                try:
-                    data = pickle.dumps(("ok", fn()), protocol=pickle.HIGHEST_PROTOCOL)
-                except Exception:
-                    data = pickle.dumps(("failed", None))
-                with os.fdopen(w, "wb") as f:
-                    f.write(data)
-                code = 0
-            finally:
-                os._exit(code)
-        os.close(w)
-        self._pid, self._fd = pid, r
-
-    @property
-    def forked(self) -> bool:
-        """The call runs in a child process."""
-        return self._pid != 0
-
-    def result(self):
-        """The call's result (from the child, else made here)."""
-        if self._pid:
-            try:
-                with os.fdopen(self._fd, "rb") as f:
-                    data = f.read()
-            finally:
-                self._fd = -1
-                self.cancel()
-            try:
-                tag, value = pickle.loads(data)
-            except Exception:
-                tag, value = "failed", None
-            if tag == "ok":
-                return value
-        return self._fn()
-
-    def cancel(self) -> None:
-        """Stop the child (its result is not needed) and reap it."""
-        if self._fd >= 0:
-            os.close(self._fd)
-            self._fd = -1
-        if self._pid:
-            pid, self._pid = self._pid, 0
-            try:
-                os.kill(pid, signal.SIGKILL)
-            except ProcessLookupError:
-                pass
-            os.waitpid(pid, 0)
-
-
 def _own_engine(engine: Engine) -> bool:
-    """``engine`` runs ringqa's own simulation (its runs may go to a forked child)."""
+    """``engine`` runs ringqa's own simulation and its kernels were compiled before this
+    process started (its runs may go to a forked child: on a first run, with numba compiling,
+    the child would compile the same kernels again)."""
     import ringqa.simulation
 
-    return engine.simulate is getattr(ringqa.simulation, "simulate", None)
+    return engine.simulate is getattr(ringqa.simulation, "simulate", None) and _kernels_cached()
+
+
+def _kernels_cached() -> bool:
+    """The engine's Newton kernel has a numba disk-cache index older than this process (False
+    when that cannot be told)."""
+    try:
+        from ringqa.simulation.solvers.newton import newton
+
+        index = Path(newton._cache._cache_file._index_path)
+        proc = Path(f"/proc/{os.getpid()}")
+        started = proc.stat().st_ctime if proc.exists() else _IMPORTED_AT
+        return index.stat().st_mtime < started
+    except Exception:
+        return False
+
+
+#: when this module was imported (s since the epoch): the process's start where /proc is missing
+_IMPORTED_AT = time.time()
 
 
 def _run_two(
@@ -468,7 +417,7 @@ def _run_two(
 ) -> tuple[_Run, _Run]:
     """``(first(), second())``: ``second`` in a forked child while ``first`` runs here (with
     ``fork``)."""
-    other = _Forked(second, fork)
+    other = ForkedCall(second, fork and CONCURRENT_RUNS)
     try:
         a = first()
     except BaseException:
@@ -717,8 +666,8 @@ def simulate_dwells(
     # the refined run's scene does not depend on the commissioning run's result (unless that
     # run had to be retried with a finer increment): run both at once
     fork = _own_engine(engine)
-    ahead = _Forked(lambda: _run_with_retries(engine, refine(scene, REFINE_FACTOR), advances,
-                                              False), fork)  # fmt: skip
+    ahead = ForkedCall(lambda: _run_with_retries(engine, refine(scene, REFINE_FACTOR), advances,
+                                                 False), fork and CONCURRENT_RUNS)  # fmt: skip
     try:
         runs = [_run_with_retries(engine, scene, advances, progress)]
     except BaseException:

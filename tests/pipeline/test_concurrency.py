@@ -14,6 +14,7 @@ from ringqa.cli import main
 from ringqa.io.applicator_file import load_applicator
 from ringqa.pipeline import commission_batch, simulate
 from ringqa.pipeline.dwells import reference_dwells
+from ringqa.pipeline.forked import ForkedCall
 from ringqa.report import write_batch
 from tests.pipeline.fakes import fake_engine, make_applicator
 
@@ -24,18 +25,29 @@ needs_fork = pytest.mark.skipif(
 
 @needs_fork
 def test_a_forked_call_runs_in_the_child_and_falls_back_here():
-    """The call runs in another process (another pid); a result that cannot be pickled (a
-    lambda) and an exception in the child make the call here instead, so the caller sees the
-    sequential outcome (the value, or the exception itself)."""
-    assert simulate._Forked(os.getpid).result() != os.getpid()
-    assert simulate._Forked(lambda: lambda: 7).result()() == 7
+    """The call runs in another process (another pid); its exception is raised here; a result
+    that cannot be pickled (a lambda) and an exception that cannot be rebuilt here make the call
+    here instead, so the caller sees the sequential outcome (the value, or the exception)."""
+    assert ForkedCall(os.getpid).result() != os.getpid()
+    assert ForkedCall(lambda: lambda: 7).result()() == 7
+    parent = os.getpid()
 
     def fails():
-        raise ValueError("the same error as sequentially")
+        raise ValueError(f"raised in {'this process' if os.getpid() == parent else 'the child'}")
 
-    with pytest.raises(ValueError, match="the same error"):
-        simulate._Forked(fails).result()
-    off = simulate._Forked(os.getpid, fork=False)
+    with pytest.raises(ValueError, match="raised in the child"):
+        ForkedCall(fails).result()
+
+    class Odd(Exception):
+        def __init__(self, a, b):  # unpickles wrongly (args = the message only)
+            super().__init__(f"{a} {b} in {'here' if os.getpid() == parent else 'child'}")
+
+    def odd():
+        raise Odd(1, 2)
+
+    with pytest.raises(Odd, match="1 2 in here"):
+        ForkedCall(odd).result()
+    off = ForkedCall(os.getpid, fork=False)
     assert not off.forked and off.result() == os.getpid()
 
 
@@ -48,7 +60,7 @@ def test_the_numerical_check_is_bit_identical_with_its_runs_forked(monkeypatch):
     ring = app.channel("ring")
     rel = reference_dwells(app, ring, 5.0).relative_position_mm
     forked = []
-    real_init = simulate._Forked.__init__
+    real_init = ForkedCall.__init__
 
     def spy(self, fn, fork=True):
         real_init(self, fn, fork)
@@ -58,7 +70,7 @@ def test_the_numerical_check_is_bit_identical_with_its_runs_forked(monkeypatch):
         return simulate.simulate_dwells(app, ring, rel, cable="flexitron", scene_overrides={},
                                         stem_mm=60.0)  # fmt: skip
 
-    monkeypatch.setattr(simulate._Forked, "__init__", spy)
+    monkeypatch.setattr(ForkedCall, "__init__", spy)
     together = run()
     assert forked[0] is True  # the refined run went to a child
     monkeypatch.setattr(simulate, "CONCURRENT_RUNS", False)
