@@ -298,7 +298,7 @@ def print_warnings(res, prefix: str = "") -> None:
 
 def run(args: argparse.Namespace) -> int:
     from ringqa.outdir import check_writable
-    from ringqa.pipeline import commission, commission_batch
+    from ringqa.pipeline import commission_batch
     from ringqa.pipeline.batch import check_labels
     from ringqa.report import write_batch, write_report
 
@@ -333,7 +333,8 @@ def run(args: argparse.Namespace) -> int:
     if single:
         if labels:
             fields = dataclasses.replace(fields, label=labels[0])
-        res = commission(items[0], settings, progress=not args.quiet)
+        ahead = sweep_spec is None and not args.no_pdf  # the report is prepared meanwhile
+        res = commission_ahead(items[0], settings, not args.quiet, ahead)
         sections, extra = (), None
         if sweep_spec is not None:
             sections, extra = _run_uncertainty(sweep_spec, args)
@@ -363,6 +364,37 @@ def run(args: argparse.Namespace) -> int:
             print(f"ringqa commission: error: {item}: {err}", file=sys.stderr)
         return 2
     return 0
+
+
+def _real_std_streams() -> bool:
+    """stdout and stderr are the process's own file descriptors (a forked child's output then
+    reaches the same place; not so under a test's in-memory capture)."""
+    try:
+        return sys.stdout.fileno() == 1 and sys.stderr.fileno() == 2
+    except (AttributeError, OSError, ValueError):
+        return False
+
+
+def commission_ahead(item, settings, progress: bool, report: bool = True):
+    """:func:`ringqa.pipeline.commission` of one input, in a forked child process while this
+    one loads the report's libraries and fonts (:func:`ringqa.report.prepare_report`: about
+    0.5 s of the warm example otherwise spent after the commissioning). The result (or the
+    error) is the child's; where it cannot be handed back, on one core, without ``fork`` or
+    with the output captured in memory, the commissioning runs here as before."""
+    from ringqa.pipeline import commission
+    from ringqa.pipeline.forked import ForkedCall
+    from ringqa.report import prepare_report
+
+    def run():
+        return commission(item, settings, progress=progress)
+
+    call = ForkedCall(run, report and _real_std_streams())
+    try:
+        if call.forked:
+            prepare_report()
+        return call.result()
+    finally:
+        call.cancel()
 
 
 #: the commissioning settings a --sweep / --uncertainty run takes over from the command (so

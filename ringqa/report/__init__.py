@@ -28,6 +28,7 @@ from ringqa.report.tables import SCHEMA, results_dict, write_batch_tables, write
 __all__ = [
     "SCHEMA",
     "ReportFields",
+    "prepare_report",
     "read_accuracy_csv",
     "results_dict",
     "write_batch",
@@ -178,6 +179,28 @@ def write_batch(
                 pool.terminate()
                 pool.join()
     return Path(out_dir)
+
+
+def prepare_report() -> None:
+    """Load what every report needs, ahead of it (e.g. while a forked process commissions):
+    matplotlib's Agg canvas, PIL, reportlab, the report's fonts and styles, and matplotlib's
+    text set-up by drawing a small figure once. Nothing is written; the report's pixels and
+    text are the same with or without it (only caches are filled)."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    from ringqa.report import layout
+
+    layout.register_fonts()
+    layout.styles()
+    fig = Figure(figsize=(2.0, 1.5), dpi=layout.FIGURE_DPI)
+    FigureCanvasAgg(fig)
+    ax = fig.add_subplot()
+    ax.plot([0.0, 1.0], [0.0, 1.0], marker="o")
+    ax.set_title("warm-up", fontsize=9)
+    ax.set_xlabel("x (mm)")
+    ax.legend(["a"], fontsize=7)
+    fig.canvas.draw()
 
 
 #: (results, PDF paths, fields, sections) of the batch whose PDFs the forked workers render
