@@ -71,6 +71,8 @@ def test_the_numerical_check_is_bit_identical_with_its_runs_forked(monkeypatch):
                                         stem_mm=60.0)  # fmt: skip
 
     monkeypatch.setattr(ForkedCall, "__init__", spy)
+    # forked even when this session compiled a kernel (a command forks only on a warm cache)
+    monkeypatch.setattr(simulate, "_kernels_cached", lambda: True)
     together = run()
     assert forked[0] is True  # the refined run went to a child
     monkeypatch.setattr(simulate, "CONCURRENT_RUNS", False)
@@ -119,3 +121,32 @@ def test_workers_below_one_are_refused(tmp_path, capsys):
     assert code == 2
     assert "--workers 0" in capsys.readouterr().err
     assert not (tmp_path / "out").exists()
+
+
+@needs_fork
+def test_commissioning_ahead_of_the_report_gives_the_in_process_result(monkeypatch):
+    """`ringqa commission` on one input commissions in a forked child while it prepares the
+    report: the result is exactly the in-process one (ring26x60, real engine, every dwell and
+    dose column, tolerance 0), and a bad input's error reaches the caller with its message."""
+    from ringqa.cli import commission as cli
+    from ringqa.errors import RingQAError
+    from ringqa.pipeline import commission
+    from ringqa.pipeline.settings import CommissionSettings
+
+    monkeypatch.setattr(cli, "_real_std_streams", lambda: True)
+    forked = []
+    real_init = ForkedCall.__init__
+
+    def spy(self, fn, fork=True):
+        real_init(self, fn, fork)
+        forked.append(self.forked)
+
+    monkeypatch.setattr(ForkedCall, "__init__", spy)
+    ahead = cli.commission_ahead("ring26x60", CommissionSettings(), False)
+    assert forked[0] is True
+    here = commission("ring26x60", CommissionSettings())
+    pd.testing.assert_frame_equal(ahead.dwells, here.dwells, check_exact=True)
+    pd.testing.assert_frame_equal(ahead.doses, here.doses, check_exact=True)
+    assert [v.status for v in ahead.verdicts] == [v.status for v in here.verdicts]
+    with pytest.raises(RingQAError, match="no-such-ring"):
+        cli.commission_ahead("no-such-ring", CommissionSettings(), False)
