@@ -16,7 +16,7 @@ from ringqa.errors import RingQAError
 from ringqa.pipeline.commission import commission
 from ringqa.pipeline.result import CommissioningResult
 from ringqa.pipeline.settings import CommissionSettings
-from ringqa.pipeline.simulate import Engine
+from ringqa.pipeline.simulate import Engine, default_engine, kernels_cached, own_engine
 
 
 @dataclass(frozen=True, eq=False)
@@ -174,14 +174,14 @@ def _outcomes(items, settings, engine, workers: int, bar, labels) -> Iterator[tu
     def show(k: int) -> None:
         bar.set_postfix_str(_label(items[k]) if labels is None else str(labels[k]))
 
+    if workers > 1 and (engine is None or own_engine(engine)) and not kernels_cached():
+        workers = 1  # numba compiles on this first run: every worker would compile it all
     if workers <= 1 or len(items) <= 1 or not hasattr(os, "fork"):
         for k, item in enumerate(items):
             show(k)
             yield _commission_one(item, settings, engine)
         return
     import multiprocessing
-
-    from ringqa.pipeline.simulate import default_engine
 
     if engine is None:
         default_engine()  # import the engine once, before forking (the workers inherit it)

@@ -72,7 +72,7 @@ def test_the_numerical_check_is_bit_identical_with_its_runs_forked(monkeypatch):
 
     monkeypatch.setattr(ForkedCall, "__init__", spy)
     # forked even when this session compiled a kernel (a command forks only on a warm cache)
-    monkeypatch.setattr(simulate, "_kernels_cached", lambda: True)
+    monkeypatch.setattr(simulate, "kernels_cached", lambda: True)
     together = run()
     assert forked[0] is True  # the refined run went to a child
     monkeypatch.setattr(simulate, "CONCURRENT_RUNS", False)
