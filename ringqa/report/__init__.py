@@ -213,11 +213,9 @@ def _pdf_pool(results, folders, fields, sections, workers: int):
     ``folders[k]/report.pdf`` (:func:`_pdf_task`); the folders are made here first."""
     import multiprocessing
 
-    # imported once, before forking (the workers inherit them)
-    import matplotlib.backends.backend_agg
-    import matplotlib.figure  # noqa: F401
-
     from ringqa.pipeline.batch import worker_init
+
+    prepare_report()  # once, before forking: the workers inherit it
 
     global _PDF_JOB
     for folder in folders:
