@@ -379,16 +379,19 @@ def commission_ahead(item, settings, progress: bool, report: bool = True):
     """:func:`ringqa.pipeline.commission` of one input, in a forked child process while this
     one loads the report's libraries and fonts (:func:`ringqa.report.prepare_report`: about
     0.5 s of the warm example otherwise spent after the commissioning). The result (or the
-    error) is the child's; where it cannot be handed back, on one core, without ``fork`` or
-    with the output captured in memory, the commissioning runs here as before."""
+    error) is the child's; where it cannot be handed back, on one core, without ``fork``, with
+    the output captured in memory or on a first run (an empty kernel cache), the commissioning
+    runs here as before."""
     from ringqa.pipeline import commission
     from ringqa.pipeline.forked import ForkedCall
+    from ringqa.pipeline.simulate import kernels_cached
     from ringqa.report import prepare_report
 
     def run():
         return commission(item, settings, progress=progress)
 
-    call = ForkedCall(run, report and _real_std_streams())
+    # a first run (numba compiling, with its helper process) stays as it was
+    call = ForkedCall(run, report and _real_std_streams() and kernels_cached())
     try:
         if call.forked:
             prepare_report()

@@ -134,6 +134,7 @@ def test_commissioning_ahead_of_the_report_gives_the_in_process_result(monkeypat
     from ringqa.pipeline.settings import CommissionSettings
 
     monkeypatch.setattr(cli, "_real_std_streams", lambda: True)
+    monkeypatch.setattr(simulate, "kernels_cached", lambda: True)
     forked = []
     real_init = ForkedCall.__init__
 
