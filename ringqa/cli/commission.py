@@ -380,9 +380,9 @@ def commission_ahead(item, settings, progress: bool, report: bool = True):
     one loads the report's libraries and fonts (:func:`ringqa.report.prepare_report`: about
     0.5 s of the warm example otherwise spent after the commissioning). The result (or the
     error) is the child's; where it cannot be handed back, on one core, without ``fork``, with
-    the output captured in memory or on a first run (an empty kernel cache), the commissioning
-    runs here as before."""
-    from ringqa.pipeline import commission
+    the output captured in memory, on a first run (an empty kernel cache) or with no core free
+    (:func:`ringqa.pipeline.forked.second_core_free`), the commissioning runs here as before."""
+    from ringqa.pipeline import commission, forked
     from ringqa.pipeline.forked import ForkedCall
     from ringqa.pipeline.simulate import kernels_cached
     from ringqa.report import prepare_report
@@ -391,7 +391,9 @@ def commission_ahead(item, settings, progress: bool, report: bool = True):
         return commission(item, settings, progress=progress)
 
     # a first run (numba compiling, with its helper process) stays as it was
-    call = ForkedCall(run, report and _real_std_streams() and kernels_cached())
+    # ... and so does a machine whose cores are busy (the fork would only add its overhead)
+    fork = report and _real_std_streams() and kernels_cached() and forked.second_core_free()
+    call = ForkedCall(run, fork)
     try:
         if call.forked:
             prepare_report()

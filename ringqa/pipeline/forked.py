@@ -22,6 +22,18 @@ def can_fork() -> bool:
     return hasattr(os, "fork") and (os.cpu_count() or 1) >= 2
 
 
+def second_core_free() -> bool:
+    """The machine's 1-minute load average leaves a core free (< cores - 0.5; this process
+    counts as 1). A single command forks its independent work only then: on a machine whose
+    cores are busy with other work the fork's overhead (about 0.15 s CPU on the example:
+    kernel cache loads in the child, pickling) would make it slower (measured under a load of
+    2.4 on 2 cores: 3.21 -> 3.36 s)."""
+    try:
+        return os.getloadavg()[0] < (os.cpu_count() or 1) - 0.5
+    except (AttributeError, OSError):
+        return True
+
+
 class ForkedCall:
     """``fn()`` running in a forked child; :meth:`result` waits for it (see the module text).
 

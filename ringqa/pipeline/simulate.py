@@ -35,6 +35,7 @@ import numpy as np
 from ringqa.errors import RingQAError, SimulationError
 from ringqa.geometry import Channel
 from ringqa.geometry.stem import trim_to_stem
+from ringqa.pipeline import forked
 from ringqa.pipeline.dwells import PathDwells
 from ringqa.pipeline.forked import ForkedCall
 from ringqa.pipeline.result import SimulationInfo
@@ -666,7 +667,7 @@ def simulate_dwells(
 
     # the refined run's scene does not depend on the commissioning run's result (unless that
     # run had to be retried with a finer increment): run both at once
-    fork = own_engine(engine) and kernels_cached()
+    fork = own_engine(engine) and kernels_cached() and forked.second_core_free()
     ahead = ForkedCall(lambda: _run_with_retries(engine, refine(scene, REFINE_FACTOR), advances,
                                                  False), fork and CONCURRENT_RUNS)  # fmt: skip
     try:

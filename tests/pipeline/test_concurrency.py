@@ -13,6 +13,7 @@ import pytest
 from ringqa.cli import main
 from ringqa.io.applicator_file import load_applicator
 from ringqa.pipeline import commission_batch, simulate
+from ringqa.pipeline import forked as forked_mod
 from ringqa.pipeline.dwells import reference_dwells
 from ringqa.pipeline.forked import ForkedCall
 from ringqa.report import write_batch
@@ -73,6 +74,7 @@ def test_the_numerical_check_is_bit_identical_with_its_runs_forked(monkeypatch):
     monkeypatch.setattr(ForkedCall, "__init__", spy)
     # forked even when this session compiled a kernel (a command forks only on a warm cache)
     monkeypatch.setattr(simulate, "kernels_cached", lambda: True)
+    monkeypatch.setattr(forked_mod, "second_core_free", lambda: True)
     together = run()
     assert forked[0] is True  # the refined run went to a child
     monkeypatch.setattr(simulate, "CONCURRENT_RUNS", False)
@@ -135,6 +137,7 @@ def test_commissioning_ahead_of_the_report_gives_the_in_process_result(monkeypat
 
     monkeypatch.setattr(cli, "_real_std_streams", lambda: True)
     monkeypatch.setattr(simulate, "kernels_cached", lambda: True)
+    monkeypatch.setattr(forked_mod, "second_core_free", lambda: True)
     forked = []
     real_init = ForkedCall.__init__
 
