@@ -76,11 +76,12 @@ RESOLVE_FACTORS = (0.2, 0.1)
 #: Numerical error (max over the dwells) above which the report warns, mm.
 NUMERICAL_ERROR_WARN_MM = 0.1
 #: Run the independent engine runs of the numerical check two at a time (the commissioning run
-#: here, the refined one in a forked child process; the probes likewise) where ``os.fork`` exists
-#: and the machine has two cores. The results are those of running them one after the other (the
-#: child runs the same code on the same scene); a batch's worker processes switch it off (they
-#: already use the cores). Only ringqa's own engine is run so: a stand-in engine's side effects
-#: (a test's record of its calls) stay in this process.
+#: here, the refined one in a forked child process; the probes likewise) where ``os.fork`` exists,
+#: the machine has two cores, one of them free (:func:`ringqa.pipeline.forked.second_core_free`)
+#: and the kernel cache is warm (:func:`kernels_cached`). The results are those of running them
+#: one after the other (the child runs the same code on the same scene); a batch's worker
+#: processes switch it off (they already use the cores). Only ringqa's own engine is run so: a
+#: stand-in engine's side effects (a test's record of its calls) stay in this process.
 CONCURRENT_RUNS = True
 
 
@@ -713,11 +714,11 @@ def simulate_dwells(
         # the path branches at these settings: settle it with two much finer runs
         base = runs[0].scene
         f_coarse, f_fine = RESOLVE_FACTORS
-        pair = _run_two(  # independent: both at once
-            lambda: _run_with_retries(engine, refine(base, f_fine), advances, progress),
-            lambda: _run_with_retries(engine, refine(base, f_coarse), advances, False),
+        pair = _run_two(  # independent: both at once (in this order when not forked)
+            lambda: _run_with_retries(engine, refine(base, f_coarse), advances, progress),
+            lambda: _run_with_retries(engine, refine(base, f_fine), advances, False),
             fork,
-        )[::-1]
+        )
         runs += pair
         if all(r.ok for r in pair):
             coarse, fine = pair
