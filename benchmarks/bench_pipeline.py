@@ -5,8 +5,10 @@
 Each run is a fresh Python process (as a user's ``ringqa commission --all-shipped``) sharing one
 new, empty numba cache folder: run 1 is the FIRST (cold) run -- numba compiles and caches every
 kernel --, later runs are warm. Reported per run: wall time of the whole process, and inside it
-the time for loading, simulation, doses, and writing CSV/JSON and PDF. Target (issue 5): warm
-< 30 s on the CI machine.
+the time for importing, commissioning (``pipeline_s``; ``simulation_s`` summed over the rings)
+and writing the CSV/JSON files and PDFs (``write_s``, :func:`ringqa.report.write_batch`), and the
+CPU seconds of the process and its workers (``--workers N``: batch worker processes, default
+ringqa's ``min(2, cores)``). Targets: warm < 30 s on the CI machine (issue 5), <= 4 s (issue 16).
 
 Without the engine (ringqa.simulation.simulate absent) or with ``--stand-in``, a stand-in engine
 puts the source on the centreline: the numbers then measure everything except the simulation.
@@ -51,14 +53,15 @@ def _stand_in():
     return simulate
 
 
-def worker(out_dir: str, stand_in: bool) -> dict:
-    """One end-to-end run in this process; returns stage timings (s)."""
+def worker(out_dir: str, stand_in: bool, workers: int | None = None) -> dict:
+    """One end-to-end run in this process (``ringqa commission --all-shipped``'s calls, with
+    ``workers`` processes; None: ringqa's default); returns stage timings (s)."""
     t0 = time.perf_counter()
     sys.path.insert(0, str(ROOT))
     import ringqa.simulation as simulation
     from ringqa.io.applicator_file import shipped_applicators
     from ringqa.pipeline import commission_batch, default_engine
-    from ringqa.report import write_batch_pdf, write_pdf, write_tables
+    from ringqa.report import write_batch
 
     t_import = time.perf_counter() - t0
     real = getattr(simulation, "simulate", None)
@@ -66,18 +69,12 @@ def worker(out_dir: str, stand_in: bool) -> dict:
     sim = _stand_in() if used_stand_in else real
     t1 = time.perf_counter()
     engine = dataclasses.replace(default_engine(), simulate=sim)
-    batch = commission_batch(shipped_applicators(), progress=False, engine=engine)
+    kw = {} if workers is None else {"workers": workers}
+    batch = commission_batch(shipped_applicators(), progress=False, engine=engine, **kw)
     t_pipeline = time.perf_counter() - t1
-    out = Path(out_dir)
     t2 = time.perf_counter()
-    for r in batch.results:
-        write_tables(r, out / r.applicator)
-    t_tables = time.perf_counter() - t2
-    t3 = time.perf_counter()
-    for r in batch.results:
-        write_pdf(r, out / r.applicator / "report.pdf")
-    write_batch_pdf(batch, out / "summary.pdf")
-    t_pdf = time.perf_counter() - t3
+    write_batch(batch, Path(out_dir), **kw)  # tables, JSON, every PDF and summary.pdf
+    t_write = time.perf_counter() - t2
     sums = {"load_s": 0.0, "simulation_s": 0.0, "dose_s": 0.0}
     for r in batch.results:
         for k in sums:
@@ -89,10 +86,17 @@ def worker(out_dir: str, stand_in: bool) -> dict:
         "import_s": t_import,
         "pipeline_s": t_pipeline,
         **sums,
-        "csv_json_s": t_tables,
-        "pdf_s": t_pdf,
+        "write_s": t_write,
         "in_process_total_s": time.perf_counter() - t0,
     }
+
+
+def _children_cpu_s() -> float:
+    """User + system CPU seconds of the finished child processes (and theirs)."""
+    import resource
+
+    r = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return r.ru_utime + r.ru_stime
 
 
 def main() -> int:
@@ -100,10 +104,13 @@ def main() -> int:
     ap.add_argument("--runs", type=int, default=2, help="processes to run (1st = cold)")
     ap.add_argument("--stand-in", action="store_true", help="use the stand-in engine")
     ap.add_argument("--json", type=Path, help="write the numbers to this file")
+    ap.add_argument(
+        "--workers", type=int, default=None, help="batch worker processes (default: ringqa's)"
+    )
     ap.add_argument("--worker", help=argparse.SUPPRESS)
     args = ap.parse_args()
     if args.worker:
-        print(json.dumps(worker(args.worker, args.stand_in)))
+        print(json.dumps(worker(args.worker, args.stand_in, args.workers)))
         return 0
     rows = []
     with tempfile.TemporaryDirectory(prefix="ringqa-bench-") as tmp:
@@ -113,20 +120,26 @@ def main() -> int:
             cmd = [sys.executable, __file__, "--worker", str(out)]
             if args.stand_in:
                 cmd.append("--stand-in")
+            if args.workers is not None:
+                cmd += ["--workers", str(args.workers)]
+            cpu0 = _children_cpu_s()
             t0 = time.perf_counter()
             proc = subprocess.run(cmd, env=env, capture_output=True, text=True, cwd=ROOT)
             wall = time.perf_counter() - t0
+            cpu = _children_cpu_s() - cpu0
             if proc.returncode:
                 print(proc.stderr, file=sys.stderr)
                 return 1
             row = json.loads(proc.stdout.strip().splitlines()[-1])
             row["process_wall_s"] = wall
+            row["cpu_s"] = cpu  # the process and its workers, user + system
             row["run"] = "cold (first run, empty numba cache)" if k == 0 else "warm"
             rows.append(row)
     print("ringqa commission, six shipped rings end to end (simulation, doses, CSV, PDF)")
     if rows and rows[0]["stand_in_engine"]:
         print("  NOTE: stand-in engine (source on the centreline): simulation time not included")
-    keys = ["process_wall_s", "import_s", "load_s", "simulation_s", "dose_s", "csv_json_s", "pdf_s"]
+    keys = ["process_wall_s", "cpu_s", "import_s", "pipeline_s", "simulation_s", "write_s"]
+    print(f"  workers: {args.workers or 'default'}; simulation_s: summed over the applicators")
     print("  run    " + "".join(f"{k:>15}" for k in keys))
     for row in rows:
         label = "cold " if row["run"].startswith("cold") else "warm "

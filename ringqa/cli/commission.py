@@ -181,6 +181,15 @@ def add_parser(subparsers) -> None:
         help="as --sweep with the shipped data/sweeps/ring26-uncertainty.toml parameters and N "
         "samples",
     )
+    p.add_argument(
+        "--workers",
+        type=int,
+        default=None,
+        metavar="N",
+        help="processes commissioning a batch's applicators and rendering their reports at "
+        "once (default: 2 on a machine with 2 or more cores, else 1; the results are the same "
+        "as with 1)",
+    )
     p.add_argument("--no-pdf", action="store_true", help="write the CSV/JSON files only")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
@@ -289,7 +298,7 @@ def print_warnings(res, prefix: str = "") -> None:
 
 def run(args: argparse.Namespace) -> int:
     from ringqa.outdir import check_writable
-    from ringqa.pipeline import commission, commission_batch
+    from ringqa.pipeline import commission_batch
     from ringqa.pipeline.batch import check_labels
     from ringqa.report import write_batch, write_report
 
@@ -316,10 +325,16 @@ def run(args: argparse.Namespace) -> int:
         sweep_spec = sweep_spec_for(args, items[0], settings)  # checked before the simulations
     labels = args.label
     check_labels(labels, len(items))
+    if args.workers is not None and args.workers < 1:
+        raise RingQAError(
+            f"--workers {args.workers}: must be a whole number >= 1 (1: one applicator after "
+            "the other)"
+        )
     if single:
         if labels:
             fields = dataclasses.replace(fields, label=labels[0])
-        res = commission(items[0], settings, progress=not args.quiet)
+        ahead = sweep_spec is None and not args.no_pdf  # the report is prepared meanwhile
+        res = commission_ahead(items[0], settings, not args.quiet, ahead)
         sections, extra = (), None
         if sweep_spec is not None:
             sections, extra = _run_uncertainty(sweep_spec, args)
@@ -334,10 +349,11 @@ def run(args: argparse.Namespace) -> int:
             f"-> {args.out}"
         )
         return 0
-    batch = commission_batch(items, settings, progress=not args.quiet, labels=labels)
+    batch = commission_batch(items, settings, progress=not args.quiet, labels=labels,
+                             workers=args.workers)  # fmt: skip
     write_batch(
         batch, args.out, pdf=not args.no_pdf, progress=not args.quiet, fields=fields,
-        export=args.export,
+        export=args.export, workers=args.workers,
     )  # fmt: skip
     for res in batch.results:
         print_warnings(res, prefix=f"{res.applicator}: ")
@@ -348,6 +364,42 @@ def run(args: argparse.Namespace) -> int:
             print(f"ringqa commission: error: {item}: {err}", file=sys.stderr)
         return 2
     return 0
+
+
+def _real_std_streams() -> bool:
+    """stdout and stderr are the process's own file descriptors (a forked child's output then
+    reaches the same place; not so under a test's in-memory capture)."""
+    try:
+        return sys.stdout.fileno() == 1 and sys.stderr.fileno() == 2
+    except (AttributeError, OSError, ValueError):
+        return False
+
+
+def commission_ahead(item, settings, progress: bool, report: bool = True):
+    """:func:`ringqa.pipeline.commission` of one input, in a forked child process while this
+    one loads the report's libraries and fonts (:func:`ringqa.report.prepare_report`: about
+    0.5 s of the warm example otherwise spent after the commissioning). The result (or the
+    error) is the child's; where it cannot be handed back, on one core, without ``fork``, with
+    the output captured in memory, on a first run (an empty kernel cache) or with no core free
+    (:func:`ringqa.pipeline.forked.second_core_free`), the commissioning runs here as before."""
+    from ringqa.pipeline import commission, forked
+    from ringqa.pipeline.forked import ForkedCall
+    from ringqa.pipeline.simulate import kernels_cached
+    from ringqa.report import prepare_report
+
+    def run():
+        return commission(item, settings, progress=progress)
+
+    # a first run (numba compiling, with its helper process) stays as it was
+    # ... and so does a machine whose cores are busy (the fork would only add its overhead)
+    fork = report and _real_std_streams() and kernels_cached() and forked.second_core_free()
+    call = ForkedCall(run, fork)
+    try:
+        if call.forked:
+            prepare_report()
+        return call.result()
+    finally:
+        call.cancel()
 
 
 #: the commissioning settings a --sweep / --uncertainty run takes over from the command (so

@@ -3,7 +3,10 @@ stop the others."""
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Sequence
+import os
+import pickle
+import signal
+from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -13,7 +16,7 @@ from ringqa.errors import RingQAError
 from ringqa.pipeline.commission import commission
 from ringqa.pipeline.result import CommissioningResult
 from ringqa.pipeline.settings import CommissionSettings
-from ringqa.pipeline.simulate import Engine
+from ringqa.pipeline.simulate import Engine, default_engine, kernels_cached, own_engine
 
 
 @dataclass(frozen=True, eq=False)
@@ -67,6 +70,7 @@ def commission_batch(
     engine: Engine | None = None,
     progress: bool = True,
     labels: Sequence[str] | None = None,
+    workers: int | None = None,
 ) -> BatchResult:
     """Run :func:`commission` on each input; collect results and failures.
 
@@ -84,6 +88,10 @@ def commission_batch(
         One label per input (e.g. the applicator's serial number): its output folder's name
         and its ``folder`` in summary.csv; default: the applicator's name. Repeated labels
         get ``-2``, ``-3``... (never two inputs in one folder).
+    workers : int, optional
+        Processes commissioning the inputs at once (default :func:`default_workers`); the
+        results are the same, in the same order, as with 1 (forked worker processes run the
+        same code; a result that cannot be sent back is remade here).
 
     Returns
     -------
@@ -99,23 +107,97 @@ def commission_batch(
     rows = []
     folders: list[str] = []
     taken: set[str] = set()
-    bar = tqdm(items, desc="commission", unit="applicator", disable=not progress)
-    for k, item in enumerate(bar):
-        label = _label(item) if labels is None else str(labels[k])
-        bar.set_postfix_str(label)
-        try:
-            res = commission(item, settings, engine=engine)
-        except Exception as exc:  # one applicator must not stop the batch
-            reason = " ".join(str(exc).split()) or type(exc).__name__
-            if not _is_user_error(exc):
-                reason = f"{type(exc).__name__}: {reason}"
+    bar = tqdm(total=len(items), desc="commission", unit="applicator", disable=not progress)
+    n_workers = default_workers() if workers is None else max(1, int(workers))
+    for k, (res, reason) in enumerate(_outcomes(items, settings, engine, n_workers, bar, labels)):
+        label = _label(items[k]) if labels is None else str(labels[k])
+        bar.update()
+        if res is None:
             failures.append((label, reason))
             rows.append({"applicator": label, "verdict": "ERROR", "error": reason})
             continue
         results.append(res)
         folders.append(unique_label(res.applicator if labels is None else label, taken))
         rows.append({**res.summary.as_row(), "error": "", "folder": folders[-1]})
+    bar.close()
     return BatchResult(tuple(results), tuple(failures), pd.DataFrame(rows), tuple(folders))
+
+
+def default_workers() -> int:
+    """Worker processes of a batch by default: ``min(2, os.cpu_count())`` (1 where the
+    operating system has no ``fork``)."""
+    return min(2, os.cpu_count() or 1) if hasattr(os, "fork") else 1
+
+
+def _commission_one(item, settings, engine) -> tuple[CommissioningResult | None, str]:
+    """``(result, "")``, or ``(None, one-line reason)`` when ``item`` failed."""
+    try:
+        return commission(item, settings, engine=engine), ""
+    except Exception as exc:  # one applicator must not stop the batch
+        reason = " ".join(str(exc).split()) or type(exc).__name__
+        if not _is_user_error(exc):
+            reason = f"{type(exc).__name__}: {reason}"
+        return None, reason
+
+
+#: (items, settings, engine) of the batch being run, for the forked workers (inherited, never
+#: pickled: a stand-in engine need not be picklable)
+_JOB: tuple | None = None
+
+
+def worker_init() -> None:
+    """A forked worker: Ctrl-C is the parent's to handle (it stops the workers), SIGTERM ends
+    it at once, and its simulations run one at a time (the workers use the cores already)."""
+    from ringqa.pipeline import simulate
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    simulate.CONCURRENT_RUNS = False
+
+
+def _worker_task(k: int) -> tuple[str, bytes | str]:
+    """Commission input ``k`` of :data:`_JOB` in a worker: ``("ok", pickled (result, reason))``,
+    or ``("here", "")`` when the result cannot be pickled (the parent remakes it)."""
+    items, settings, engine = _JOB  # type: ignore[misc]
+    out = _commission_one(items[k], settings, engine)
+    try:
+        return "ok", pickle.dumps(out, protocol=pickle.HIGHEST_PROTOCOL)
+    except Exception:
+        return "here", ""
+
+
+def _outcomes(items, settings, engine, workers: int, bar, labels) -> Iterator[tuple]:
+    """``(result or None, reason)`` per input, in input order; ``workers`` > 1: computed by a
+    pool of forked processes."""
+    global _JOB
+
+    def show(k: int) -> None:
+        bar.set_postfix_str(_label(items[k]) if labels is None else str(labels[k]))
+
+    if workers > 1 and (engine is None or own_engine(engine)) and not kernels_cached():
+        workers = 1  # numba compiles on this first run: every worker would compile it all
+    if workers <= 1 or len(items) <= 1 or not hasattr(os, "fork"):
+        for k, item in enumerate(items):
+            show(k)
+            yield _commission_one(item, settings, engine)
+        return
+    import multiprocessing
+
+    if engine is None:
+        default_engine()  # import the engine once, before forking (the workers inherit it)
+    _JOB = (items, settings, engine)
+    pool = multiprocessing.get_context("fork").Pool(min(workers, len(items)), worker_init)
+    try:
+        for k, (tag, data) in enumerate(pool.imap(_worker_task, range(len(items)))):
+            show(k)
+            if tag == "ok":
+                yield pickle.loads(data)
+            else:
+                yield _commission_one(items[k], settings, engine)
+    finally:
+        pool.terminate()
+        pool.join()
+        _JOB = None
 
 
 def check_labels(labels: Sequence[str] | None, n_inputs: int) -> None:

@@ -23,9 +23,11 @@ can stand in for :mod:`ringqa.simulation`: :func:`default_engine` is the real on
 
 from __future__ import annotations
 
+import os
 import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -33,7 +35,9 @@ import numpy as np
 from ringqa.errors import RingQAError, SimulationError
 from ringqa.geometry import Channel
 from ringqa.geometry.stem import trim_to_stem
+from ringqa.pipeline import forked
 from ringqa.pipeline.dwells import PathDwells
+from ringqa.pipeline.forked import ForkedCall
 from ringqa.pipeline.result import SimulationInfo
 from ringqa.units import m_to_mm, mm_to_m
 
@@ -71,6 +75,14 @@ PROBE_FACTORS = (0.4, 0.35)
 RESOLVE_FACTORS = (0.2, 0.1)
 #: Numerical error (max over the dwells) above which the report warns, mm.
 NUMERICAL_ERROR_WARN_MM = 0.1
+#: Run the independent engine runs of the numerical check two at a time (the commissioning run
+#: here, the refined one in a forked child process; the probes likewise) where ``os.fork`` exists,
+#: the machine has two cores, one of them free (:func:`ringqa.pipeline.forked.second_core_free`)
+#: and the kernel cache is warm (:func:`kernels_cached`). The results are those of running them
+#: one after the other (the child runs the same code on the same scene); a batch's worker
+#: processes switch it off (they already use the cores). Only ringqa's own engine is run so: a
+#: stand-in engine's side effects (a test's record of its calls) stay in this process.
+CONCURRENT_RUNS = True
 
 
 class SimulationJammedError(RingQAError):
@@ -375,6 +387,48 @@ def _run_with_retries(engine: Engine, scene, advances, progress: bool) -> _Run:
     return _Run(res, status, pos_m, ok, scene, time.perf_counter() - t0, note)
 
 
+def own_engine(engine: Engine) -> bool:
+    """``engine`` runs ringqa's own simulation (not a stand-in, whose side effects, such as a
+    test's record of its calls, must stay in this process)."""
+    import ringqa.simulation
+
+    return engine.simulate is getattr(ringqa.simulation, "simulate", None)
+
+
+def kernels_cached() -> bool:
+    """The engine's Newton kernel has a numba disk-cache index older than this process (False
+    when that cannot be told): its runs may go to forked processes. On a first run, with numba
+    compiling, each process would compile the same kernels again (measured: the example's
+    first run 22 -> 34 s of compile wall)."""
+    try:
+        from ringqa.simulation.solvers.newton import newton
+
+        index = Path(newton._cache._cache_file._index_path)
+        proc = Path(f"/proc/{os.getpid()}")
+        started = proc.stat().st_ctime if proc.exists() else _IMPORTED_AT
+        return index.stat().st_mtime < started
+    except Exception:
+        return False
+
+
+#: when this module was imported (s since the epoch): the process's start where /proc is missing
+_IMPORTED_AT = time.time()
+
+
+def _run_two(
+    first: Callable[[], _Run], second: Callable[[], _Run], fork: bool = True
+) -> tuple[_Run, _Run]:
+    """``(first(), second())``: ``second`` in a forked child while ``first`` runs here (with
+    ``fork``)."""
+    other = ForkedCall(second, fork and CONCURRENT_RUNS)
+    try:
+        a = first()
+    except BaseException:
+        other.cancel()
+        raise
+    return a, other.result()
+
+
 def _jammed(app, run: _Run, advances, s_ref_mm: float) -> SimulationJammedError:
     got_adv = np.asarray(getattr(run.res, "advances_mm", advances), dtype=float).reshape(-1)
     n = min(run.pos_m.shape[0], got_adv.size)
@@ -612,7 +666,20 @@ def simulate_dwells(
             a.pos_m[_dwell_rows(a, advances, wanted)] - b.pos_m[_dwell_rows(b, advances, wanted)],
             axis=1))  # fmt: skip
 
-    runs = [_run_with_retries(engine, scene, advances, progress)]
+    # the refined run's scene does not depend on the commissioning run's result (unless that
+    # run had to be retried with a finer increment): run both at once
+    fork = own_engine(engine) and kernels_cached() and forked.second_core_free()
+    ahead = ForkedCall(lambda: _run_with_retries(engine, refine(scene, REFINE_FACTOR), advances,
+                                                 False), fork and CONCURRENT_RUNS)  # fmt: skip
+    try:
+        runs = [_run_with_retries(engine, scene, advances, progress)]
+    except BaseException:
+        ahead.cancel()
+        raise
+    if ahead.forked and runs[0].ok and runs[0].scene is scene:
+        runs.append(ahead.result())
+    else:
+        ahead.cancel()  # not started, or not needed: the loop below runs what is needed
     while True:
         if not runs[-1].ok:
             raise _jammed(app, runs[-1], advances, s_ref_mm)
@@ -631,8 +698,12 @@ def simulate_dwells(
     probes: list[_Run] = []
     if any(_stabilised(r) for r in (coarse, fine)):
         # stalls and snaps make the path branch; probe where with two more refined runs
-        for factor in PROBE_FACTORS:
-            probe = _run_with_retries(engine, refine(coarse.scene, factor), advances, progress)
+        def probe_run(factor: float) -> Callable[[], _Run]:
+            return lambda: _run_with_retries(engine, refine(coarse.scene, factor), advances,
+                                             progress and factor == PROBE_FACTORS[0])  # fmt: skip
+
+        done = _run_two(*(probe_run(f) for f in PROBE_FACTORS), fork)  # independent: at once
+        for probe in done:
             if probe.ok:
                 probes.append(probe)
                 error_mm = np.maximum(error_mm, distance(probe, fine))
@@ -642,8 +713,12 @@ def simulate_dwells(
     if probes and branch_mm > NUMERICAL_ERROR_WARN_MM:
         # the path branches at these settings: settle it with two much finer runs
         base = runs[0].scene
-        pair = [_run_with_retries(engine, refine(base, f), advances, progress)
-                for f in RESOLVE_FACTORS]  # fmt: skip
+        f_coarse, f_fine = RESOLVE_FACTORS
+        pair = _run_two(  # independent: both at once (in this order when not forked)
+            lambda: _run_with_retries(engine, refine(base, f_coarse), advances, progress),
+            lambda: _run_with_retries(engine, refine(base, f_fine), advances, False),
+            fork,
+        )
         runs += pair
         if all(r.ok for r in pair):
             coarse, fine = pair

@@ -28,6 +28,7 @@ from ringqa.report.tables import SCHEMA, results_dict, write_batch_tables, write
 __all__ = [
     "SCHEMA",
     "ReportFields",
+    "prepare_report",
     "read_accuracy_csv",
     "results_dict",
     "write_batch",
@@ -132,28 +133,99 @@ def write_batch(
     fields: ReportFields | None = None,
     export: bool = False,
     sections: Sequence = (),
+    workers: int | None = None,
 ) -> Path:
     """Write a BatchResult: ``out_dir/<applicator>/`` per result, plus the cross-applicator
     ``summary.csv``, ``all_dwells.csv``, ``all_doses.csv``, ``batch.json`` and ``summary.pdf``.
     Failed applicators appear in summary.csv / batch.json with their error (no subfolder).
     ``fields``, ``export`` and ``sections`` as :func:`write_report` (the exports per applicator
-    folder; the fields also go on summary.pdf)."""
+    folder; the fields also go on summary.pdf). ``workers``: processes rendering the
+    applicators' PDFs at once (default :func:`ringqa.pipeline.batch.default_workers`; forked,
+    each writes its applicator's ``report.pdf`` into the staging folder while this process
+    writes the tables and ``summary.pdf``; the files are those of 1 worker)."""
     from tqdm import tqdm
 
+    from ringqa.pipeline.batch import default_workers
+
     checked = _checked_exports(batch.results, export)
+    n_workers = default_workers() if workers is None else max(1, int(workers))
+    forked = pdf and n_workers > 1 and len(batch.results) > 1
     with staged_output(out_dir) as stage:
-        items = zip(batch.results, checked, strict=True)
-        for i, (res, exp) in enumerate(
-            tqdm(items, desc="reports", unit="applicator", disable=not progress,
-                 total=len(batch.results))
-        ):  # fmt: skip
-            sub = stage / batch.label(i)
-            own = dataclasses.replace(fields or ReportFields(), label=batch.label(i))
-            _write_one(res, sub, pdf, None, own, exp, sections)
-            # each applicator's folder is recognisably ringqa's own (copied out on its own, it
-            # is replaced whole by a later run like any output folder)
-            write_json(sub / MARKER_NAME, marker_record(), indent=2, end="\n")
-        write_batch_tables(batch, stage)
-        if pdf:
-            write_batch_pdf(batch, stage / "summary.pdf", fields=fields)
+        subs = [stage / batch.label(i) for i in range(len(batch.results))]
+        owns = [dataclasses.replace(fields or ReportFields(), label=batch.label(i))
+                for i in range(len(batch.results))]  # fmt: skip
+        pool = _pdf_pool(batch.results, subs, owns, sections, n_workers) if forked else None
+        # the workers start on the PDFs now; this process writes the rest meanwhile
+        done = pool.imap(_pdf_task, range(len(batch.results))) if pool is not None else ()
+        try:
+            items = zip(batch.results, checked, subs, owns, strict=True)
+            for res, exp, sub, own in tqdm(
+                items, desc="reports", unit="applicator", total=len(batch.results),
+                disable=not progress or forked,
+            ):  # fmt: skip
+                _write_one(res, sub, pdf and not forked, None, own, exp, sections)
+                # each applicator's folder is recognisably ringqa's own (copied out on its own,
+                # it is replaced whole by a later run like any output folder)
+                write_json(sub / MARKER_NAME, marker_record(), indent=2, end="\n")
+            write_batch_tables(batch, stage)
+            if pdf:
+                write_batch_pdf(batch, stage / "summary.pdf", fields=fields)
+            if pool is not None:
+                for _ in tqdm(done, desc="reports", unit="applicator", disable=not progress,
+                              total=len(batch.results)):  # fmt: skip
+                    pass
+        finally:
+            if pool is not None:
+                pool.terminate()
+                pool.join()
     return Path(out_dir)
+
+
+def prepare_report() -> None:
+    """Load what every report needs, ahead of it (e.g. while a forked process commissions):
+    matplotlib's Agg canvas, PIL, reportlab, the report's fonts and styles, and matplotlib's
+    text set-up by drawing a small figure once. Nothing is written; the report's pixels and
+    text are the same with or without it (only caches are filled)."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    from ringqa.report import layout
+
+    layout.register_fonts()
+    layout.styles()
+    fig = Figure(figsize=(2.0, 1.5), dpi=layout.FIGURE_DPI)
+    FigureCanvasAgg(fig)
+    ax = fig.add_subplot()
+    ax.plot([0.0, 1.0], [0.0, 1.0], marker="o")
+    ax.set_title("warm-up", fontsize=9)
+    ax.set_xlabel("x (mm)")
+    ax.legend(["a"], fontsize=7)
+    fig.canvas.draw()
+
+
+#: (results, PDF paths, fields, sections) of the batch whose PDFs the forked workers render
+#: (inherited, never pickled)
+_PDF_JOB: tuple | None = None
+
+
+def _pdf_pool(results, folders, fields, sections, workers: int):
+    """A pool of forked processes set up to render ``results[k]`` into
+    ``folders[k]/report.pdf`` (:func:`_pdf_task`); the folders are made here first."""
+    import multiprocessing
+
+    from ringqa.pipeline.batch import worker_init
+
+    prepare_report()  # once, before forking: the workers inherit it
+
+    global _PDF_JOB
+    for folder in folders:
+        folder.mkdir(parents=True, exist_ok=True)
+    _PDF_JOB = (results, [f / "report.pdf" for f in folders], fields, sections)
+    return multiprocessing.get_context("fork").Pool(min(workers, len(results)), worker_init)
+
+
+def _pdf_task(k: int) -> int:
+    """Render report ``k`` of :data:`_PDF_JOB` (in a worker)."""
+    results, paths, fields, sections = _PDF_JOB  # type: ignore[misc]
+    write_pdf(results[k], paths[k], fields=fields[k], sections=sections)
+    return k
