@@ -1,7 +1,5 @@
 """``python -m ringqa`` runs the command line."""
 
-import sys
+from ringqa.cli import console_main
 
-from ringqa.cli import main
-
-sys.exit(main())
+console_main()

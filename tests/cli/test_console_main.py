@@ -1,0 +1,62 @@
+"""The ``ringqa`` script's quick exit (``ringqa.cli.console_main``): exit status, output flushed,
+exit handlers run - the things a normal interpreter exit does that ``os._exit`` would skip."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def _run(*args: str, **env: str) -> subprocess.CompletedProcess:
+    environ = {**os.environ, "RINGQA_COMPILE_NOTICE": "0", "RINGQA_CONFIG": "", **env}
+    environ["PYTHONPATH"] = os.pathsep.join([str(ROOT), environ.get("PYTHONPATH", "")])
+    return subprocess.run(
+        [sys.executable, *args], capture_output=True, text=True, env=environ, timeout=120
+    )
+
+
+def test_output_piped_complete_and_status_zero():
+    """``ringqa config show`` exits 0 and its piped stdout is the same text as the same command
+    through :func:`ringqa.cli.main` with a normal exit: flushed before ``os._exit``."""
+    proc = _run("-m", "ringqa", "config", "show")
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.strip() != ""
+    # the same text as a normal (slow) exit of the same command run through main()
+    normal = _run("-c", "import sys; from ringqa.cli import main; "
+                        "sys.exit(main(['config', 'show']))").stdout  # fmt: skip
+    assert proc.stdout == normal
+
+
+@pytest.mark.parametrize(
+    ("args", "code"),
+    [
+        (("commission", "no-such-applicator-xyz", "--out", "OUT"), 2),  # a user error: exit 2
+        (("--no-such-option",), 2),  # argparse's own exit, not through os._exit
+    ],
+)
+def test_exit_status_passed_on(tmp_path, args, code):
+    """The command's status is the process's: 2 for input the user must fix."""
+    args = tuple(str(tmp_path / "out") if a == "OUT" else a for a in args)
+    proc = _run("-m", "ringqa", *args)
+    assert proc.returncode == code, proc.stderr
+    assert "Traceback" not in proc.stderr
+
+
+def test_exit_handlers_run(tmp_path):
+    """An ``atexit`` handler registered during the command still runs (``console_main`` runs
+    the exit handlers before ``os._exit``): the marker file it writes exists afterwards."""
+    marker = tmp_path / "marker"
+    code = (
+        "import atexit, sys; from pathlib import Path; import ringqa.cli as c; "
+        f"atexit.register(lambda: Path({str(marker)!r}).write_text('ran')); "
+        "sys.argv = ['ringqa', 'config', 'show']; c.console_main()"
+    )
+    proc = _run("-c", code)
+    assert proc.returncode == 0, proc.stderr
+    assert marker.read_text() == "ran"
