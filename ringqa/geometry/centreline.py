@@ -16,10 +16,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.interpolate import make_interp_spline
 
 from ringqa.errors import RingQAError
 from ringqa.geometry import _kernels as K
+from ringqa.geometry._bspline import make_interp_spline
 
 #: Maximum spacing of the dense table (m).
 TABLE_SPACING_M = 0.25e-3

@@ -15,7 +15,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.ndimage import median_filter
 
 from ringqa.geometry.applicator import Channel
 
@@ -75,6 +74,10 @@ def find_kinks(
         return ()
     h = float(tab.s[1] - tab.s[0])
     size = max(3, round(window_m / h) | 1)
+    # imported here, not at module level: scipy's subpackages take ~0.1 s to import and
+    # the commissioning run does not come here
+    from scipy.ndimage import median_filter
+
     median = median_filter(kappa, size=size, mode="nearest")
     above = (kappa - median) * ring_radius_m > excess
     kinks = []

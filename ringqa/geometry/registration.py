@@ -51,7 +51,6 @@ from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from ringqa.geometry.applicator import Channel
 from ringqa.geometry.centreline import GeometryError
@@ -128,6 +127,86 @@ class RegistrationError(GeometryError):
 
 # --------------------------------------------------------------------------------------------
 # results
+
+
+def rotvec_to_matrix(rotvec) -> np.ndarray:
+    """Rotation matrix of a rotation vector (Rodrigues' formula).
+
+    Parameters
+    ----------
+    rotvec : (3,) array_like
+        Rotation axis times angle (rad).
+
+    Returns
+    -------
+    (3, 3) ndarray
+        ``R = I + a K + b K^2`` with ``K`` the cross-product matrix of ``rotvec``,
+        ``a = sin(theta)/theta`` and ``b = (1 - cos(theta))/theta^2 = 2 sin^2(theta/2)/theta^2``
+        (the half-angle form has no cancellation); below ``theta = 1e-3`` their Taylor series to
+        ``theta^4`` (truncation below 1e-21), which also covers ``theta = 0``. Equals scipy's
+        ``Rotation.from_rotvec(v).as_matrix()`` to round-off.
+    """
+    v = np.asarray(rotvec, dtype=float)
+    theta = float(np.sqrt(v @ v))
+    if theta < 1e-3:
+        t2 = theta * theta
+        a = 1.0 - t2 / 6.0 + t2 * t2 / 120.0
+        b = 0.5 - t2 / 24.0 + t2 * t2 / 720.0
+    else:
+        a = np.sin(theta) / theta
+        b = 2.0 * (np.sin(0.5 * theta) / theta) ** 2
+    k = np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
+    return np.eye(3) + a * k + b * (k @ k)
+
+
+def matrix_to_rotvec(matrix) -> np.ndarray:
+    """Rotation vector (axis times angle, rad, angle in [0, pi]) of a rotation matrix.
+
+    Parameters
+    ----------
+    matrix : (3, 3) array_like
+        A rotation matrix (orthonormal to round-off).
+
+    Returns
+    -------
+    (3,) ndarray
+
+    Notes
+    -----
+    Through the unit quaternion, found by Markley's method (the largest of the trace and the
+    diagonal entries picks the formula, so no component is computed from a small difference: the
+    angle near 0 and near pi are both exact to round-off), then ``angle = 2 atan2(|q_xyz|, q_w)``
+    with ``q_w >= 0`` and ``rotvec = q_xyz angle / sin(angle/2)`` (its series below 1e-3 rad). The
+    steps are those of scipy's ``Rotation.from_matrix(m).as_rotvec()``.
+    """
+    m = np.asarray(matrix, dtype=float)
+    decision = (m[0, 0], m[1, 1], m[2, 2], m[0, 0] + m[1, 1] + m[2, 2])
+    choice = int(np.argmax(decision))
+    q = np.empty(4)
+    if choice != 3:
+        i = choice
+        j = (i + 1) % 3
+        k = (j + 1) % 3
+        q[i] = 1.0 - decision[3] + 2.0 * m[i, i]
+        q[j] = m[j, i] + m[i, j]
+        q[k] = m[k, i] + m[i, k]
+        q[3] = m[k, j] - m[j, k]
+    else:
+        q[0] = m[2, 1] - m[1, 2]
+        q[1] = m[0, 2] - m[2, 0]
+        q[2] = m[1, 0] - m[0, 1]
+        q[3] = 1.0 + decision[3]
+    q /= np.sqrt(q @ q)
+    if q[3] < 0.0:
+        q = -q
+    xyz = q[:3]
+    angle = 2.0 * float(np.arctan2(np.sqrt(xyz @ xyz), q[3]))
+    if angle <= 1e-3:
+        a2 = angle * angle
+        scale = 2.0 + a2 / 12.0 + 7.0 * a2 * a2 / 2880.0
+    else:
+        scale = angle / np.sin(0.5 * angle)
+    return scale * xyz
 
 
 def _freeze(obj) -> None:
@@ -826,7 +905,7 @@ def _rigid_fit(p: np.ndarray, s0: np.ndarray, channel: Channel, slide: bool):
     eye = np.eye(3)
 
     def moved(rot, t, x):
-        return Rotation.from_rotvec(x[:3] / scale).as_matrix() @ rot, t + x[3:]
+        return rotvec_to_matrix(x[:3] / scale) @ rot, t + x[3:]
 
     def evaluate(rot, t, s_hint):
         q = arm0 @ rot.T + centre + t
@@ -1033,7 +1112,7 @@ def register_reference(
     after = check_reference_path(
         registered, channel, capsule_radius_m, frame, relative_m=relative_m
     )
-    rotvec = Rotation.from_matrix(rot).as_rotvec()
+    rotvec = matrix_to_rotvec(rot)
     angle = float(np.linalg.norm(rotvec))
     axis = rotvec / angle if angle > 0.0 else np.zeros(3)
     if mode == "rigid":

@@ -98,7 +98,6 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from ringqa.geometry import _kernels as K
 from ringqa.geometry.applicator import Applicator, Channel
@@ -493,6 +492,10 @@ def _validate_segment(segment_m) -> np.ndarray:
             f"the points span {span:.3g} m: they look like millimetres",
             "give metres (convert with ringqa.units.mm_to_m)",
         )
+    # imported here, not at module level: scipy's subpackages take ~0.1 s to import and
+    # the commissioning run does not come here
+    from scipy.spatial import cKDTree
+
     pairs = cKDTree(seg).query_pairs(DUPLICATE_TOL_M)
     if pairs:
         i, j = sorted(min(pairs))
