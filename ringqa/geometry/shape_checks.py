@@ -71,6 +71,23 @@ def lumen_radius_range_m(lumen) -> tuple[float, float] | None:
     return float(rb.min()), float(rb.max())
 
 
+def _close_far_pairs(pts: np.ndarray, s: np.ndarray, r: float, gap: float) -> np.ndarray:
+    """Index pairs ``i < j`` with ``|p_i - p_j| <= r`` and ``s_j - s_i >= gap`` (s increasing).
+
+    Brute force in blocks of rows (numpy; a k-d tree would need scipy.spatial, ~0.1 s to import):
+    O(n^2) distances, a few ms for the ~1000 samples of a ring channel.
+    """
+    out = []
+    block = 256
+    for i0 in range(0, pts.shape[0], block):
+        a = pts[i0 : i0 + block]
+        d2 = np.sum((a[:, None, :] - pts[None, :, :]) ** 2, axis=2)
+        far = (s[None, :] - s[i0 : i0 + block, None]) >= gap
+        i, j = np.nonzero((d2 <= r * r) & far)
+        out.append(np.c_[i + i0, j])
+    return np.concatenate(out) if out else np.empty((0, 2), dtype=int)
+
+
 def self_intersection(centreline, diameter_m: float) -> tuple[float, float, float] | None:
     """Two parts of ``centreline`` closer than ``diameter_m`` but at least ``pi diameter_m``
     apart along it.
@@ -80,19 +97,13 @@ def self_intersection(centreline, diameter_m: float) -> tuple[float, float, floa
     tuple of float or None
         ``(s1_m, s2_m, distance_m)`` of the closest such pair, or None.
     """
-    from scipy.spatial import cKDTree
-
     length = float(centreline.length_m)
     if diameter_m <= 0 or length <= math.pi * diameter_m:
         return None
     h = min(diameter_m / 4.0, 0.5e-3)
     s = np.linspace(0.0, length, max(2, math.ceil(length / h) + 1))
     pts = np.asarray(centreline.position(s), dtype=float)
-    pairs = cKDTree(pts).query_pairs(diameter_m, output_type="ndarray")
-    if pairs.size == 0:
-        return None
-    far = np.abs(s[pairs[:, 0]] - s[pairs[:, 1]]) >= math.pi * diameter_m
-    pairs = pairs[far]
+    pairs = _close_far_pairs(pts, s, diameter_m, math.pi * diameter_m)
     if pairs.size == 0:
         return None
     d = np.linalg.norm(pts[pairs[:, 0]] - pts[pairs[:, 1]], axis=1)
