@@ -96,3 +96,27 @@ def test_unique_labels():
     taken: set[str] = set()
     got = [unique_label(n, taken) for n in ("same", "same", "Same", "a/b", "", "same-2")]
     assert got == ["same", "same-2", "Same-3", "a_b", "applicator", "same-2-2"]
+
+
+def test_close_far_pairs_match_a_kd_tree():
+    """The numpy close-pair search (which replaced scipy's cKDTree on the commissioning path)
+    finds exactly the pairs cKDTree.query_pairs finds, after the same along-the-channel filter,
+    on random clouds dense enough that hundreds of pairs are within r."""
+    import math
+
+    from scipy.spatial import cKDTree
+
+    from ringqa.geometry.shape_checks import _close_far_pairs
+
+    rng = np.random.default_rng(3)
+    for n in (2, 300, 700):
+        s = np.sort(rng.uniform(0.0, 0.3, n))
+        pts = rng.uniform(0.0, 0.01, (n, 3))
+        r = 1e-3
+        gap = math.pi * r
+        ref = cKDTree(pts).query_pairs(r, output_type="ndarray").reshape(-1, 2)
+        ref = ref[np.abs(s[ref[:, 0]] - s[ref[:, 1]]) >= gap]
+        want = {tuple(sorted(p)) for p in ref.tolist()}
+        got = {tuple(p) for p in _close_far_pairs(pts, s, r, gap).tolist()}
+        assert got == want
+        assert n < 300 or len(want) > 100
