@@ -9,7 +9,6 @@ checks every key (:mod:`.check`), builds the channel (:mod:`.channel`) and the o
 
 from __future__ import annotations
 
-import copy
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -20,7 +19,12 @@ from ringqa.simulation.scene import ChannelSpec, Scene
 from ringqa.simulation.scene_keys import SECTIONS, section_keys
 from ringqa.simulation.scenefile.channel import build_channel
 from ringqa.simulation.scenefile.check import Checker
-from ringqa.simulation.scenefile.read import apply_overrides, read_scene_dict, resolve_scene_path
+from ringqa.simulation.scenefile.read import (
+    apply_overrides,
+    plain_copy,
+    read_scene_dict,
+    resolve_scene_path,
+)
 from ringqa.simulation.scenefile.sections import (
     read_contact,
     read_effects,
@@ -90,7 +94,7 @@ def scene_from_data(
     preset = ck.value("instrument", "preset")
     if channel is None:
         channel = build_channel(ck)
-    spec = copy.deepcopy(data.get("channel", {}))
+    spec = plain_copy(data.get("channel", {}))
     app = spec.get("applicator")
     if app is not None and origin and ("/" in str(app) or str(app).endswith(".json")):
         cand = Path(origin.rstrip(": ")).parent / str(app)

@@ -7,7 +7,6 @@ its keys (converted with the keys' own conversions), values rounded to 12 digits
 
 from __future__ import annotations
 
-import copy
 from typing import Any
 
 import numpy as np
@@ -16,13 +15,14 @@ from ringqa.simulation.instruments import CABLE_PRESETS
 from ringqa.simulation.scene import Scene
 from ringqa.simulation.scene_keys import section_keys
 from ringqa.simulation.scenefile.channel import point_count
+from ringqa.simulation.scenefile.read import plain_copy
 from ringqa.units import m_to_mm
 
 
 def channel_spec(scene: Scene) -> dict:
     """The ``[channel]`` table: as the file gave it, or inline points and the lumen."""
     if scene.channel_spec is not None:
-        return copy.deepcopy(dict(scene.channel_spec.spec))
+        return plain_copy(dict(scene.channel_spec.spec))
     # a channel given as an object: write it inline (centreline points and the lumen)
     ch = scene.channel
     cl = ch.centreline

@@ -275,3 +275,37 @@ def test_every_engine_setting_survives_the_round_trip(part):
             assert got == pytest.approx(new, rel=1e-11), f.name
         else:
             assert got == new, f.name
+
+
+_toml_values = st.recursive(
+    st.one_of(st.floats(allow_nan=False), st.integers(), st.text(max_size=5), st.booleans()),
+    lambda children: st.one_of(
+        st.lists(children, max_size=4), st.dictionaries(st.text(max_size=3), children, max_size=4)
+    ),
+    max_leaves=30,
+)
+
+
+@given(_toml_values)
+def test_plain_copy_equals_deepcopy_and_is_independent(value):
+    """plain_copy gives what copy.deepcopy gives for TOML data (equal), and no list or dict of
+    the copy is an object of the original (so changing the copy cannot change the scene)."""
+    import copy
+
+    from ringqa.simulation.scenefile.read import plain_copy
+
+    got = plain_copy(value)
+    assert got == copy.deepcopy(value)
+
+    def containers(v):
+        if isinstance(v, dict):
+            yield v
+            for x in v.values():
+                yield from containers(x)
+        elif isinstance(v, list):
+            yield v
+            for x in v:
+                yield from containers(x)
+
+    original = {id(c) for c in containers(value)}
+    assert not original & {id(c) for c in containers(got)}
