@@ -191,6 +191,10 @@ def closest_point(h, pos, tan, p, s_hint, window, work):
             s_new = lo
         elif s_new > hi:
             s_new = hi
+        if s_new == s:
+            # the step vanished in round-off: c, c', c'' already hold the values at s (the
+            # final evaluation below would recompute them bit for bit)
+            return s
         done = abs(s_new - s) < 1e-13
         s = s_new
         if done:
