@@ -42,8 +42,8 @@ class ContactArgs(NamedTuple):
         Wall stiffness k (N/m) per contact sample of weight 1.
     skip_far : bool
         Skip the closest-point search of samples that cannot have reached the wall since their
-        last exact evaluation (:data:`FAR_SAFETY`); False with wall damping, which reads every
-        sample's distance.
+        last exact evaluation (:data:`FAR_SAFETY`); False with wall damping (c_w != 0), which
+        reads every sample's distance.
     """
 
     chan: ChannelArgs
@@ -330,8 +330,9 @@ class Contact(Effect):
                 f"{frac * ctx.clearance_m * 1e3:.4f} mm "
                 f"({frac:g} x the clearance {ctx.clearance_m * 1e3:.3f} mm)"
             )
-        # wall damping reads every sample's distance (its history): no skipping with it
-        skip = not ctx.scene.effects.wall_damping
+        # wall damping reads every sample's distance (its history): no skipping with it (with
+        # c_w = 0 it adds exact zeros, and skipping keeps it bit-identical to damping off)
+        skip = not (ctx.scene.effects.wall_damping and float(c.damping_ns_m) != 0.0)
         return cls(tb.args(), k, tr, frac, skip)
 
     def args(self) -> ContactArgs:

@@ -70,10 +70,16 @@ def test_skipped_samples_give_the_full_residual_and_jacobian():
     assert np.max(np.abs(B_skip - B_full)) <= 1e-12 * np.max(np.abs(B_full))
 
 
-@pytest.mark.parametrize("damping", [False, True])
-def test_skip_is_off_with_wall_damping(damping):
+@pytest.mark.parametrize(("damping", "c_w", "skip"), [(False, 10.0, True), (True, 10.0, False),
+                                                   (True, 0.0, True)])  # fmt: skip
+def test_skip_is_off_with_wall_damping(damping, c_w, skip):
     """Wall damping reads every sample's distance history, which a skipped sample does not
-    update: the contact skips only without it."""
-    m = _model(Effects(friction="none", wall_damping=damping))
+    update: the contact skips only without it (or with c_w = 0, where it adds exact zeros)."""
+    from ringqa.simulation.scene import ContactParams
+
+    ch = arc_channel(radius_m=0.013, angle_rad=np.pi, entry_m=0.04)
+    sc = scene(ch, rod(), effects=Effects(friction="none", wall_damping=damping),
+               contact=ContactParams(damping_ns_m=c_w))  # fmt: skip
+    m = model(sc, 0.06)
     (contact,) = [e for e in m.effects if isinstance(e, ContactArgs)]
-    assert contact.skip_far is (not damping)
+    assert contact.skip_far is skip
