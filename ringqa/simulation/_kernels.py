@@ -191,6 +191,10 @@ def closest_point(h, pos, tan, p, s_hint, window, work):
             s_new = lo
         elif s_new > hi:
             s_new = hi
+        if s_new == s:
+            # the step vanished in round-off: c, c', c'' already hold the values at s (the
+            # final evaluation below would recompute them bit for bit)
+            return s
         done = abs(s_new - s) < 1e-13
         s = s_new
         if done:
@@ -212,24 +216,28 @@ def slide_points(h, pos, tan, pts, s_hint, ds, out, s_out):
     dd = np.empty(3)
     for i in range(pts.shape[0]):
         s = closest_point(h, pos, tan, pts[i], s_hint[i], 0.01, work)
-        c0 = work[0:3].copy()
-        t0 = work[3:6].copy()
+        # scalars, not array copies: no allocation per point (same arithmetic)
+        t00 = work[3]
+        t01 = work[4]
+        t02 = work[5]
+        o0 = pts[i, 0] - work[0]
+        o1 = pts[i, 1] - work[1]
+        o2 = pts[i, 2] - work[2]
         curve_eval(h, pos, tan, s + ds, c1, t1, dd)
-        o = pts[i] - c0
         # Rodrigues rotation taking t0 to t1
-        k0 = t0[1] * t1[2] - t0[2] * t1[1]
-        k1 = t0[2] * t1[0] - t0[0] * t1[2]
-        k2 = t0[0] * t1[1] - t0[1] * t1[0]
-        cth = t0[0] * t1[0] + t0[1] * t1[1] + t0[2] * t1[2]
+        k0 = t01 * t1[2] - t02 * t1[1]
+        k1 = t02 * t1[0] - t00 * t1[2]
+        k2 = t00 * t1[1] - t01 * t1[0]
+        cth = t00 * t1[0] + t01 * t1[1] + t02 * t1[2]
         # v' = v cos + (k x v) + k (k.v) / (1 + cos)   with k = t0 x t1 (|k| = sin)
-        kx0 = k1 * o[2] - k2 * o[1]
-        kx1 = k2 * o[0] - k0 * o[2]
-        kx2 = k0 * o[1] - k1 * o[0]
-        kv = k0 * o[0] + k1 * o[1] + k2 * o[2]
+        kx0 = k1 * o2 - k2 * o1
+        kx1 = k2 * o0 - k0 * o2
+        kx2 = k0 * o1 - k1 * o0
+        kv = k0 * o0 + k1 * o1 + k2 * o2
         fac = kv / (1.0 + cth) if cth > -0.99 else 0.0
-        out[i, 0] = c1[0] + o[0] * cth + kx0 + k0 * fac
-        out[i, 1] = c1[1] + o[1] * cth + kx1 + k1 * fac
-        out[i, 2] = c1[2] + o[2] * cth + kx2 + k2 * fac
+        out[i, 0] = c1[0] + o0 * cth + kx0 + k0 * fac
+        out[i, 1] = c1[1] + o1 * cth + kx1 + k1 * fac
+        out[i, 2] = c1[2] + o2 * cth + kx2 + k2 * fac
         s_out[i] = s + ds
 
 

@@ -40,18 +40,27 @@ class ContactArgs(NamedTuple):
         The transition width is at most this fraction of the clearance.
     k_wall : float
         Wall stiffness k (N/m) per contact sample of weight 1.
+    skip_far : bool
+        Skip the closest-point search of samples that cannot have reached the wall since their
+        last exact evaluation (:data:`FAR_SAFETY`); False with wall damping (c_w != 0), which
+        reads every sample's distance.
     """
 
     chan: ChannelArgs
     transition: float
     max_frac: float
     k_wall: float
+    skip_far: bool
 
 
 #: lumen changes (a step in r_b, the start of a flat side) are tapered over this length (m)
 LUMEN_RAMP_M = 1.0e-3
 #: the U-shaped lumen's corners (circle meets flat) are rounded over this fraction of the clearance
 CORNER_FRACTION = 0.05
+#: a sample out of contact by the gap g (m) at its last exact evaluation is skipped while it has
+#: moved less than g / FAR_SAFETY since: its distance to the wall changes at most
+#: (1 + lumen taper slope x ds/dp) times as fast as the sample moves (module docstring)
+FAR_SAFETY = 2.0
 
 
 @njit(cache=True)
@@ -90,7 +99,7 @@ def prepare_contact(p, q, st, sw):
     return contact_geometry(
         q, st.nd, sw.link, sw.alpha, sw.ro, sw.wt, ch.h, ch.pos, ch.tan, ch.flat_normal,
         ch.kappa_min_flat, ch.seg_s, ch.seg_rb, ch.seg_ra, ch.seg_flat, p.transition, p.max_frac,
-        p.k_wall, sw.s, sw.p, sw.d, sw.n, sw.H, sw.z, sw.w, sw.F, sw.dF,
+        p.k_wall, sw.s, sw.p, sw.d, sw.n, sw.H, sw.z, sw.w, sw.F, sw.dF, p.skip_far,
     )  # fmt: skip
 
 
@@ -98,7 +107,7 @@ def prepare_contact(p, q, st, sw):
 def contact_geometry(
     q, nd, samp_link, samp_alpha, samp_ro, samp_wt, h, pos, tan, nor, kappa_min_flat, seg_s,
     seg_rb, seg_ra, seg_flat, transition, max_frac, k_wall, samp_s, samp_p, samp_d, samp_n,
-    samp_H, samp_z, samp_w, samp_F, samp_dF,
+    samp_H, samp_z, samp_w, samp_F, samp_dF, skip_far,
 ):  # fmt: skip
     """Distance to the wall and elastic normal force at every contact sample point.
 
@@ -113,6 +122,14 @@ def contact_geometry(
     a wall stiffness per unit length). ``samp_n`` = grad d (outward wall normal), ``samp_H`` =
     Hessian of d, both computed only for samples in contact (z > 0; zero elsewhere: a sample
     without force or stiffness needs neither).
+
+    With ``skip_far`` a sample whose last exact evaluation found it out of contact by the gap
+    ``g = -z w`` (m) and that has moved less than ``g / FAR_SAFETY`` from the position ``samp_p``
+    of that evaluation is still out of contact: it gets F = dF = 0 (n and H are still zero from
+    that evaluation) and keeps its ``samp_p``, ``samp_s``, ``samp_d``, ``samp_z``, ``samp_w``
+    (the reference of the test; ``samp_s`` is then a stale hint for the next search, at most
+    ~g / FAR_SAFETY away). A sample with z >= 0 (in contact, or never evaluated: all zeros) is
+    always evaluated, and so is sample 0 (the tip: the jam monitor follows its ``samp_s``).
     Returns the elastic contact energy.
     """
     work = np.empty(9)
@@ -126,6 +143,16 @@ def contact_geometry(
     for i in range(samp_link.shape[0]):
         j = samp_link[i]
         al = samp_alpha[i]
+        if skip_far and samp_z[i] < 0.0 and i > 0:
+            gap = -samp_z[i] * samp_w[i] / FAR_SAFETY
+            mv = 0.0
+            for a in range(3):
+                x = (1.0 - al) * q[nd * j + a] + al * q[nd * (j + 1) + a] - samp_p[i, a]
+                mv += x * x
+            if mv < gap * gap:
+                samp_F[i] = 0.0
+                samp_dF[i] = 0.0
+                continue
         for a in range(3):
             samp_p[i, a] = (1.0 - al) * q[nd * j + a] + al * q[nd * (j + 1) + a]
         s = closest_point(h, pos, tan, samp_p[i], samp_s[i], 0.01, work)
@@ -282,6 +309,7 @@ class Contact(Effect):
     stiffness_n_m: float
     transition_m: float
     max_fraction: float
+    skip_far: bool = True
 
     @classmethod
     def build(cls, ctx: BuildContext) -> Contact | None:
@@ -302,7 +330,12 @@ class Contact(Effect):
                 f"{frac * ctx.clearance_m * 1e3:.4f} mm "
                 f"({frac:g} x the clearance {ctx.clearance_m * 1e3:.3f} mm)"
             )
-        return cls(tb.args(), k, tr, frac)
+        # wall damping reads every sample's distance (its history): no skipping with it (with
+        # c_w = 0 it adds exact zeros, and skipping keeps it bit-identical to damping off)
+        skip = not (ctx.scene.effects.wall_damping and float(c.damping_ns_m) != 0.0)
+        return cls(tb.args(), k, tr, frac, skip)
 
     def args(self) -> ContactArgs:
-        return ContactArgs(self.chan, self.transition_m, self.max_fraction, self.stiffness_n_m)
+        return ContactArgs(
+            self.chan, self.transition_m, self.max_fraction, self.stiffness_n_m, self.skip_far
+        )

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from bisect import bisect_right
+
 import numpy as np
 from numba import njit
 
@@ -97,7 +99,9 @@ class Monitor:
             jl = solver.jam_length_m
             hu = self._hist_u
             if u - hu[0] >= jl:
-                k = int(np.searchsorted(hu, u - jl, side="right") - 1)
+                # bisect on the list (increasing: forward steps only), as np.searchsorted with
+                # side="right", without converting the list to an array on every step
+                k = bisect_right(hu, u - jl) - 1
                 if s_src - self._hist_s[k] < 0.1 * (u - hu[k]):
                     return STATUS_JAMMED, (
                         f"jammed at advance {u * 1e3:.2f} mm: the tip moved "
