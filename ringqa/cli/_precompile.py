@@ -52,7 +52,7 @@ LEAVES: tuple[tuple[str, str, tuple[str, ...]], ...] = (
     ("ringqa.simulation.effects.axial", "axial_kernel", (_F1, _I, _I, _I, _F1, _D, _F1, _F2, _B)),
     ("ringqa.simulation.effects.contact", "contact_geometry",
      (_F1, _I, _I1, _F1, _F1, _F1, _D, _F2, _F2, _F2, _D, _F1, _F1, _F1, _F1, _D, _D, _D, _F1,
-      _F2, _F1, _F2, _F3, _F1, _F1, _F1, _F1, _B)),
+      _F2, _F1, _F2, _F3, _F1, _F1, _F1, _F1, _I)),
 )  # fmt: skip
 
 

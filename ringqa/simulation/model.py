@@ -19,6 +19,7 @@ from ringqa.simulation.chain import build_chain, contact_samples
 from ringqa.simulation.channel import ChannelTable
 from ringqa.simulation.effects import EFFECTS, Bending, Contact, Tether
 from ringqa.simulation.effects.base import BuildContext, Samples, Step, is_cacheable
+from ringqa.simulation.effects.contact import refresh_far
 from ringqa.simulation.solvers.newton import newton, newton_uncached
 from ringqa.simulation.solvers.predictor import predict
 
@@ -128,6 +129,15 @@ class Model:
         self._tether = next(i for i, u in enumerate(units) if isinstance(u, Tether))
         self.contact_on = any(isinstance(u, Contact) for u in units)
         self.names = tuple(u.name for u in units)
+        #: wall damping reads the distance history, which skipped far samples would leave
+        #: stale: refresh them after every solved step (:meth:`refresh_far`)
+        self._refresh_far = (
+            self.contact_on
+            and self.unit("contact").skip_far
+            and "wall_damping" in self.names
+            and self.unit("wall_damping").c_w != 0.0
+        )
+        self._contact_args = self.unit("contact").args() if self.contact_on else None
         #: the effects with the friction Jacobian's falling branch floored (None: no friction)
         self.monotone_effects = (
             self.effects_with(friction=self.unit("friction").monotone_args())
@@ -236,6 +246,12 @@ class Model:
     def unit(self, name: str):
         """The assembled effect unit called ``name``."""
         return self.units[self.names.index(name)]
+
+    def refresh_far(self, q: np.ndarray) -> None:
+        """Bring the far contact samples' distances up to date at the solved state ``q``
+        (:func:`ringqa.simulation.effects.contact.refresh_far`; only with wall damping)."""
+        if self._refresh_far:
+            refresh_far(self._contact_args, q, self.nd, self.samples)
 
     def work_of(self, name: str) -> float:
         """The last assembly's step work (J) of a dissipative effect (0 if not assembled)."""

@@ -42,8 +42,8 @@ class ContactArgs(NamedTuple):
         Wall stiffness k (N/m) per contact sample of weight 1.
     skip_far : bool
         Skip the closest-point search of samples that cannot have reached the wall since their
-        last exact evaluation (:data:`FAR_SAFETY`); False with wall damping (c_w != 0), which
-        reads every sample's distance.
+        last exact evaluation (:data:`FAR_SAFETY`); with wall damping the model refreshes their
+        distances after every solved step (:func:`refresh_far`).
     """
 
     chan: ChannelArgs
@@ -53,6 +53,9 @@ class ContactArgs(NamedTuple):
     skip_far: bool
 
 
+#: :func:`contact_geometry` modes: skip the far samples / evaluate only them (0: every sample)
+SKIP_FAR = 1
+ONLY_FAR = 2
 #: lumen changes (a step in r_b, the start of a flat side) are tapered over this length (m)
 LUMEN_RAMP_M = 1.0e-3
 #: the U-shaped lumen's corners (circle meets flat) are rounded over this fraction of the clearance
@@ -99,7 +102,8 @@ def prepare_contact(p, q, st, sw):
     return contact_geometry(
         q, st.nd, sw.link, sw.alpha, sw.ro, sw.wt, ch.h, ch.pos, ch.tan, ch.flat_normal,
         ch.kappa_min_flat, ch.seg_s, ch.seg_rb, ch.seg_ra, ch.seg_flat, p.transition, p.max_frac,
-        p.k_wall, sw.s, sw.p, sw.d, sw.n, sw.H, sw.z, sw.w, sw.F, sw.dF, p.skip_far,
+        p.k_wall, sw.s, sw.p, sw.d, sw.n, sw.H, sw.z, sw.w, sw.F, sw.dF,
+        SKIP_FAR if p.skip_far else 0,
     )  # fmt: skip
 
 
@@ -107,7 +111,7 @@ def prepare_contact(p, q, st, sw):
 def contact_geometry(
     q, nd, samp_link, samp_alpha, samp_ro, samp_wt, h, pos, tan, nor, kappa_min_flat, seg_s,
     seg_rb, seg_ra, seg_flat, transition, max_frac, k_wall, samp_s, samp_p, samp_d, samp_n,
-    samp_H, samp_z, samp_w, samp_F, samp_dF, skip_far,
+    samp_H, samp_z, samp_w, samp_F, samp_dF, mode,
 ):  # fmt: skip
     """Distance to the wall and elastic normal force at every contact sample point.
 
@@ -123,13 +127,15 @@ def contact_geometry(
     Hessian of d, both computed only for samples in contact (z > 0; zero elsewhere: a sample
     without force or stiffness needs neither).
 
-    With ``skip_far`` a sample whose last exact evaluation found it out of contact by the gap
-    ``g = -z w`` (m) and that has moved less than ``g / FAR_SAFETY`` from the position ``samp_p``
-    of that evaluation is still out of contact: it gets F = dF = 0 (n and H are still zero from
-    that evaluation) and keeps its ``samp_p``, ``samp_s``, ``samp_d``, ``samp_z``, ``samp_w``
-    (the reference of the test; ``samp_s`` is then a stale hint for the next search, at most
-    ~g / FAR_SAFETY away). A sample with z >= 0 (in contact, or never evaluated: all zeros) is
-    always evaluated, and so is sample 0 (the tip: the jam monitor follows its ``samp_s``).
+    ``mode``: 0 evaluates every sample. :data:`SKIP_FAR` (1): a sample whose last exact
+    evaluation found it out of contact by the gap ``g = -z w`` (m) and that has moved less than
+    ``g / FAR_SAFETY`` from the position ``samp_p`` of that evaluation is still out of contact:
+    it gets F = dF = 0 (n and H are still zero from that evaluation) and keeps its ``samp_p``,
+    ``samp_s``, ``samp_d``, ``samp_z``, ``samp_w`` (the reference of the test; ``samp_s`` is then
+    a stale hint for the next search, at most ~g / FAR_SAFETY away). A sample with z >= 0 (in
+    contact, or never evaluated: all zeros) is always evaluated, and so is sample 0 (the tip: the
+    jam monitor follows its ``samp_s``). :data:`ONLY_FAR` (2): only the samples mode 1 would skip
+    are evaluated, every other sample is left as it is (:func:`refresh_far`).
     Returns the elastic contact energy.
     """
     work = np.empty(9)
@@ -143,16 +149,21 @@ def contact_geometry(
     for i in range(samp_link.shape[0]):
         j = samp_link[i]
         al = samp_alpha[i]
-        if skip_far and samp_z[i] < 0.0 and i > 0:
+        if mode != 0 and samp_z[i] < 0.0 and i > 0:
             gap = -samp_z[i] * samp_w[i] / FAR_SAFETY
             mv = 0.0
             for a in range(3):
                 x = (1.0 - al) * q[nd * j + a] + al * q[nd * (j + 1) + a] - samp_p[i, a]
                 mv += x * x
             if mv < gap * gap:
-                samp_F[i] = 0.0
-                samp_dF[i] = 0.0
+                if mode == SKIP_FAR:
+                    samp_F[i] = 0.0
+                    samp_dF[i] = 0.0
+                    continue
+            elif mode == ONLY_FAR:
                 continue
+        elif mode == ONLY_FAR:
+            continue
         for a in range(3):
             samp_p[i, a] = (1.0 - al) * q[nd * j + a] + al * q[nd * (j + 1) + a]
         s = closest_point(h, pos, tan, samp_p[i], samp_s[i], 0.01, work)
@@ -298,6 +309,25 @@ def apply_normal(nd, kl, samp_link, samp_alpha, samp_n, samp_H, samp_F, samp_dF,
 register_kernels(ContactArgs, add=add_contact, prepare=prepare_contact)
 
 
+def refresh_far(p: ContactArgs, q: np.ndarray, nd: int, sw) -> None:
+    """Evaluate exactly, at ``q``, the samples that :func:`contact_geometry` with ``skip_far``
+    would skip there (mode :data:`ONLY_FAR`); every other sample's values stay as they are.
+
+    A skipped sample keeps the distance of its last exact evaluation; a step's contact force does
+    not depend on it (the sample is out of contact), but wall damping's velocity at a later
+    contact does, through the distance history (``Model.d_prev``). Called once per solved step
+    before that history is stored, it makes the history exact while the step's residual
+    assemblies (tens per step) keep skipping. The refreshed samples are still out of contact, so
+    their force stays zero and the converged state is unchanged.
+    """
+    ch = p.chan
+    contact_geometry(
+        q, nd, sw.link, sw.alpha, sw.ro, sw.wt, ch.h, ch.pos, ch.tan, ch.flat_normal,
+        ch.kappa_min_flat, ch.seg_s, ch.seg_rb, ch.seg_ra, ch.seg_flat, p.transition, p.max_frac,
+        p.k_wall, sw.s, sw.p, sw.d, sw.n, sw.H, sw.z, sw.w, sw.F, sw.dF, ONLY_FAR,
+    )  # fmt: skip
+
+
 @dataclass(frozen=True)
 class Contact(Effect):
     """Wall stiffness k (N/m), transition width (m, <= 0: from the lumen), cap fraction."""
@@ -330,10 +360,9 @@ class Contact(Effect):
                 f"{frac * ctx.clearance_m * 1e3:.4f} mm "
                 f"({frac:g} x the clearance {ctx.clearance_m * 1e3:.3f} mm)"
             )
-        # wall damping reads every sample's distance (its history): no skipping with it (with
-        # c_w = 0 it adds exact zeros, and skipping keeps it bit-identical to damping off)
-        skip = not (ctx.scene.effects.wall_damping and float(c.damping_ns_m) != 0.0)
-        return cls(tb.args(), k, tr, frac, skip)
+        # wall damping reads the samples' distance history: with it the model brings the
+        # skipped samples' distances up to date after every step (Model.refresh_far)
+        return cls(tb.args(), k, tr, frac, True)
 
     def args(self) -> ContactArgs:
         return ContactArgs(

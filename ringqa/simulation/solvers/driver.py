@@ -206,6 +206,7 @@ def run(scene, advances_m: np.ndarray, progress: bool = False) -> SimResult:
     model.prescribe(q, u)
     v = np.zeros(model.n_all)
     st, it = initial_equilibrium(model, q, v, model.time_step if model.dynamic else 1.0)
+    model.refresh_far(q)
     model.d_prev[:] = model.samples.d
     status = STATUS_SUCCESS if st == 0 else STATUS_FAILED
     message = "" if st == 0 else f"initial state did not converge at advance {u * 1e3:.2f} mm"

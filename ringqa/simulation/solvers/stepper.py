@@ -158,6 +158,7 @@ class Stepper:
                     break
                 hist_try = out.hist
                 v_try = out.v
+                model.refresh_far(q_try)  # exact distance history for wall damping
                 model.d_prev[:] = sw.d
                 self.monitor.penetration(sw.z, sw.w)
                 fr_step += out.friction_j
