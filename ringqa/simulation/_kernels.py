@@ -16,7 +16,7 @@ from numba import njit
 # centreline evaluation
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def curve_eval(h, pos, tan, s, out_c, out_d1, out_d2):
     """Position, first and second arc-length derivative of the centreline at ``s``.
 
@@ -73,7 +73,7 @@ def curve_eval(h, pos, tan, s, out_c, out_d1, out_d2):
         out_d2[a] = (e00 * p0 + e10 * m0 + e01 * p1 + e11 * m1) / (h * h)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def normal_at(h, nor, s, out):
     """Unit principal normal at ``s`` (linear interpolation of the table, renormalised)."""
     m = nor.shape[0]
@@ -98,7 +98,7 @@ def normal_at(h, nor, s, out):
             out[a] /= nn
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def normal_rate(h, nor, s, out):
     """d(nor)/ds at ``s`` from the table (piecewise-constant difference quotient; 0 outside)."""
     m = nor.shape[0]
@@ -113,7 +113,7 @@ def normal_rate(h, nor, s, out):
         out[a] = (nor[k + 1, a] - nor[k, a]) / h
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def closest_point(h, pos, tan, p, s_hint, window, work):
     """Arc length of the centreline point closest to ``p``.
 
@@ -203,7 +203,7 @@ def closest_point(h, pos, tan, p, s_hint, window, work):
     return s
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def slide_points(h, pos, tan, pts, s_hint, ds, out, s_out):
     """Move points along the centreline by ``ds`` keeping their offset (load-step predictor).
 
@@ -241,7 +241,7 @@ def slide_points(h, pos, tan, pts, s_hint, ds, out, s_out):
         s_out[i] = s + ds
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def restore_lengths(q, nd, n_nodes, link_len):
     """Free nodes put back at their link length from the proximal neighbour (in place)."""
     for j in range(n_nodes - 3, -1, -1):

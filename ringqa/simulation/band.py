@@ -12,13 +12,13 @@ import numpy as np
 from numba import njit
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def badd(B, kl, i, j, v):
     """``A[i, j] += v``."""
     B[i, kl + j - i] += v
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def add_block(B, kl, nd, ni, nj, w, K):
     """Add ``w * K`` (3x3) to the position block (node ``ni``, node ``nj``)."""
     bi = nd * ni
@@ -28,7 +28,7 @@ def add_block(B, kl, nd, ni, nj, w, K):
             B[bi + a, kl + bj + b - bi - a] += w * K[a, b]
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def add_block_flat(Bf, W, kl, nd, ni, nj, w, K):
     """:func:`add_block` through a flat view ``Bf = B.reshape(-1)`` (``W = B.shape[1]``).
 
@@ -43,7 +43,7 @@ def add_block_flat(Bf, W, kl, nd, ni, nj, w, K):
             Bf[ra + np.uint64(b)] += w * K[a, b]
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def band_solve(B, kl, rhs, n):
     """Solve ``A x = rhs`` for the leading ``n x n`` block of a banded matrix (in place).
 

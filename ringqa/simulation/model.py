@@ -123,6 +123,7 @@ class Model:
         #: Newton for these effects (disk-cached unless an effect comes from outside ringqa)
         self.newton = newton if is_cacheable(self.effects) else newton_uncached
         self._newton_call = self.newton
+        self._predict_call = predict
         self.static_effects = tuple(
             u.with_coef(0.0) if isinstance(u, Tether) else u.suspended_args() for u in units
         )
@@ -318,6 +319,18 @@ class Model:
             return
         self._newton_call = entry
 
+    def bind_compiled_predict(self, q: np.ndarray) -> None:
+        """Call the predictor kernel's compiled entry point directly (as
+        :meth:`bind_compiled_newton`: the channel's named tuple made the dispatcher's type
+        lookup cost several microseconds per load step)."""
+        args = (q, True, 0.0, 0.0, self.nd, self.n_nodes, self.chain.link_len, self._chan,
+                self.samples.s, self._cum, self.cft, self._node_sample)  # fmt: skip
+        try:
+            types = tuple(predict.typeof_pyval(a) for a in args)
+            self._predict_call = predict.overloads[types].entry_point
+        except (KeyError, AttributeError):  # pragma: no cover - not compiled / other numba
+            self._predict_call = predict
+
     # -- states --------------------------------------------------------------------------
     def initial_state(self, u: float) -> np.ndarray:
         """Chain laid along the (extended) centreline with the source centre at advance ``u``."""
@@ -369,9 +382,9 @@ class Model:
         )
         if ext:
             corr = q - self._pred_plain
-        predict(
-            q, slide, du, u_new, self.nd, self.n_nodes, self.chain.link_len, self._chan,
-            self.samples.s, self._cum, self.cft, self._node_sample,
+        self._predict_call(
+            q, bool(slide), float(du), float(u_new), self.nd, self.n_nodes, self.chain.link_len,
+            self._chan, self.samples.s, self._cum, self.cft, self._node_sample,
         )  # fmt: skip
         if slide and self.extrapolate:
             self._pred_plain[:] = q

@@ -25,13 +25,13 @@ class AxialArgs(NamedTuple):
     ea_n: float
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def add_axial(p, q, st, sw, r, B, jac):
     """The effect's uniform signature: unpack and call :func:`axial_kernel`."""
     return axial_kernel(q, st.nd, st.n_nodes, st.kl, p.link_len, p.ea_n, r, B, jac)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def axial_kernel(q, nd, n_nodes, kl, link_len, ea_n, r, B, jac):
     """Axial penalty ``k_j / 2 (|e_j| - l_j)^2`` per link (``k_j = EA / l_j``); returns the
     energy (J)."""

@@ -27,7 +27,7 @@ class BendingArgs(NamedTuple):
     hinge_k: np.ndarray
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _theta_funcs(th):
     """f = theta / sin(theta) and h = (sin - theta cos) / sin^3 (smooth at theta = 0)."""
     if th < 1e-4:
@@ -38,13 +38,13 @@ def _theta_funcs(th):
     return th / s, (s - th * c) / (s * s * s)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def add_bending(p, q, st, sw, r, B, jac):
     """The effect's uniform signature: unpack and call :func:`bending_kernel`."""
     return bending_kernel(q, st.nd, st.n_nodes, st.kl, p.hinge_k, r, B, jac)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def bending_kernel(q, nd, n_nodes, kl, hinge_k, r, B, jac):
     """Hinge bending energy ``k_i theta_i^2 / 2`` at every interior node; returns the energy.
 

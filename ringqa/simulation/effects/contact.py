@@ -66,7 +66,7 @@ CORNER_FRACTION = 0.05
 FAR_SAFETY = 2.0
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _seg_params(seg_rb, seg_ra, seg_flat, g, ro):
     rb = seg_rb[g]
     flat = seg_flat[g]
@@ -75,7 +75,7 @@ def _seg_params(seg_rb, seg_ra, seg_flat, g, ro):
     return rb, seg_ra[g], flat
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _lumen_at(seg_s, seg_rb, seg_ra, seg_flat, g, s, ro):
     """(r_b, r_a, flat) at arc length s in segment g, tapered linearly over LUMEN_RAMP_M
     around each break (real channels have no infinitely sharp steps; a sharp one makes the wall
@@ -95,7 +95,7 @@ def _lumen_at(seg_s, seg_rb, seg_ra, seg_flat, g, s, ro):
     return (1 - t) * r0 + t * r1, (1 - t) * a0 + t * a1, (1 - t) * f0 + t * f1
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def prepare_contact(p, q, st, sw):
     """The effect's uniform signature: call :func:`contact_geometry` on the samples."""
     ch = p.chan
@@ -107,7 +107,7 @@ def prepare_contact(p, q, st, sw):
     )  # fmt: skip
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def contact_geometry(
     q, nd, samp_link, samp_alpha, samp_ro, samp_wt, h, pos, tan, nor, kappa_min_flat, seg_s,
     seg_rb, seg_ra, seg_flat, transition, max_frac, k_wall, samp_s, samp_p, samp_d, samp_n,
@@ -270,7 +270,7 @@ def contact_geometry(
     return energy
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def add_contact(p, q, st, sw, r, B, jac):
     """The effect's uniform signature: call :func:`apply_normal` (returns 0: the elastic energy
     comes from :func:`prepare_contact`)."""
@@ -278,7 +278,7 @@ def add_contact(p, q, st, sw, r, B, jac):
     return 0.0
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def apply_normal(nd, kl, samp_link, samp_alpha, samp_n, samp_H, samp_F, samp_dF, r, B, jac):
     """Add the normal forces (residual ``F grad d``) and their stiffness to the nodes (the forces
     :func:`contact_geometry` left, after wall damping and its clamp)."""

@@ -64,7 +64,7 @@ class FrictionArgs(NamedTuple):
     monotone: bool = False
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def friction_phi(v, law, mu_s, mu_k, v_brk, v_reg):
     """``phi(v) = mu(v) / v`` and ``psi(v) = phi'(v) / v`` of the friction law (both smooth).
 
@@ -93,7 +93,7 @@ def friction_phi(v, law, mu_s, mu_k, v_brk, v_reg):
     return phi, psi
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def twist_slip_direction(q, nd, j, n, tau):
     """``tau = t x n`` (in place): the direction in which a twist of link ``j`` slides its surface.
 
@@ -113,7 +113,7 @@ def twist_slip_direction(q, nd, j, n, tau):
     tau[2] = t0 * n[1] - t1 * n[0]
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def add_friction(p, q, st, sw, r, B, jac):
     """The effect's uniform signature: call :func:`friction_kernel` (if active) with the
     regularisation velocity ``max(v_reg, slip_min / h)``, h the actual step
@@ -129,7 +129,7 @@ def add_friction(p, q, st, sw, r, B, jac):
     )  # fmt: skip
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def friction_kernel(
     q, q_prev, q_start, nd, kl, samp_link, samp_alpha, samp_ro, samp_p, samp_n, samp_H, samp_F,
     samp_dF, law, mu_s, mu_k, v_brk, v_reg, dt, torsion, r, B, jac,

@@ -18,13 +18,13 @@ class GravityArgs(NamedTuple):
     g: np.ndarray
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def add_gravity(p, q, st, sw, r, B, jac):
     """The effect's uniform signature: unpack and call :func:`gravity_kernel`."""
     return gravity_kernel(q, st.nd, st.n_nodes, p.node_mass, p.g, r)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def gravity_kernel(q, nd, n_nodes, node_mass, g, r):
     """Weight ``m_i g`` on every node (no stiffness); returns the potential ``-sum m g.x`` (J)."""
     energy = 0.0

@@ -28,7 +28,7 @@ class InertiaArgs(NamedTuple):
     active: bool
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def add_inertia(p, q, st, sw, r, B, jac):
     """The effect's uniform signature: unpack and call :func:`inertia_kernel` (if active)."""
     if not p.active:
@@ -39,7 +39,7 @@ def add_inertia(p, q, st, sw, r, B, jac):
     )  # fmt: skip
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def inertia_kernel(q, q_prev, v_prev, nd, n_nodes, kl, node_mass, node_rot, dt, r, B, jac):
     """Implicit inertia ``M (q - q_prev - dt v_prev) / dt^2`` (lumped masses); returns 0."""
     inv = 1.0 / (dt * dt)

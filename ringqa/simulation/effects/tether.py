@@ -26,7 +26,7 @@ class TetherArgs(NamedTuple):
     coef: float
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def add_tether(p, q, st, sw, r, B, jac):
     """The effect's uniform signature: call :func:`tether_kernel` when the tether is on
     (its coefficient scaled by ``st.floor_scale``)."""
@@ -36,7 +36,7 @@ def add_tether(p, q, st, sw, r, B, jac):
                          r, B, jac)  # fmt: skip
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def tether_kernel(q, q_ref, nd, n_nodes, kl, coef, dt, r, B, jac):
     """``coef (x - x_ref) / dt`` on every node; returns 0."""
     for i in range(n_nodes):

@@ -25,13 +25,13 @@ class TorsionArgs(NamedTuple):
     twist_k: np.ndarray
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def add_torsion(p, q, st, sw, r, B, jac):
     """The effect's uniform signature: unpack and call :func:`torsion_kernel`."""
     return torsion_kernel(q, st.nd, st.n_nodes, st.kl, p.twist_k, r, B, jac)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def torsion_kernel(q, nd, n_nodes, kl, twist_k, r, B, jac):
     """Twist energy ``k_j / 2 (phi_{j+1} - phi_j)^2`` per link (``k_j = GJ / l_j``)."""
     energy = 0.0

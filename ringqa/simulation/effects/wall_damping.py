@@ -24,7 +24,7 @@ class WallDampingArgs(NamedTuple):
     active: bool
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def prepare_wall_damping(p, q, st, sw):
     """The effect's uniform signature: call :func:`wall_damping_kernel` (if active)."""
     if not p.active:
@@ -34,7 +34,7 @@ def prepare_wall_damping(p, q, st, sw):
     )
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def wall_damping_kernel(samp_d, d_hist, d_start, samp_z, samp_w, samp_wt, c_w, dt, samp_F, samp_dF):
     """Add the damping force to the samples' normal forces (after :mod:`.contact` computed the
     elastic ones), then clamp the total at zero; returns the damping work over the step (J)."""
@@ -63,7 +63,7 @@ def wall_damping_kernel(samp_d, d_hist, d_start, samp_z, samp_w, samp_wt, c_w, d
     return work
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def add_wall_damping(p, q, st, sw, r, B, jac):
     """Nothing to add itself: the damping force acts through the contact's normal force."""
     return 0.0

@@ -22,7 +22,7 @@ from numba import literal_unroll, njit
 from ringqa.simulation.effects.base import effect_add, effect_prepare
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def assemble(effects, q, st, sw, r, B, jac, fresh, energies):
     """Residual ``r`` (and banded Jacobian ``B`` when ``jac``) of ``effects`` at ``q``.
 

@@ -176,6 +176,7 @@ def warm_kernels(model: Model) -> None:
         q.copy(), True, 0.0, model.u_start, model.nd, model.n_nodes, model.chain.link_len,
         model.table.args(), sw.s.copy(), model._cum, model.cft, model._node_sample,
     )  # fmt: skip
+    model.bind_compiled_predict(q)
     max_penetration(sw.z, sw.w)
     restore_lengths(q.copy(), model.nd, model.n_nodes, model.chain.link_len)  # the extrapolation
     lump_to_nodes(sw.link, sw.alpha, sw.F, np.zeros(model.n_nodes))

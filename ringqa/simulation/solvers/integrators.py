@@ -179,7 +179,7 @@ def bdf2_history(h: float, h_old: float | None) -> tuple[float, float, float] | 
     return (1.0 + w) ** 2 / den, w * w / den, h * (1.0 + w) / den
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def combine(a, x, b, y, out):
     """``out = a x - b y`` elementwise (BDF2's history combinations; one call, no temporaries)."""
     for i in range(x.shape[0]):

@@ -133,7 +133,7 @@ class Monitor:
         }
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def max_penetration(samp_z, samp_w):
     """``max((z - 1) w, initial=0)`` over the samples (m): the deepest sink into the wall.
 

@@ -27,7 +27,7 @@ STATUS_TEXT = {
 N_RESIDUALS, N_JACOBIANS, N_SOLVES, N_HALVINGS = 0, 1, 2, 3
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def update_chain(q0, dq, lam, nd, n_nodes, n_free, q):
     """``q = q0 + lam dq`` with every link's length following its LINEARISED change.
 
@@ -63,7 +63,7 @@ def update_chain(q0, dq, lam, nd, n_nodes, n_free, q):
             q[a + c] = q[b + c] + (q[a + c] - q[b + c]) * (Lt / Ln)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def newton(effects, q, st, sw, n_free, tol_abs, max_iter, max_step, r, B, energies, counters):
     """Solve ``r(q) = 0`` for the first ``n_free`` entries of ``q`` (the rest are prescribed).
 

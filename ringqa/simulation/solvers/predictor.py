@@ -9,7 +9,7 @@ from numba import njit
 from ringqa.simulation._kernels import curve_eval, restore_lengths, slide_points
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def predict(q, slide, du, u_new, nd, n_nodes, link_len, chan, samp_s, cum, cft, node_sample):
     """Load-step predictor in place on ``q``.
 

@@ -75,7 +75,7 @@ class Recorder:
         return int(np.sum(np.isnan(self.push_force_n)))
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def lump_to_nodes(samp_link, samp_alpha, samp_F, out):
     """Add each sample's force to its link's nodes by fraction (in place on ``out``).
 
