@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import os
 import pickle
-import signal
 from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -14,6 +13,7 @@ import pandas as pd
 
 from ringqa.errors import RingQAError
 from ringqa.pipeline.commission import commission
+from ringqa.pipeline.forked import worker_pool
 from ringqa.pipeline.result import CommissioningResult
 from ringqa.pipeline.settings import CommissionSettings
 from ringqa.pipeline.simulate import Engine, default_engine, kernels_cached, own_engine
@@ -145,16 +145,6 @@ def _commission_one(item, settings, engine) -> tuple[CommissioningResult | None,
 _JOB: tuple | None = None
 
 
-def worker_init() -> None:
-    """A forked worker: Ctrl-C is the parent's to handle (it stops the workers), SIGTERM ends
-    it at once, and its simulations run one at a time (the workers use the cores already)."""
-    from ringqa.pipeline import simulate
-
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    signal.signal(signal.SIGTERM, signal.SIG_DFL)
-    simulate.CONCURRENT_RUNS = False
-
-
 def _worker_task(k: int) -> tuple[str, bytes | str]:
     """Commission input ``k`` of :data:`_JOB` in a worker: ``("ok", pickled (result, reason))``,
     or ``("here", "")`` when the result cannot be pickled (the parent remakes it)."""
@@ -181,22 +171,18 @@ def _outcomes(items, settings, engine, workers: int, bar, labels) -> Iterator[tu
             show(k)
             yield _commission_one(item, settings, engine)
         return
-    import multiprocessing
-
     if engine is None:
         default_engine()  # import the engine once, before forking (the workers inherit it)
     _JOB = (items, settings, engine)
-    pool = multiprocessing.get_context("fork").Pool(min(workers, len(items)), worker_init)
     try:
-        for k, (tag, data) in enumerate(pool.imap(_worker_task, range(len(items)))):
-            show(k)
-            if tag == "ok":
-                yield pickle.loads(data)
-            else:
-                yield _commission_one(items[k], settings, engine)
+        with worker_pool(min(workers, len(items))) as pool:
+            for k, (tag, data) in enumerate(pool.imap(_worker_task, range(len(items)))):
+                show(k)
+                if tag == "ok":
+                    yield pickle.loads(data)
+                else:
+                    yield _commission_one(items[k], settings, engine)
     finally:
-        pool.terminate()
-        pool.join()
         _JOB = None
 
 

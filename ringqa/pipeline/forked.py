@@ -6,14 +6,16 @@ a pipe. Whatever the child could not hand back (a result or an exception that ca
 a child that died) is made here instead when :meth:`ForkedCall.result` is called, so the caller
 always sees what calling ``fn()`` here would have given: the same value, or the same exception.
 Where ``os.fork`` is missing, on one core, or with ``fork=False`` the call is simply made here.
+:func:`worker_pool` is the pool of forked worker processes a batch uses (commissioning, PDFs).
 """
 
 from __future__ import annotations
 
+import contextlib
 import os
 import pickle
 import signal
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from typing import Any
 
 
@@ -114,3 +116,28 @@ class ForkedCall:
             except ProcessLookupError:
                 pass
             os.waitpid(pid, 0)
+
+
+def worker_init() -> None:
+    """A forked worker: Ctrl-C is the parent's to handle (it stops the workers), SIGTERM ends
+    it at once, and its simulations run one at a time (the workers use the cores already)."""
+    from ringqa.pipeline import simulate
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    simulate.CONCURRENT_RUNS = False
+
+
+@contextlib.contextmanager
+def worker_pool(processes: int) -> Iterator[Any]:
+    """A ``multiprocessing`` pool of ``processes`` forked workers (:func:`worker_init`); they
+    inherit this process's state (a job set in a module global before the pool is made, never
+    pickled) and are stopped and reaped when the block ends, however it ends."""
+    import multiprocessing
+
+    pool = multiprocessing.get_context("fork").Pool(processes, worker_init)
+    try:
+        yield pool
+    finally:
+        pool.terminate()
+        pool.join()

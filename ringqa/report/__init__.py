@@ -12,6 +12,7 @@ Public API::
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 from collections.abc import Mapping, Sequence
 from pathlib import Path
@@ -150,34 +151,32 @@ def write_batch(
     checked = _checked_exports(batch.results, export)
     n_workers = default_workers() if workers is None else max(1, int(workers))
     forked = pdf and n_workers > 1 and len(batch.results) > 1
-    with staged_output(out_dir) as stage:
+    with staged_output(out_dir) as stage, contextlib.ExitStack() as workers_stop:
         subs = [stage / batch.label(i) for i in range(len(batch.results))]
         owns = [dataclasses.replace(fields or ReportFields(), label=batch.label(i))
                 for i in range(len(batch.results))]  # fmt: skip
-        pool = _pdf_pool(batch.results, subs, owns, sections, n_workers) if forked else None
-        # the workers start on the PDFs now; this process writes the rest meanwhile
-        done = pool.imap(_pdf_task, range(len(batch.results))) if pool is not None else ()
-        try:
-            items = zip(batch.results, checked, subs, owns, strict=True)
-            for res, exp, sub, own in tqdm(
-                items, desc="reports", unit="applicator", total=len(batch.results),
-                disable=not progress or forked,
-            ):  # fmt: skip
-                _write_one(res, sub, pdf and not forked, None, own, exp, sections)
-                # each applicator's folder is recognisably ringqa's own (copied out on its own,
-                # it is replaced whole by a later run like any output folder)
-                write_json(sub / MARKER_NAME, marker_record(), indent=2, end="\n")
-            write_batch_tables(batch, stage)
-            if pdf:
-                write_batch_pdf(batch, stage / "summary.pdf", fields=fields)
-            if pool is not None:
-                for _ in tqdm(done, desc="reports", unit="applicator", disable=not progress,
-                              total=len(batch.results)):  # fmt: skip
-                    pass
-        finally:
-            if pool is not None:
-                pool.terminate()
-                pool.join()
+        done = ()
+        if forked:  # the workers start on the PDFs now; this process writes the rest meanwhile
+            workers_stop.callback(_clear_pdf_job)
+            pool = workers_stop.enter_context(
+                _pdf_pool(batch.results, subs, owns, sections, n_workers)
+            )
+            done = pool.imap(_pdf_task, range(len(batch.results)))
+        items = zip(batch.results, checked, subs, owns, strict=True)
+        for res, exp, sub, own in tqdm(
+            items, desc="reports", unit="applicator", total=len(batch.results),
+            disable=not progress or forked,
+        ):  # fmt: skip
+            _write_one(res, sub, pdf and not forked, None, own, exp, sections)
+            # each applicator's folder is recognisably ringqa's own (copied out on its own,
+            # it is replaced whole by a later run like any output folder)
+            write_json(sub / MARKER_NAME, marker_record(), indent=2, end="\n")
+        write_batch_tables(batch, stage)
+        if pdf:
+            write_batch_pdf(batch, stage / "summary.pdf", fields=fields)
+        for _ in tqdm(done, desc="reports", unit="applicator", total=len(batch.results),
+                      disable=not progress or not forked):  # fmt: skip
+            pass  # the workers' PDFs, as they finish
     return Path(out_dir)
 
 
@@ -209,11 +208,9 @@ _PDF_JOB: tuple | None = None
 
 
 def _pdf_pool(results, folders, fields, sections, workers: int):
-    """A pool of forked processes set up to render ``results[k]`` into
+    """A pool of forked processes (a context manager) set up to render ``results[k]`` into
     ``folders[k]/report.pdf`` (:func:`_pdf_task`); the folders are made here first."""
-    import multiprocessing
-
-    from ringqa.pipeline.batch import worker_init
+    from ringqa.pipeline.forked import worker_pool
 
     prepare_report()  # once, before forking: the workers inherit it
 
@@ -221,7 +218,13 @@ def _pdf_pool(results, folders, fields, sections, workers: int):
     for folder in folders:
         folder.mkdir(parents=True, exist_ok=True)
     _PDF_JOB = (results, [f / "report.pdf" for f in folders], fields, sections)
-    return multiprocessing.get_context("fork").Pool(min(workers, len(results)), worker_init)
+    return worker_pool(min(workers, len(results)))
+
+
+def _clear_pdf_job() -> None:
+    """Drop the finished batch's results from :data:`_PDF_JOB`."""
+    global _PDF_JOB
+    _PDF_JOB = None
 
 
 def _pdf_task(k: int) -> int:
