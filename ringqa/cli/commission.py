@@ -382,9 +382,9 @@ def commission_ahead(item, settings, progress: bool, report: bool = True):
     error) is the child's; where it cannot be handed back, on one core, without ``fork``, with
     the output captured in memory, on a first run (an empty kernel cache) or with no core free
     (:func:`ringqa.pipeline.forked.second_core_free`), the commissioning runs here as before."""
-    from ringqa.pipeline import commission, forked
+    from ringqa.pipeline import commission
     from ringqa.pipeline.forked import ForkedCall
-    from ringqa.pipeline.simulate import kernels_cached
+    from ringqa.pipeline.simulate import second_core_worthwhile
     from ringqa.report import prepare_report
 
     def run():
@@ -392,7 +392,7 @@ def commission_ahead(item, settings, progress: bool, report: bool = True):
 
     # a first run (numba compiling, with its helper process) stays as it was
     # ... and so does a machine whose cores are busy (the fork would only add its overhead)
-    fork = report and _real_std_streams() and kernels_cached() and forked.second_core_free()
+    fork = report and _real_std_streams() and second_core_worthwhile()
     call = ForkedCall(run, fork)
     try:
         if call.forked:

@@ -411,6 +411,13 @@ def kernels_cached() -> bool:
         return False
 
 
+def second_core_worthwhile(engine: Engine | None = None) -> bool:
+    """Independent work may go to a forked process: ``engine`` is ringqa's own (None: the
+    default), its kernels are cached (:func:`kernels_cached`: a first run compiles once) and a
+    core is free (:func:`ringqa.pipeline.forked.second_core_free`)."""
+    return (engine is None or own_engine(engine)) and kernels_cached() and forked.second_core_free()
+
+
 #: when this module was imported (s since the epoch): the process's start where /proc is missing
 _IMPORTED_AT = time.time()
 
@@ -668,7 +675,7 @@ def simulate_dwells(
 
     # the refined run's scene does not depend on the commissioning run's result (unless that
     # run had to be retried with a finer increment): run both at once
-    fork = own_engine(engine) and kernels_cached() and forked.second_core_free()
+    fork = second_core_worthwhile(engine)
     ahead = ForkedCall(lambda: _run_with_retries(engine, refine(scene, REFINE_FACTOR), advances,
                                                  False), fork and CONCURRENT_RUNS)  # fmt: skip
     try:
