@@ -12,8 +12,9 @@ from pathlib import Path
 import pandas as pd
 
 from ringqa.errors import RingQAError
+from ringqa.pipeline import simulate
 from ringqa.pipeline.commission import commission
-from ringqa.pipeline.forked import worker_pool
+from ringqa.pipeline.forked import worker_pool, worker_signals
 from ringqa.pipeline.result import CommissioningResult
 from ringqa.pipeline.settings import CommissionSettings
 from ringqa.pipeline.simulate import Engine, default_engine, kernels_cached, own_engine
@@ -145,6 +146,13 @@ def _commission_one(item, settings, engine) -> tuple[CommissioningResult | None,
 _JOB: tuple | None = None
 
 
+def _worker_init() -> None:
+    """A batch's worker: the signals of :func:`~ringqa.pipeline.forked.worker_signals`, and its
+    simulations run one at a time (the workers use the cores already)."""
+    worker_signals()
+    simulate.CONCURRENT_RUNS = False
+
+
 def _worker_task(k: int) -> tuple[str, bytes | str]:
     """Commission input ``k`` of :data:`_JOB` in a worker: ``("ok", pickled (result, reason))``,
     or ``("here", "")`` when the result cannot be pickled (the parent remakes it)."""
@@ -175,7 +183,7 @@ def _outcomes(items, settings, engine, workers: int, bar, labels) -> Iterator[tu
         default_engine()  # import the engine once, before forking (the workers inherit it)
     _JOB = (items, settings, engine)
     try:
-        with worker_pool(min(workers, len(items))) as pool:
+        with worker_pool(min(workers, len(items)), _worker_init) as pool:
             for k, (tag, data) in enumerate(pool.imap(_worker_task, range(len(items)))):
                 show(k)
                 if tag == "ok":

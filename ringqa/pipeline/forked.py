@@ -118,24 +118,22 @@ class ForkedCall:
             os.waitpid(pid, 0)
 
 
-def worker_init() -> None:
-    """A forked worker: Ctrl-C is the parent's to handle (it stops the workers), SIGTERM ends
-    it at once, and its simulations run one at a time (the workers use the cores already)."""
-    from ringqa.pipeline import simulate
-
+def worker_signals() -> None:
+    """In a forked worker: Ctrl-C is the parent's to handle (it stops the workers), SIGTERM
+    ends it at once."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
-    simulate.CONCURRENT_RUNS = False
 
 
 @contextlib.contextmanager
-def worker_pool(processes: int) -> Iterator[Any]:
-    """A ``multiprocessing`` pool of ``processes`` forked workers (:func:`worker_init`); they
-    inherit this process's state (a job set in a module global before the pool is made, never
-    pickled) and are stopped and reaped when the block ends, however it ends."""
+def worker_pool(processes: int, initializer: Callable[[], None] = worker_signals) -> Iterator[Any]:
+    """A ``multiprocessing`` pool of ``processes`` forked workers (each starts with
+    ``initializer``, which should call :func:`worker_signals`); they inherit this process's
+    state (a job set in a module global before the pool is made, never pickled) and are
+    stopped and reaped when the block ends, however it ends."""
     import multiprocessing
 
-    pool = multiprocessing.get_context("fork").Pool(processes, worker_init)
+    pool = multiprocessing.get_context("fork").Pool(processes, initializer)
     try:
         yield pool
     finally:
