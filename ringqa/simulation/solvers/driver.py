@@ -198,7 +198,7 @@ def run(scene, advances_m: np.ndarray, progress: bool = False) -> SimResult:
     check_rigid_links_fit(model, advances_m)
     monitor = Monitor(model, history_free)
     recorder = Recorder(model, advances_m, bool(scene.outputs.trajectory))
-    stepper = Stepper(model, integrator, monitor)
+    stepper = Stepper(model, integrator, monitor, cut_grown=schedule.slide_grow)
     warm_kernels(model)
 
     t0 = time.perf_counter()
