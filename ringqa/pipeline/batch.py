@@ -12,9 +12,9 @@ from pathlib import Path
 import pandas as pd
 
 from ringqa.errors import RingQAError
-from ringqa.pipeline import simulate
+from ringqa.pipeline import forked, simulate
 from ringqa.pipeline.commission import commission
-from ringqa.pipeline.forked import worker_pool, worker_signals
+from ringqa.pipeline.forked import worker_signals
 from ringqa.pipeline.result import CommissioningResult
 from ringqa.pipeline.settings import CommissionSettings
 from ringqa.pipeline.simulate import Engine, default_engine, kernels_cached, own_engine
@@ -141,11 +141,6 @@ def _commission_one(item, settings, engine) -> tuple[CommissioningResult | None,
         return None, reason
 
 
-#: (items, settings, engine) of the batch being run, for the forked workers (inherited, never
-#: pickled: a stand-in engine need not be picklable)
-_JOB: tuple | None = None
-
-
 def _worker_init() -> None:
     """A batch's worker: the signals of :func:`~ringqa.pipeline.forked.worker_signals`, and its
     simulations run one at a time (the workers use the cores already)."""
@@ -154,9 +149,10 @@ def _worker_init() -> None:
 
 
 def _worker_task(k: int) -> tuple[str, bytes | str]:
-    """Commission input ``k`` of :data:`_JOB` in a worker: ``("ok", pickled (result, reason))``,
-    or ``("here", "")`` when the result cannot be pickled (the parent remakes it)."""
-    items, settings, engine = _JOB  # type: ignore[misc]
+    """Commission input ``k`` of the pool's job ``(items, settings, engine)`` in a worker:
+    ``("ok", pickled (result, reason))``, or ``("here", "")`` when the result cannot be pickled
+    (the parent remakes it)."""
+    items, settings, engine = forked.job()
     out = _commission_one(items[k], settings, engine)
     try:
         return "ok", pickle.dumps(out, protocol=pickle.HIGHEST_PROTOCOL)
@@ -167,7 +163,6 @@ def _worker_task(k: int) -> tuple[str, bytes | str]:
 def _outcomes(items, settings, engine, workers: int, bar, labels) -> Iterator[tuple]:
     """``(result or None, reason)`` per input, in input order; ``workers`` > 1: computed by a
     pool of forked processes."""
-    global _JOB
 
     def show(k: int) -> None:
         bar.set_postfix_str(_label(items[k]) if labels is None else str(labels[k]))
@@ -181,17 +176,14 @@ def _outcomes(items, settings, engine, workers: int, bar, labels) -> Iterator[tu
         return
     if engine is None:
         default_engine()  # import the engine once, before forking (the workers inherit it)
-    _JOB = (items, settings, engine)
-    try:
-        with worker_pool(min(workers, len(items)), _worker_init) as pool:
-            for k, (tag, data) in enumerate(pool.imap(_worker_task, range(len(items)))):
-                show(k)
-                if tag == "ok":
-                    yield pickle.loads(data)
-                else:
-                    yield _commission_one(items[k], settings, engine)
-    finally:
-        _JOB = None
+    job = (items, settings, engine)
+    with forked.worker_pool(min(workers, len(items)), _worker_init, job) as pool:
+        for k, (tag, data) in enumerate(pool.imap(_worker_task, range(len(items)))):
+            show(k)
+            if tag == "ok":
+                yield pickle.loads(data)
+            else:
+                yield _commission_one(items[k], settings, engine)
 
 
 def check_labels(labels: Sequence[str] | None, n_inputs: int) -> None:

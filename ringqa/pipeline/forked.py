@@ -125,17 +125,35 @@ def worker_signals() -> None:
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
 
 
+#: the ``job`` of the pool being made (:func:`worker_pool`): inherited by its forked workers,
+#: never pickled (a stand-in engine, a batch's results need not be picklable)
+_JOB: Any = None
+
+
+def job() -> Any:
+    """In a worker of :func:`worker_pool`: the ``job`` the pool was made with."""
+    return _JOB
+
+
 @contextlib.contextmanager
-def worker_pool(processes: int, initializer: Callable[[], None] = worker_signals) -> Iterator[Any]:
+def worker_pool(
+    processes: int, initializer: Callable[[], None] = worker_signals, job: Any = None
+) -> Iterator[Any]:
     """A ``multiprocessing`` pool of ``processes`` forked workers (each starts with
-    ``initializer``, which should call :func:`worker_signals`); they inherit this process's
-    state (a job set in a module global before the pool is made, never pickled) and are
-    stopped and reaped when the block ends, however it ends."""
+    ``initializer``, which should call :func:`worker_signals`). ``job`` (whatever the workers'
+    tasks need: :func:`job` returns it in them) is in place before the workers are forked and
+    is dropped here when the block ends; the workers are stopped and reaped then, however it
+    ends."""
     import multiprocessing
 
-    pool = multiprocessing.get_context("fork").Pool(processes, initializer)
+    global _JOB
+    _JOB = job
     try:
-        yield pool
+        pool = multiprocessing.get_context("fork").Pool(processes, initializer)
+        try:
+            yield pool
+        finally:
+            pool.terminate()
+            pool.join()
     finally:
-        pool.terminate()
-        pool.join()
+        _JOB = None

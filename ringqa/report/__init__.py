@@ -157,7 +157,6 @@ def write_batch(
                 for i in range(len(batch.results))]  # fmt: skip
         done = ()
         if forked:  # the workers start on the PDFs now; this process writes the rest meanwhile
-            workers_stop.callback(_clear_pdf_job)
             pool = workers_stop.enter_context(
                 _pdf_pool(batch.results, subs, owns, sections, n_workers)
             )
@@ -202,33 +201,23 @@ def prepare_report() -> None:
     fig.canvas.draw()
 
 
-#: (results, PDF paths, fields, sections) of the batch whose PDFs the forked workers render
-#: (inherited, never pickled)
-_PDF_JOB: tuple | None = None
-
-
 def _pdf_pool(results, folders, fields, sections, workers: int):
     """A pool of forked processes (a context manager) set up to render ``results[k]`` into
     ``folders[k]/report.pdf`` (:func:`_pdf_task`); the folders are made here first."""
     from ringqa.pipeline.forked import worker_pool
 
     prepare_report()  # once, before forking: the workers inherit it
-
-    global _PDF_JOB
     for folder in folders:
         folder.mkdir(parents=True, exist_ok=True)
-    _PDF_JOB = (results, [f / "report.pdf" for f in folders], fields, sections)
-    return worker_pool(min(workers, len(results)))
-
-
-def _clear_pdf_job() -> None:
-    """Drop the finished batch's results from :data:`_PDF_JOB`."""
-    global _PDF_JOB
-    _PDF_JOB = None
+    job = (results, [f / "report.pdf" for f in folders], fields, sections)
+    return worker_pool(min(workers, len(results)), job=job)
 
 
 def _pdf_task(k: int) -> int:
-    """Render report ``k`` of :data:`_PDF_JOB` (in a worker)."""
-    results, paths, fields, sections = _PDF_JOB  # type: ignore[misc]
+    """Render report ``k`` of the pool's job ``(results, PDF paths, fields, sections)`` (in a
+    worker)."""
+    from ringqa.pipeline.forked import job
+
+    results, paths, fields, sections = job()
     write_pdf(results[k], paths[k], fields=fields[k], sections=sections)
     return k

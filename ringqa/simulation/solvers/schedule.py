@@ -155,8 +155,8 @@ class Schedule:
         return du, abs(du) / self.model.speed
 
     def adapt(self, sub: int, last_iters: int, rest_speed_m_s: float = 0.0) -> None:
-        """After an accepted step: grow a history-free run's increment (a dynamic pause's time
-        step) after an easy step, shrink it after a cut one.
+        """After an accepted step: grow a history-free run's increment (a sliding run's, a
+        dynamic pause's time step) after an easy step, shrink it after a cut (harder) one.
 
         ``rest_speed_m_s``: a pause step's fastest node displacement over its time (m/s;
         :class:`~ringqa.simulation.solvers.stepper.StepOutcome`).

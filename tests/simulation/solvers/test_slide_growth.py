@@ -24,11 +24,11 @@ from ringqa.simulation.solvers.schedule import JUMP_FACTOR, Leg, Schedule
 INC = 1e-3
 
 
-def _schedule(stab: float = 0.0, dynamic: bool = False) -> Schedule:
+def _schedule(stab: float = 0.0) -> Schedule:
     """A quasi-static, history-dependent schedule on a stand-in model (the fields it reads)."""
     motion = SimpleNamespace(kind="constant", backward=False, dwell_s=0.0)
     model = SimpleNamespace(
-        scene=SimpleNamespace(motion=motion), dynamic=dynamic, u_start=0.0, increment=INC,
+        scene=SimpleNamespace(motion=motion), dynamic=False, u_start=0.0, increment=INC,
         time_step=1e-3, speed=0.5, stab=stab,
     )  # fmt: skip
     return Schedule(model, np.array([0.1]), history_free=False)
