@@ -1,15 +1,13 @@
 """Perturbed commissioning runs for uncertainty studies (``ringqa sweep``).
 
 Most uncertain inputs of a commissioning run are scene keys (``contact.mu_k``,
-``motion.speed_mm_s``) and reach the engine through
-:attr:`~ringqa.pipeline.settings.CommissionSettings.scene_overrides`. Three are not settings of
-one scene key, because they change the applicator's channel or every section of the cable; they
-are the *perturbation keys* of :data:`PERTURBATION_KEYS`, applied by an :class:`Engine` wrapper
-(:func:`perturbed_engine`) to the channel and scene the pipeline builds:
+``motion.speed_mm_s``, and ``lumen.diameter_delta_mm`` and ``instrument.ei_scale``, which change
+the lumen's diameter and every cable section's EI) and reach the engine through
+:attr:`~ringqa.pipeline.settings.CommissionSettings.scene_overrides`. One is not a setting of
+a scene key, because it changes the applicator's channel with a shape drawn per sample; it is
+the *perturbation key* of :data:`PERTURBATION_KEYS`, applied by an :class:`Engine` wrapper
+(:func:`perturbed_engine`) to the channel the pipeline builds:
 
-- ``lumen.diameter_delta_mm``: added to the lumen's diameter (each segment's wall radius r_b, its
-  transition radius r_a and a U-lumen's flat distance grow by half of it);
-- ``instrument.ei_scale``: every cable section's bending stiffness EI times this factor;
 - ``centreline.displacement_mm``: the channel centreline moved by a smooth random displacement
   whose largest value is this many mm (its shape: :func:`smooth_displacement`, drawn from the
   sample's own seed; its sign flips the shape).
@@ -38,12 +36,6 @@ __all__ = [
 
 #: perturbation key -> (nominal value, lower bound (exclusive) or None, meaning)
 PERTURBATION_KEYS: dict[str, tuple[float, float | None, str]] = {
-    "lumen.diameter_delta_mm": (
-        0.0,
-        None,
-        "mm added to the lumen diameter (r_b, r_a and a U-lumen's flat distance grow by half)",
-    ),
-    "instrument.ei_scale": (1.0, 0.0, "factor on every cable section's bending stiffness EI"),
     "centreline.displacement_mm": (
         0.0,
         None,
@@ -60,20 +52,17 @@ DISPLACEMENT_MODES = 3
 class Perturbation:
     """How one sample's channel and cable differ from the nominal ones.
 
+    (The lumen's diameter and the cable's EI are scene keys, ``lumen.diameter_delta_mm`` and
+    ``instrument.ei_scale``: a sample sets them through the scene overrides.)
+
     Attributes
     ----------
-    lumen_diameter_delta_mm : float
-        Added to the lumen diameter, mm.
-    ei_scale : float
-        Factor on every section's bending stiffness (> 0).
     centreline_displacement_mm : float
         Largest centreline displacement, mm (0: none; negative: the shape reversed).
     shape_seed : tuple of int
         Seed of the displacement's shape (the sweep's seed and the sample's index).
     """
 
-    lumen_diameter_delta_mm: float = 0.0
-    ei_scale: float = 1.0
     centreline_displacement_mm: float = 0.0
     shape_seed: tuple[int, ...] = (0,)
 
@@ -82,8 +71,6 @@ class Perturbation:
         """The perturbation of a sample's ``{key: value}`` (keys of :data:`PERTURBATION_KEYS`;
         other keys are ignored)."""
         return cls(
-            lumen_diameter_delta_mm=float(values.get("lumen.diameter_delta_mm", 0.0)),
-            ei_scale=float(values.get("instrument.ei_scale", 1.0)),
             centreline_displacement_mm=float(values.get("centreline.displacement_mm", 0.0)),
             shape_seed=tuple(int(s) for s in shape_seed),
         )
@@ -91,11 +78,7 @@ class Perturbation:
     @property
     def is_nominal(self) -> bool:
         """True when nothing is perturbed."""
-        return (
-            self.lumen_diameter_delta_mm == 0.0
-            and self.ei_scale == 1.0
-            and self.centreline_displacement_mm == 0.0
-        )
+        return self.centreline_displacement_mm == 0.0
 
 
 def smooth_displacement(s_m: np.ndarray, length_m: float, rng: np.random.Generator) -> np.ndarray:
@@ -128,20 +111,10 @@ def smooth_displacement(s_m: np.ndarray, length_m: float, rng: np.random.Generat
 
 
 def _perturb_channel(channel, p: Perturbation):
-    """``channel`` with the lumen widened and the centreline displaced as ``p`` says."""
+    """``channel`` with the centreline displaced as ``p`` says."""
     from ringqa.geometry.centreline import Centreline
 
     out = channel
-    if p.lumen_diameter_delta_mm != 0.0:
-        half = 0.5 * p.lumen_diameter_delta_mm * M_PER_MM
-        lum = out.lumen
-        flat = np.where(np.isfinite(lum.seg_flat), lum.seg_flat + half, lum.seg_flat)
-        out = dataclasses.replace(
-            out,
-            lumen=dataclasses.replace(
-                lum, seg_rb=lum.seg_rb + half, seg_ra=lum.seg_ra + half, seg_flat=flat
-            ),
-        )
     if p.centreline_displacement_mm != 0.0:
         cl = out.centreline
         n = max(50, int(cl.length_m / (M_PER_MM * 1.0)) + 1)  # a point every ~1 mm
@@ -153,12 +126,6 @@ def _perturb_channel(channel, p: Perturbation):
         moved = pos + amp * (shape[:, :1] * nor + shape[:, 1:] * bino)
         out = dataclasses.replace(out, centreline=Centreline.from_points(moved))
     return out
-
-
-def _scale_ei(scene, factor: float):
-    inst = scene.instrument
-    sections = tuple(dataclasses.replace(sec, ei_nm2=sec.ei_nm2 * factor) for sec in inst.sections)
-    return dataclasses.replace(scene, instrument=dataclasses.replace(inst, sections=sections))
 
 
 def perturbed_engine(p: Perturbation, base: Engine | None = None) -> Engine:
@@ -181,9 +148,6 @@ def perturbed_engine(p: Perturbation, base: Engine | None = None) -> Engine:
         return base
 
     def scene_for_channel(channel, cable):
-        scene = base.scene_for_channel(_perturb_channel(channel, p), cable)
-        if p.ei_scale != 1.0:
-            scene = _scale_ei(scene, p.ei_scale)
-        return scene
+        return base.scene_for_channel(_perturb_channel(channel, p), cable)
 
     return dataclasses.replace(base, scene_for_channel=scene_for_channel)

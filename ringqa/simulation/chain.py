@@ -88,6 +88,7 @@ def build_chain(instrument, model_length_m: float) -> Chain:
             "(lengthen the last section or request shallower advances)"
         )
     lens, ros, eis, gjs, ms, secs = [], [], [], [], [], []
+    ei_scale = float(getattr(instrument, "ei_scale", 1.0))  # scene key instrument.ei_scale
     remaining = model_length_m
     for k, sec in enumerate(instrument.sections):
         if remaining <= 1e-12:
@@ -114,7 +115,7 @@ def build_chain(instrument, model_length_m: float) -> Chain:
         for _ in range(n):
             lens.append(length / n)
             ros.append(sec.r_o_m)
-            eis.append(np.inf if sec.rigid else sec.ei_nm2)
+            eis.append(np.inf if sec.rigid else sec.ei_nm2 * ei_scale)
             gjs.append(np.inf if sec.rigid else max(sec.gj_nm2, 0.0))
             ms.append(sec.mass_per_length_kg_m)
             secs.append(k)

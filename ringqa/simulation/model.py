@@ -75,7 +75,7 @@ class Model:
                 "solver.integrator = 'bdf2' applies to the dynamic solver only: ignored by the "
                 "quasi-static load steps"
             )
-        self.table = ChannelTable.from_channel(scene.channel)
+        self.table = ChannelTable.from_channel(getattr(scene, "simulated_channel", scene.channel))
         inst = scene.instrument
         # the scene's values were validated where it was built (scene.py / scene_keys.py)
         self.cft = float(inst.centre_from_tip_m)

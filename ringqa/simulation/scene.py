@@ -38,10 +38,12 @@ __all__ = [
     "ContactParams",
     "Effects",
     "Instrument",
+    "LumenSettings",
     "Motion",
     "Outputs",
     "Scene",
     "SolverSettings",
+    "widened_lumen",
 ]
 
 
@@ -109,12 +111,17 @@ class Instrument:
         Distance from the distal tip to the source's centre of activity (m) (Flexitron 2.4 mm).
     afterloader : str
         Which afterloader the cable data belong to (``"flexitron"``), for the report.
+    ei_scale : float
+        Factor on every section's bending stiffness EI (scene key ``instrument.ei_scale``): the
+        engine bends the cable with ``ei_nm2 * ei_scale``; the sections keep their own values
+        (a calibration or sensitivity study changes this one number). Default 1.
     """
 
     name: str
     sections: tuple[CableSection, ...]
     centre_from_tip_m: float
     afterloader: str = ""
+    ei_scale: float = _d("instrument", "ei_scale")
 
     def __post_init__(self) -> None:
         secs = tuple(self.sections)
@@ -311,6 +318,50 @@ class SolverSettings:
 
 
 @dataclass(frozen=True)
+class LumenSettings:
+    """A change of the channel's lumen, applied where the engine samples the channel.
+
+    Attributes
+    ----------
+    diameter_delta_m : float
+        Added to the lumen diameter (m; scene key ``lumen.diameter_delta_mm``): every segment's
+        wall radius r_b, transition radius r_a and a U-lumen's flat distance grow by half of it
+        (negative: narrower). 0: the channel's own lumen.
+    """
+
+    diameter_delta_m: float = _d("lumen", "diameter_delta_m")
+
+    def __post_init__(self) -> None:
+        check_fields("lumen", self)
+
+
+def widened_lumen(lumen, diameter_delta_m: float):
+    """``lumen`` with its diameter changed by ``diameter_delta_m`` (m): r_b, r_a and a finite
+    flat distance grow by half of it (the lumen itself when the change is 0).
+
+    Raises
+    ------
+    SceneError
+        The narrowed lumen would have r_a <= 0 somewhere.
+    """
+    if diameter_delta_m == 0.0:
+        return lumen
+    import numpy as np
+
+    half = 0.5 * float(diameter_delta_m)
+    seg_ra = np.asarray(lumen.seg_ra, dtype=float) + half
+    if np.any(seg_ra <= 0.0):
+        raise SceneError(
+            f"lumen.diameter_delta_mm: {diameter_delta_m * 1e3:g} mm leaves the lumen no radius "
+            f"(smallest r_a {float(np.min(lumen.seg_ra)) * 1e3:g} mm); give a smaller reduction"
+        )
+    flat = np.asarray(lumen.seg_flat, dtype=float)
+    flat = np.where(np.isfinite(flat), flat + half, flat)
+    return replace(lumen, seg_rb=np.asarray(lumen.seg_rb, dtype=float) + half, seg_ra=seg_ra,
+                   seg_flat=flat)  # fmt: skip
+
+
+@dataclass(frozen=True)
 class Outputs:
     """What to keep besides the dwell table."""
 
@@ -353,6 +404,9 @@ class Scene:
     channel_spec : ChannelSpec or None
         How a scene file described the channel (an applicator name, an analytic shape); None for
         a channel given as an object, or once the channel is replaced.
+    lumen : LumenSettings
+        A change of the channel's lumen the engine applies (:attr:`simulated_channel`); the
+        channel itself is kept as given.
     """
 
     name: str
@@ -365,6 +419,7 @@ class Scene:
     outputs: Outputs = field(default_factory=Outputs)
     description: str = ""
     channel_spec: ChannelSpec | None = None
+    lumen: LumenSettings = field(default_factory=LumenSettings)
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str):
@@ -380,6 +435,19 @@ class Scene:
             )
         if self.channel_spec is not None and self.channel_spec.channel is not self.channel:
             object.__setattr__(self, "channel_spec", None)
+        if not isinstance(self.lumen, LumenSettings):
+            raise SceneError("scene.lumen: expected a LumenSettings")
+        if self.lumen.diameter_delta_m != 0.0:
+            self.simulated_channel  # noqa: B018 (refuses a lumen narrowed to nothing)
+
+    @property
+    def simulated_channel(self):
+        """The channel the engine samples: ``channel`` with its lumen changed as ``lumen`` says
+        (``channel`` itself when it says nothing)."""
+        delta = self.lumen.diameter_delta_m
+        if delta == 0.0:
+            return self.channel
+        return replace(self.channel, lumen=widened_lumen(self.channel.lumen, delta))
 
     def replace(self, **changes) -> Scene:
         """A copy with some fields replaced (dataclasses.replace; validated again)."""

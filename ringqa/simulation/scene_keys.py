@@ -190,6 +190,9 @@ KEYS: tuple[Key, ...] = (
        "distance from the distal tip to the source's centre of activity"),
     _k("instrument", "sections", None, "", (list,), None, None,
        "a custom instrument: [[instrument.sections]] tables, tip first"),
+    _k("instrument", "ei_scale", "ei_scale", "1", NUM, 1.0, "positive",
+       "factor on every cable section's bending stiffness EI (calibration, sensitivity "
+       "studies; 1: the sections' own)"),
     # ---- a custom instrument section
     _k("section", "name", "name", "", (str,), None, None, "section label"),
     _k("section", "length_mm", "length_m", "mm", NUM, None, "positive", "section length"),
@@ -201,6 +204,10 @@ KEYS: tuple[Key, ...] = (
     _k("section", "element_length_mm", "element_length_m", "mm", NUM, None, "positive",
        "link length (a rigid section is one link)"),
     _k("section", "rigid", "rigid", "", (bool,), False, None, "a rigid section (the capsule)"),
+    # ---- lumen (a change of the channel's lumen, applied when the engine samples the channel)
+    _k("lumen", "diameter_delta_mm", "diameter_delta_m", "mm", NUM, 0.0, None,
+       "added to the lumen diameter: every segment's r_b, r_a and a U-lumen's flat distance "
+       "grow by half of it (calibration, sensitivity studies)"),
     # ---- discretisation
     _k("discretisation", "element_length_mm", None, "mm", (*NUM, dict), None, "positive",
        "link length of every flexible section, or a table per section {thin = 3.0, thick = 10.0}"),
@@ -280,7 +287,7 @@ KEYS: tuple[Key, ...] = (
 
 #: the tables of a scene file (``section`` is a custom instrument section, inside [instrument])
 SECTIONS = ("", "channel", "instrument", "discretisation", "effects", "contact", "motion",
-            "solver", "outputs")  # fmt: skip
+            "solver", "outputs", "lumen")  # fmt: skip
 
 _BY_NAME = {(k.section, k.name): k for k in KEYS}
 _BY_FIELD = {(k.section, k.field): k for k in KEYS if k.field}

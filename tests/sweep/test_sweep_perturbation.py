@@ -13,8 +13,24 @@ def _channel():
     return next(c for c in app.channels if c.name == "ring")
 
 
-def test_lumen_and_centreline_perturbed_as_documented():
-    """+0.2 mm diameter: r_b and r_a grow by 0.1 mm = 1e-4 m. A 0.3 mm displacement: the
+def test_lumen_diameter_key_widens_the_simulated_channel():
+    """Scene key lumen.diameter_delta_mm = +0.2 mm: the channel the engine samples has r_b and
+    r_a 0.1 mm = 1e-4 m larger; the scene's own channel is kept as given."""
+    from ringqa.pipeline.simulate import default_engine
+
+    eng = default_engine()
+    ch = _channel()
+    scene = eng.scene_with_overrides(
+        eng.scene_for_channel(ch, "flexitron"), {"lumen.diameter_delta_mm": 0.2}
+    )
+    sim = scene.simulated_channel
+    np.testing.assert_allclose(sim.lumen.seg_rb - ch.lumen.seg_rb, 1e-4, atol=1e-12)
+    np.testing.assert_allclose(sim.lumen.seg_ra - ch.lumen.seg_ra, 1e-4, atol=1e-12)
+    assert scene.channel is ch
+
+
+def test_centreline_perturbed_as_documented():
+    """A 0.3 mm displacement: the
     centreline moves across itself by 0.3 mm at most (the spline through the moved points may
     overshoot them slightly: 5 %; and reaches at least 0.28 mm) and its entry stays put."""
     ch = _channel()
@@ -29,9 +45,6 @@ def test_lumen_and_centreline_perturbed_as_documented():
     from ringqa.pipeline.simulate import default_engine
 
     eng = replace(default_engine(), scene_for_channel=base_scene)
-    perturbed_engine(Perturbation(lumen_diameter_delta_mm=0.2), eng).scene_for_channel(ch, "x")
-    np.testing.assert_allclose(seen["channel"].lumen.seg_rb - ch.lumen.seg_rb, 1e-4, atol=1e-12)
-    np.testing.assert_allclose(seen["channel"].lumen.seg_ra - ch.lumen.seg_ra, 1e-4, atol=1e-12)
     p = Perturbation(centreline_displacement_mm=0.3, shape_seed=(1, 2))
     perturbed_engine(p, eng).scene_for_channel(ch, "x")
     moved = seen["channel"].centreline
@@ -55,22 +68,26 @@ def test_displacement_shape_is_seeded_and_normalised():
 
 
 def test_ei_scale_multiplies_every_section():
+    """Scene key instrument.ei_scale = 1.1: every flexible link of the engine's chain has 1.1x
+    the EI of the unscaled scene's (the rigid capsule stays rigid)."""
     from ringqa.pipeline.simulate import default_engine
+    from ringqa.simulation.chain import build_chain
 
     eng = default_engine()
     ch = _channel()
     base = eng.scene_for_channel(ch, "flexitron")
-    scaled = perturbed_engine(Perturbation(ei_scale=1.1), eng).scene_for_channel(ch, "flexitron")
-    ratio = [
-        b.ei_nm2 / a.ei_nm2
-        for a, b in zip(base.instrument.sections, scaled.instrument.sections, strict=True)
-    ]
-    np.testing.assert_allclose(ratio, 1.1, rtol=1e-12)
+    scaled = eng.scene_with_overrides(base, {"instrument.ei_scale": 1.1})
+    a = build_chain(base.instrument, 0.2).link_ei
+    b = build_chain(scaled.instrument, 0.2).link_ei
+    flexible = np.isfinite(a)
+    assert flexible.sum() > 10 and np.array_equal(np.isfinite(b), flexible)
+    np.testing.assert_allclose(b[flexible] / a[flexible], 1.1, rtol=1e-12)
 
 
 def test_sample_settings_split_scene_keys_from_perturbations():
-    """A sample's scene keys go to CommissionSettings.scene_overrides with the fixed [set]
-    keys; the perturbation keys go to the Perturbation; [settings] fields are mapped
+    """A sample's scene keys (lumen.diameter_delta_mm is one) go to
+    CommissionSettings.scene_overrides with the fixed [set] keys; the perturbation key goes to
+    the Perturbation; [settings] fields are mapped
     (sk_u -> sk_U, centreline_reference -> require_measured=False)."""
     from ringqa.sweep.runner import Job, commission_settings
 
@@ -78,14 +95,16 @@ def test_sample_settings_split_scene_keys_from_perturbations():
         "ring26x60",
         {"stem_mm": 80.0, "sk_u": 40000.0, "centreline_reference": True},
         {"solver.increment_mm": 0.5},
-        ("contact.mu_k", "lumen.diameter_delta_mm", "motion.backward"),
+        ("contact.mu_k", "lumen.diameter_delta_mm", "motion.backward",
+         "centreline.displacement_mm"),
         3,
-    )
-    settings, pert = commission_settings(job, [0.18, 0.1, True])
+    )  # fmt: skip
+    settings, pert = commission_settings(job, [0.18, 0.1, True, 0.2])
     assert settings.scene_overrides == {
         "solver.increment_mm": 0.5,
         "contact.mu_k": 0.18,
+        "lumen.diameter_delta_mm": 0.1,
         "motion.backward": True,
     }
-    assert pert == {"lumen.diameter_delta_mm": 0.1}
+    assert pert == {"centreline.displacement_mm": 0.2}
     assert (settings.stem_mm, settings.sk_U, settings.require_measured) == (80.0, 40000.0, False)

@@ -24,6 +24,7 @@ from ringqa.simulation.scene import (
     ContactParams,
     Effects,
     Instrument,
+    LumenSettings,
     Motion,
     Outputs,
     SolverSettings,
@@ -129,6 +130,7 @@ def read_custom_instrument(ck: Checker, sec: dict, sections_in: list) -> Instrum
         sections=tuple(secs),
         centre_from_tip_m=mm_to_m(cft if cft is not None else 0.0),
         afterloader=CABLE_PRESETS[preset].afterloader if preset in CABLE_PRESETS else "",
+        ei_scale=float(ck.value("instrument", "ei_scale", sec=sec)),
     )
 
 
@@ -225,6 +227,11 @@ def read_outputs(ck: Checker) -> Outputs:
     return Outputs(**given_fields(ck, "outputs", ck.section("outputs")))
 
 
+def read_lumen(ck: Checker) -> LumenSettings:
+    """``[lumen]``: a change of the channel's lumen (``diameter_delta_mm``)."""
+    return LumenSettings(**given_fields(ck, "lumen", ck.section("lumen")))
+
+
 __all__ = [
     "DEFAULT_GRAVITY_M_S2",
     "DEFAULT_SPAN_MM",
@@ -236,6 +243,7 @@ __all__ = [
     "read_custom_instrument",
     "read_effects",
     "read_instrument",
+    "read_lumen",
     "read_motion",
     "read_outputs",
     "read_solver",

@@ -88,6 +88,8 @@ def scene_to_dict(scene: Scene) -> dict:
     if preset:
         instrument["preset"] = preset
     instrument.update(section_dict("instrument", inst))
+    if instrument.get("ei_scale") == 1.0:
+        del instrument["ei_scale"]  # the default: scenes written before the key stay the same
     instrument["sections"] = [section_dict("section", s) for s in inst.sections]
     out["instrument"] = instrument
     effects = section_dict("effects", scene.effects)
@@ -100,6 +102,8 @@ def scene_to_dict(scene: Scene) -> dict:
     out["motion"] = section_dict("motion", scene.motion)
     out["solver"] = section_dict("solver", scene.solver)
     out["outputs"] = section_dict("outputs", scene.outputs)
+    if scene.lumen.diameter_delta_m != 0.0:
+        out["lumen"] = section_dict("lumen", scene.lumen)
     return plain(out)
 
 
