@@ -4,13 +4,22 @@ Formats (both documented in ``docs/importers.md``):
 
 CSV
     A header row with the columns ``x_mm, y_mm, z_mm`` (any order, extra columns ignored) and
-    optionally ``relative_position_mm``. Blank lines and lines starting with ``#`` are skipped.
+    optionally ``relative_position_mm`` and (source paths) ``sd_mm``, each point's standard
+    uncertainty. Blank lines and lines starting with ``#`` are skipped, except the two settings
+    of a measured source path written as comments: ``# method = film`` (film, ct, panel,
+    vendor) and ``# measured_sd_mm = 0.5`` (one uncertainty for every point).
     Separator: comma (else ``;`` or tab, as found in the header); decimal point ``.``.
     Encoding: UTF-8 (with or without BOM), UTF-16 with its BOM, else Latin-1 (a German Excel's
     comment); :attr:`PointSet.encoding` records it, :attr:`PointSet.notes` says when not UTF-8.
 JSON
     ``{"units": "mm", "points": [[x, y, z], ...], "relative_position_mm": [...]}`` (the last key
-    optional), or the column form ``{"x_mm": [...], "y_mm": [...], "z_mm": [...]}``.
+    optional), or the column form ``{"x_mm": [...], "y_mm": [...], "z_mm": [...]}``; a source
+    path may add ``"sd_mm": [...]`` (or one ``"measured_sd_mm"``) and ``"method"``.
+
+Measured source paths may be any subset of positions along the path (a film, a CT marker wire):
+give their ``relative_position_mm``. A single point off the path of its neighbours (an outlier)
+is kept and named in :attr:`PointSet.notes` and :attr:`PointSet.outliers` (the pipeline's
+reference check then flags it), rather than refused as rows out of order.
 
 Ordering conventions
     A centreline (``kind="centreline"``) runs PROXIMAL (channel entry) -> DISTAL (tip), and so
@@ -59,6 +68,13 @@ MAX_COORDINATE_MM = 1.0e4
 CENTRELINE_LENGTH_MM = (20.0, 5000.0)
 #: Encodings tried, in order, for CSV files (name used in notes, codec). UTF-16 only with its BOM.
 CSV_ENCODINGS = (("UTF-8", "utf-8"), ("Latin-1", "latin-1"))
+#: Column of each point's standard uncertainty (source paths).
+SD_COLUMN = "sd_mm"
+#: How a measured source path was measured (``method`` in the file; recorded in provenance).
+METHODS = ("film", "ct", "panel", "vendor")
+#: Consecutive positions of a source path with relative positions more than this apart (mm) are
+#: not checked for turning back (sparse film positions on a ring turn by their arc between).
+TURN_CHECK_GAP_MM = 10.0
 
 
 class PointsFileError(InputFileError):
@@ -87,8 +103,16 @@ class PointSet:
         ``"UTF-16"`` or ``"Latin-1"`` (the fallback when the file is not UTF-8, e.g. a comment
         written by a German Excel).
     notes : tuple of str
-        Things the caller should show the user (e.g. the Latin-1 fallback); empty when the file
-        was plain UTF-8.
+        Things the caller should show the user (e.g. the Latin-1 fallback, an outlier kept);
+        empty when there is nothing to say.
+    sd_mm : (n,) ndarray or None
+        Each point's standard uncertainty, mm (a source path's ``sd_mm`` column or its one
+        ``measured_sd_mm``); None when the file gives none.
+    method : str
+        How the path was measured (one of :data:`METHODS`), ``""`` when not stated.
+    outliers : tuple of int
+        Rows (0-based, file order) of single points off the path of their neighbours: kept,
+        named in ``notes``.
     """
 
     points_m: np.ndarray
@@ -98,6 +122,9 @@ class PointSet:
     labels: tuple[str, ...] = ()
     encoding: str = "UTF-8"
     notes: tuple[str, ...] = ()
+    sd_mm: np.ndarray | None = None
+    method: str = ""
+    outliers: tuple[int, ...] = ()
 
 
 def read_points(path: str | Path, kind: str = "centreline") -> np.ndarray:
@@ -134,21 +161,29 @@ def read_point_set(path: str | Path, kind: str = "centreline") -> PointSet:
         raise PointsFileError(p, "file not found", "check the path")
     suffix = p.suffix.lower()
     encoding = "UTF-8"
+    extra: dict = {}
     if suffix == ".csv":
         text, encoding = read_text_any(p)
-        pts, rel, labels = _read_csv(p, text)
+        pts, rel, labels = _read_csv(p, text, extra)
     elif suffix == ".json":
-        pts, rel, labels = _read_json(p)
+        pts, rel, labels = _read_json(p, extra)
     else:
         raise PointsFileError(
             p, f"unknown file type {p.suffix!r}", "use a .csv (x_mm,y_mm,z_mm) or .json file"
         )
-    check_points(p, pts, rel, labels, kind)
-    notes = ()
+    sd, method = path_uncertainty(p, extra, len(pts), labels, kind)
+    outliers = check_points(p, pts, rel, labels, kind)
+    notes: tuple[str, ...] = ()
     if encoding in ("Latin-1", "UTF-16"):
         notes = (
             f"{p.name}: not UTF-8, read as {encoding}; the numbers are unaffected, but check any "
             "non-ASCII text (comments, labels) and save the file as UTF-8 to silence this note",
+        )
+    for k in outliers:
+        notes += (
+            f"{p.name}: {labels[k]} lies off the path of its neighbours ({labels[k - 1]}, "
+            f"{labels[k + 1]}): a single outlier, kept and checked against the channel with the "
+            "other points (correct or remove it if it is a typing error)",
         )
     return PointSet(
         points_m=np.ascontiguousarray(mm_to_m(pts)),
@@ -158,7 +193,45 @@ def read_point_set(path: str | Path, kind: str = "centreline") -> PointSet:
         labels=tuple(labels),
         encoding=encoding,
         notes=notes,
+        sd_mm=sd,
+        method=method,
+        outliers=tuple(outliers),
     )
+
+
+def path_uncertainty(p, extra: dict, n: int, labels, kind: str) -> tuple[np.ndarray | None, str]:
+    """The per-point uncertainty (mm) and the method a file gave (``extra``: ``sd_mm`` list,
+    ``measured_sd_mm`` number, ``method`` text, as read), checked."""
+    sd = extra.get("sd_mm")
+    one = extra.get("measured_sd_mm")
+    method = extra.get("method", "")
+    if (sd is not None or one is not None or method) and kind != "path":
+        raise PointsFileError(
+            p, "sd_mm / measured_sd_mm / method belong to a measured source path",
+            "leave them out of a centreline file",
+        )  # fmt: skip
+    if sd is not None and one is not None:
+        raise PointsFileError(
+            p, "both sd_mm (per point) and measured_sd_mm (all points) are given", "keep one"
+        )
+    if one is not None:
+        if not (math.isfinite(one) and one > 0):
+            raise PointsFileError(p, f"measured_sd_mm is {one!r}", "give a number of mm > 0")
+        sd = np.full(n, float(one))
+    if sd is not None:
+        sd = np.asarray(sd, dtype=float)
+        bad = np.flatnonzero(~(np.isfinite(sd) & (sd > 0)))
+        if bad.size:
+            k = int(bad[0])
+            raise PointsFileError(
+                p, f"{labels[k]}, {SD_COLUMN}: {float(sd[k]):g} is not an uncertainty",
+                "give each point's standard uncertainty in mm (> 0)",
+            )  # fmt: skip
+    if method and method not in METHODS:
+        raise PointsFileError(
+            p, f"method {method!r} is not known", f"choose one of {', '.join(METHODS)}"
+        )
+    return sd, str(method)
 
 
 def read_text_any(p: Path) -> tuple[str, str]:
@@ -254,9 +327,32 @@ def _metre_columns_error(p: Path, header: list[str]) -> PointsFileError | None:
     return None
 
 
-def _read_csv(p: Path, text: str) -> tuple[np.ndarray, np.ndarray | None, list[str]]:
+def _comment_settings(p: Path, text: str, extra: dict) -> None:
+    """``# method = film`` and ``# measured_sd_mm = 0.5`` comment lines into ``extra``."""
+    for n, line in enumerate(text.splitlines(), start=1):
+        body = line.strip()
+        if not body.startswith("#") or "=" not in body:
+            continue
+        name, _, value = (part.strip() for part in body[1:].partition("="))
+        if name == "method":
+            extra["method"] = value.strip("\"'").lower()
+        elif name == "measured_sd_mm":
+            try:
+                extra["measured_sd_mm"] = float(value)
+            except ValueError:
+                raise PointsFileError(
+                    p, f"line {n}: measured_sd_mm = {value!r} is not a number",
+                    "write e.g. # measured_sd_mm = 0.5",
+                ) from None  # fmt: skip
+
+
+def _read_csv(
+    p: Path, text: str, extra: dict | None = None
+) -> tuple[np.ndarray, np.ndarray | None, list[str]]:
+    extra = {} if extra is None else extra
     if "\x00" in text:
         raise PointsFileError(p, "contains NUL bytes: not a text (CSV) file", "save it as a CSV")
+    _comment_settings(p, text, extra)
     lines = [
         (n, line)
         for n, line in enumerate(text.splitlines(), start=1)
@@ -282,6 +378,7 @@ def _read_csv(p: Path, text: str) -> tuple[np.ndarray, np.ndarray | None, list[s
             "the first line must name the columns x_mm,y_mm,z_mm with units in millimetres",
         )
     wanted = list(COLUMNS) + ([REL_COLUMN] if REL_COLUMN in header else [])
+    wanted += [SD_COLUMN] if SD_COLUMN in header else []
     idx = [header.index(c) for c in wanted]
     values = np.empty((len(rows) - 1, len(wanted)))
     labels = []
@@ -306,11 +403,16 @@ def _read_csv(p: Path, text: str) -> tuple[np.ndarray, np.ndarray | None, list[s
                     "remove the row or give a finite number",
                 )
             values[k, j] = v
-    rel = values[:, 3].copy() if len(wanted) == 4 else None
+    rel = values[:, wanted.index(REL_COLUMN)].copy() if REL_COLUMN in wanted else None
+    if SD_COLUMN in wanted:
+        extra["sd_mm"] = values[:, wanted.index(SD_COLUMN)].copy()
     return values[:, :3].copy(), rel, labels
 
 
-def _read_json(p: Path) -> tuple[np.ndarray, np.ndarray | None, list[str]]:
+def _read_json(
+    p: Path, extra: dict | None = None
+) -> tuple[np.ndarray, np.ndarray | None, list[str]]:
+    extra = {} if extra is None else extra
     try:
         doc = json.loads(p.read_text(encoding="utf-8-sig"))
     except (json.JSONDecodeError, UnicodeDecodeError) as exc:
@@ -373,6 +475,20 @@ def _read_json(p: Path) -> tuple[np.ndarray, np.ndarray | None, list[str]]:
             )
         rel = np.array([_json_number(p, f"{REL_COLUMN}[{k}]", v) for k, v in enumerate(rel)])
     labels = [f"point {k}" for k in range(len(values))]
+    sd = doc.get(SD_COLUMN)
+    if sd is not None:
+        if not isinstance(sd, list) or len(sd) != len(values):
+            raise PointsFileError(
+                p, f'"{SD_COLUMN}" does not have one value per point ({len(values)})',
+                'give one uncertainty per point, or one "measured_sd_mm" for all',
+            )  # fmt: skip
+        extra["sd_mm"] = [_json_number(p, f"{SD_COLUMN}[{k}]", v) for k, v in enumerate(sd)]
+    if "measured_sd_mm" in doc:
+        extra["measured_sd_mm"] = _json_number(p, "measured_sd_mm", doc["measured_sd_mm"])
+    if "method" in doc:
+        if not isinstance(doc["method"], str):
+            raise PointsFileError(p, "method is not text", f"write one of {', '.join(METHODS)}")
+        extra["method"] = doc["method"].strip().lower()
     return values, rel, labels
 
 
@@ -388,12 +504,18 @@ def _json_number(p: Path, where: str, v) -> float:
 # checks
 
 
-def check_points(p, pts: np.ndarray, rel: np.ndarray | None, labels, kind: str) -> None:
+def check_points(p, pts: np.ndarray, rel: np.ndarray | None, labels, kind: str) -> tuple[int, ...]:
     """Refuse points (mm, file order) that cannot be what ``kind`` says: too few, in another unit
     (metres, centimetres, micrometres, a huge offset), duplicated or out of order.
 
     ``p`` names the file in messages, ``labels`` each point (``"line 7"``); used for CSV and
     JSON point files and for points given inline in an applicator file.
+
+    Returns
+    -------
+    tuple of int
+        A source path's single outliers (rows off the path of their neighbours, see
+        :func:`single_outliers`): kept, for the caller to name. Empty for other kinds.
     """
     n = len(pts)
     name = KIND_NAMES[kind]
@@ -442,11 +564,17 @@ def check_points(p, pts: np.ndarray, rel: np.ndarray | None, labels, kind: str) 
                 "sort the rows by relative position, most distal (0) first",
             )
     # Turning back (angle between consecutive segments) means the rows are out of order.
+    outliers: tuple[int, ...] = ()
     if n >= 3:
-        a, b = np.diff(pts, axis=0)[:-1], np.diff(pts, axis=0)[1:]
-        cosang = np.einsum("ij,ij->i", a, b) / (steps[:-1] * steps[1:])
-        turn = np.degrees(np.arccos(np.clip(cosang, -1.0, 1.0)))
+        turn = turn_angles_deg(pts)
         bad = np.flatnonzero(turn > TURN_BACK_DEG)
+        if rel is not None and kind == "path":  # sparse positions turn by the arc between them
+            gap = np.diff(rel)
+            bad = bad[(gap[bad] <= TURN_CHECK_GAP_MM) & (gap[bad + 1] <= TURN_CHECK_GAP_MM)]
+        if bad.size and kind == "path":
+            outliers = single_outliers(pts, bad)
+            if outliers:
+                bad = np.array([], dtype=int)
         if bad.size:
             k = int(bad[0]) + 1
             raise PointsFileError(
@@ -483,3 +611,45 @@ def check_points(p, pts: np.ndarray, rel: np.ndarray | None, labels, kind: str) 
                 f"{lo:g}-{hi:g} mm): this looks like micrometres or another unit",
                 "write coordinates in millimetres (micrometres: divide by 1000)",
             )
+    return outliers
+
+
+def turn_angles_deg(pts: np.ndarray) -> np.ndarray:
+    """(n-2,) angle (deg) between consecutive segments of (n, 3) points, at points 1..n-2."""
+    d = np.diff(pts, axis=0)
+    length = np.linalg.norm(d, axis=1)
+    cosang = np.einsum("ij,ij->i", d[:-1], d[1:]) / (length[:-1] * length[1:])
+    return np.degrees(np.arccos(np.clip(cosang, -1.0, 1.0)))
+
+
+def single_outliers(pts: np.ndarray, bad_turns: np.ndarray) -> tuple[int, ...]:
+    """The rows that explain every turn-back of ``bad_turns`` (indices into
+    :func:`turn_angles_deg`) as single points off the path: a row k such that its neighbours'
+    path without it does not turn back, and k projects between its neighbours (a jump sideways,
+    not a row swapped along the path). Empty when the turn-backs are not all explained so (the
+    rows are then out of order).
+    """
+    n = len(pts)
+    found: set[int] = set()
+    for b in bad_turns:
+        vertex = int(b) + 1
+        cands = [k for k in (vertex, vertex - 1, vertex + 1) if 0 < k < n - 1]
+        hit = None
+        for k in cands:
+            a, c = pts[k - 1], pts[k + 1]
+            seg = c - a
+            t = float(np.dot(pts[k] - a, seg) / max(float(np.dot(seg, seg)), 1e-30))
+            if not 0.0 <= t <= 1.0:
+                continue
+            lo, hi = max(0, k - 2), min(n, k + 3)
+            rest = np.delete(pts[lo:hi], k - lo, axis=0)
+            if len(rest) < 3 or not np.any(turn_angles_deg(rest) > TURN_BACK_DEG):
+                hit = k
+                break
+        if hit is None:
+            return ()
+        found.add(hit)
+    rows = sorted(found)
+    if np.any(np.diff(rows) < 2):
+        return ()  # two outliers side by side are not "single": the rows may be out of order
+    return tuple(rows)

@@ -205,3 +205,75 @@ def test_long_centreline_is_refused(tmp_path):
         PointsFileError, match=r"cl\.csv: the centreline is .* mm long .*another unit"
     ):
         read_points(p)
+
+
+# --------------------------------------------------------------------------- sparse measured paths
+
+
+def _ring_rows(rel_mm, radius=13.0, sd=None):
+    """Points on a circle of ``radius`` mm at arc lengths ``rel_mm`` (a ring's source path)."""
+    rows = []
+    for k, r in enumerate(rel_mm):
+        phi = r / radius
+        row = f"{radius * np.cos(phi):.6f},{radius * np.sin(phi):.6f},0,{r}"
+        rows.append(row + (f",{sd[k]}" if sd is not None else ""))
+    return rows
+
+
+def test_sparse_path_with_uncertainty_and_method(tmp_path):
+    """Film positions 0, 5, 10, 25, 30, 50, 60 mm on a 13 mm ring: 15-20 mm gaps turn by
+    66-88 degrees between chords (not checked beyond 10 mm gaps); each row's sd_mm and the
+    method comment are read."""
+    rel = [0, 5, 10, 25, 30, 50, 60]
+    sd = [0.5, 0.5, 0.6, 0.7, 0.5, 1.0, 0.8]
+    text = "# method = film\nx_mm,y_mm,z_mm,relative_position_mm,sd_mm\n"
+    p = _csv(tmp_path, text + "\n".join(_ring_rows(rel, sd=sd)) + "\n")
+    ps = read_point_set(p, kind="path")
+    np.testing.assert_allclose(ps.relative_position_mm, rel)
+    np.testing.assert_allclose(ps.sd_mm, sd)
+    assert ps.method == "film" and ps.outliers == ()
+
+
+def test_one_uncertainty_for_all_points_json(tmp_path):
+    p = tmp_path / "m.json"
+    doc = {"units": "mm", "points": [[0, 0, 0], [5, 0, 0], [10, 0, 1]], "measured_sd_mm": 0.4,
+           "method": "CT", "relative_position_mm": [0, 5, 10]}  # fmt: skip
+    p.write_text(json.dumps(doc))
+    ps = read_point_set(p, kind="path")
+    np.testing.assert_allclose(ps.sd_mm, 0.4)
+    assert ps.method == "ct"
+
+
+@pytest.mark.parametrize(
+    ("head", "tail", "match"),
+    [
+        ("# method = xray\n", "", "method 'xray' is not known.*film, ct, panel, vendor"),
+        ("# measured_sd_mm = -1\n", "", "measured_sd_mm is -1"),
+        ("", ",0", r"line 2, sd_mm: 0 is not an uncertainty"),
+    ],
+)
+def test_bad_uncertainty_or_method_is_named(tmp_path, head, tail, match):
+    header = "x_mm,y_mm,z_mm,relative_position_mm" + (",sd_mm" if tail else "")
+    rows = [f"{x},0,0,{x}" + (tail if tail else "") for x in (0, 5, 10)]
+    p = _csv(tmp_path, head + header + "\n" + "\n".join(rows) + "\n")
+    with pytest.raises(PointsFileError, match=match):
+        read_point_set(p, kind="path")
+
+
+def test_single_outlier_is_flagged_not_refused(tmp_path):
+    """Issue 25: a path every 2.5 mm along x with line 5 moved 4 mm sideways: the path turns
+    by 2 x atan(4/2.5) = 116 degrees there (> 100), but the point lies between its neighbours
+    and the path without it is straight: kept, named in the notes and in ``outliers``."""
+    rows = [f"{2.5 * k},{4.0 if k == 3 else 0.0},0" for k in range(8)]
+    p = _csv(tmp_path, "x_mm,y_mm,z_mm\n" + "\n".join(rows) + "\n")
+    ps = read_point_set(p, kind="path")
+    assert ps.outliers == (3,)
+    assert any("line 5 lies off the path" in n for n in ps.notes)
+
+
+def test_swapped_rows_still_refused(tmp_path):
+    """Rows 3 and 4 swapped along the path: not a sideways jump, so still 'not in order'."""
+    rows = ["0,0,0", "2.5,0,0", "7.5,0,0", "5,0,0", "10,0,0", "12.5,0,0"]
+    p = _csv(tmp_path, "x_mm,y_mm,z_mm\n" + "\n".join(rows) + "\n")
+    with pytest.raises(PointsFileError, match="not in order"):
+        read_point_set(p, kind="path")
