@@ -36,6 +36,7 @@ COMMANDS: dict[str, str] = {
     "config": "ringqa.cli.config",
     "sweep": "ringqa.cli.sweep",
     "warmup": "ringqa.cli.warmup",
+    "calibrate": "ringqa.cli.calibrate",
 }
 
 #: commands that run numba kernels: while one compiles, stderr says so (ringqa/cli/_jit.py)
