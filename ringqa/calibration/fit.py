@@ -61,6 +61,8 @@ MAX_RELATIVE_SE = 0.3
 MAX_DELTA_SE_MM = 0.1
 #: Evaluations of the objective the optimiser may make (each one simulation per applicator).
 MAX_NFEV = 40
+#: A fitted theta this close to a bound is on it (trust-region reflective stays strictly inside).
+BOUND_TOL = 1.0e-3
 #: Extra points (beyond one per fitted parameter) a fit needs.
 EXTRA_POINTS = 2
 
@@ -292,7 +294,8 @@ def fit_parameters(
         else:
             ident[k] = bool(np.isfinite(se[k]) and se[k] <= MAX_RELATIVE_SE * abs(values[k]))
     notes: list[str] = []
-    on_bound = [k for j, k in enumerate(keys) if sol.active_mask[j] != 0]
+    near = (theta - par.lower < BOUND_TOL) | (par.upper - theta < BOUND_TOL)
+    on_bound = [k for j, k in enumerate(keys) if sol.active_mask[j] != 0 or near[j]]
     for k in on_bound:
         if ident[k] and check_bounds:
             raise CalibrationError(

@@ -1,0 +1,72 @@
+"""The least squares and its statistics on a stand-in model with a known answer."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from ringqa.calibration.fit import fit_parameters
+from ringqa.calibration.measured import CalibrationError
+
+
+class _Linear:
+    """Positions linear in mu_k, independent of mu_s and EI: x_i = a_i (mu_k - 0.2)."""
+
+    def __init__(self, a, measured_x, sd):
+        from types import SimpleNamespace
+
+        n = len(a)
+        self.a = np.asarray(a, dtype=float)
+        meas = np.zeros((n, 3))
+        meas[:, 0] = measured_x
+        self.measured = (SimpleNamespace(measured_mm=meas, used=np.ones(n, bool)),)
+        self.sigma = [np.full(n, sd)]
+
+    def base_values(self):
+        return {"contact.mu_k": 0.2, "contact.mu_s": 0.25, "instrument.ei_scale": 1.0,
+                "lumen.diameter_delta_mm": 0.0}  # fmt: skip
+
+    def min_delta_mm(self):
+        return -1.0
+
+    def positions(self, values):
+        pos = np.zeros((self.a.size, 3))
+        pos[:, 0] = self.a * (values["contact.mu_k"] - 0.2)
+        return [pos]
+
+
+def test_linear_model_recovered_with_the_textbook_error():
+    """x_i = a_i (mu_k - 0.2) with a = 2..20 mm per unit mu_k, data made at mu_k = 0.15 without
+    noise: the fit returns 0.15, and SE(mu_k) = sd / sqrt(sum a_i^2) (weighted linear least
+    squares; chi2 = 0 so no rescaling): 0.2 / sqrt(4+16+...+400 = 1540) = 5.10e-3 (less the
+    forward difference's 2.5 %).
+    mu_s and EI move nothing: identifiable false, errors infinite."""
+    a = np.arange(2.0, 21.0, 2.0)
+    model = _Linear(a, a * (0.15 - 0.2), 0.2)
+    res = fit_parameters(model, ("contact.mu_k", "contact.mu_s", "instrument.ei_scale"),
+                         model.sigma, workers=1)  # fmt: skip
+    assert abs(res.values["contact.mu_k"] - 0.15) < 2e-5  # xtol 1e-4 on log(mu_k)
+    # the Jacobian is a forward difference of 5 % in log(mu_k): its slope is
+    # a mu_k (e^0.05 - 1) / 0.05 = 1.0254 a mu_k, so the SE is 2.5 % small (docs/calibration.md)
+    expected = 0.2 / np.sqrt(np.sum(a**2)) / 1.0254
+    assert res.se["contact.mu_k"] == pytest.approx(expected, rel=2e-3)
+    assert res.identifiable == {"contact.mu_k": True, "contact.mu_s": False,
+                                "instrument.ei_scale": False}  # fmt: skip
+    assert np.isinf(res.se["contact.mu_s"]) and np.isinf(res.se["instrument.ei_scale"])
+
+
+def test_too_few_points_refused_with_the_number_needed():
+    model = _Linear([1.0, 2.0, 3.0, 4.0], np.zeros(4), 0.2)
+    with pytest.raises(CalibrationError, match=r"4 measured point\(s\).*needs at least 5"):
+        fit_parameters(model, ("contact.mu_k", "contact.mu_s", "instrument.ei_scale"),
+                       model.sigma, workers=1)  # fmt: skip
+
+
+def test_identifiable_key_on_a_bound_is_refused():
+    """Data that want mu_k = 0.005 (below the searched 0.01) and determine it well (SE ~5e-5):
+    the fit stops on the bound and says so instead of returning a precise-looking number. (A key
+    the data barely determine may end on a bound: identifiable false, said in the notes.)"""
+    a = np.arange(200.0, 2001.0, 200.0)
+    model = _Linear(a, a * (0.005 - 0.2), 0.2)
+    with pytest.raises(CalibrationError, match=r"bound of contact\.mu_k"):
+        fit_parameters(model, ("contact.mu_k",), model.sigma, workers=1)
