@@ -10,7 +10,14 @@
   measured_z_mm, simulated_before_x_mm, ..., simulated_after_z_mm, residual_before_mm,
   residual_after_mm, sd_mm`` and ``flag`` (empty, or why the point was left out of the fit);
 - ``calibration.png``: measured vs simulated before/after, and the residuals;
-- ``calibration.pdf``: the same on signed pages with the report's header, footer and fields.
+- ``calibration.pdf``: the same on signed pages with the report's header, footer and fields;
+
+and beside them ``calibration_sweep.toml``: a sweep spec (docs/sweeps.md) that varies each
+identifiable fitted key as a normal distribution (mean the fitted value, sd its standard error)
+with the other fitted values held, so that ``ringqa commission INPUT --config
+calibrated_cable.toml --sweep calibration_sweep.toml`` propagates the fit's uncertainty to every
+dwell with the existing sweep machinery (the keys independently: with one identifiable key, as
+on the rings measured so far, there is no correlation to lose; with more, the file says so).
 """
 
 from __future__ import annotations
@@ -36,14 +43,17 @@ __all__ = [
     "write_outputs",
 ]
 
-#: The files written (contract).
+#: The files written (contract), and the sweep spec of the fitted uncertainty.
 FILES = (
     "calibration.json",
     "calibrated_cable.toml",
     "residuals.csv",
     "calibration.png",
     "calibration.pdf",
+    "calibration_sweep.toml",
 )
+#: Samples of the uncertainty sweep spec.
+SWEEP_SAMPLES = 32
 RESIDUAL_COLUMNS = (
     "applicator", "point", "relative_position_mm",
     "measured_x_mm", "measured_y_mm", "measured_z_mm",
@@ -140,11 +150,7 @@ def cable_toml(cal: Calibration, command: str = "") -> str:
     """``calibrated_cable.toml``: a configuration with the identifiable fitted values (the
     others stay at the cable's own values and are named in a comment)."""
     f = cal.fit
-    kept = {k: f.values[k] for k in f.keys if f.identifiable[k]}
-    if "contact.mu_k" in kept and "contact.mu_s" not in kept:
-        mu_s = f.start.get("contact.mu_s", f.values.get("contact.mu_s"))
-        if mu_s is not None and mu_s < kept["contact.mu_k"]:
-            kept["contact.mu_s"] = kept["contact.mu_k"]  # the cable's mu_s raised to mu_k
+    kept = _kept(cal)
     left = [k for k in f.keys if not f.identifiable[k]]
     lines = [
         "# ringqa calibrate: the cable fitted to the measured source paths (calibration.json)",
@@ -166,6 +172,55 @@ def cable_toml(cal: Calibration, command: str = "") -> str:
         if k not in kept and isinstance(v, int | float) and not isinstance(v, bool):
             lines.append(f"{k} = {v!r}")
     return "\n".join(lines) + "\n"
+
+
+def _kept(cal: Calibration) -> dict[str, float]:
+    """The values calibrated_cable.toml sets (identifiable keys, mu_s raised to mu_k)."""
+    f = cal.fit
+    kept = {k: f.values[k] for k in f.keys if f.identifiable[k]}
+    if "contact.mu_k" in kept and "contact.mu_s" not in kept:
+        mu_s = f.start.get("contact.mu_s", f.values.get("contact.mu_s"))
+        if mu_s is not None and mu_s < kept["contact.mu_k"]:
+            kept["contact.mu_s"] = kept["contact.mu_k"]
+    return kept
+
+
+def sweep_spec_text(cal: Calibration) -> str:
+    """``calibration_sweep.toml`` (module docstring)."""
+    f = cal.fit
+    kept = _kept(cal)
+    varied = [k for k in f.keys if f.identifiable[k] and math.isfinite(f.se[k]) and f.se[k] > 0]
+    lines = [
+        "# ringqa calibrate: the fitted cable's uncertainty as a sweep (docs/sweeps.md):",
+        "#   ringqa commission INPUT --config calibrated_cable.toml "
+        "--sweep calibration_sweep.toml --out DIR",
+        "# (ringqa commission sets the input and the commissioning settings)",
+    ]
+    if len(varied) > 1:
+        lines.append("# the keys are varied independently: their correlation "
+                     "(calibration.json) is not kept")  # fmt: skip
+    first = cal.measured[0]
+    lines += [
+        'description = "the calibrated cable\'s parameter uncertainty (ringqa calibrate)"',
+        f"input = {json_str(first.input)}",
+        f"samples = {SWEEP_SAMPLES}",
+        "seed = 1",
+        "",
+        "[set]",
+    ]
+    lines += [f'"{k}" = {v:.6g}' for k, v in kept.items() if k not in varied]
+    for k in varied:
+        lines += ["", f'[parameters."{k}"]', 'distribution = "normal"',
+                  f"mean = {f.values[k]:.6g}", f"sd = {f.se[k]:.6g}",
+                  'source = "ringqa calibrate: fitted value and its standard error"']  # fmt: skip
+    return "\n".join(lines) + "\n"
+
+
+def json_str(text: str) -> str:
+    """A TOML basic string."""
+    import json
+
+    return json.dumps(str(text))
 
 
 def residual_rows(cal: Calibration) -> list[list]:
@@ -319,4 +374,5 @@ def write_outputs(stage: Path, cal: Calibration, provenance: Provenance, *, comm
     fig = figure(cal)
     fig.savefig(stage / "calibration.png", dpi=120)
     _pdf(cal, data, stage / "calibration.pdf", provenance, fields)
+    (stage / "calibration_sweep.toml").write_text(sweep_spec_text(cal), encoding="utf-8")
     return [stage / name for name in FILES]

@@ -51,6 +51,11 @@ class Channel:
     measured_source : str
         Where the measured path comes from (a library path's name, version and date, or the
         user's file); ``""`` when unknown.
+    measured_sd_m : (n,) ndarray or None
+        Each measured position's standard uncertainty (m), when the measurement gives one.
+    measured_method : str
+        How the path was measured (``"film"``, ``"ct"``, ``"panel"``, ``"vendor"``; ``""``
+        not stated).
     """
 
     name: str
@@ -61,6 +66,8 @@ class Channel:
     measured_step_m: float | None = None
     measured_relative_m: np.ndarray | None = None
     measured_source: str = ""
+    measured_sd_m: np.ndarray | None = None
+    measured_method: str = ""
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not self.name.strip():
@@ -112,6 +119,16 @@ class Channel:
             object.__setattr__(self, "measured_relative_m", rel)
         if not isinstance(self.measured_source, str):
             raise GeometryError(f"channel {self.name!r}: measured_source must be a string")
+        if self.measured_sd_m is not None:
+            sd = np.array(self.measured_sd_m, dtype=float).reshape(-1)
+            n_path = None if self.measured_path_m is None else len(self.measured_path_m)
+            if sd.size != n_path or not np.all(np.isfinite(sd) & (sd > 0)):
+                raise GeometryError(
+                    f"channel {self.name!r}: measured_sd_m needs one uncertainty > 0 (m) per "
+                    "measured position"
+                )
+            sd.setflags(write=False)
+            object.__setattr__(self, "measured_sd_m", sd)
 
     @property
     def measured_relative_positions_m(self) -> np.ndarray | None:

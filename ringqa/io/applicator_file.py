@@ -255,6 +255,8 @@ class _Reader:
         self.path = path
         self.base = base if base is not None else path.parent
         self.notes: list[str] = []  # for the user (e.g. a CSV read as Latin-1)
+        #: per channel: the measured path file's (sd_mm, method)
+        self.path_uncertainty: dict[str, tuple] = {}
 
     def known_keys(self, d, known: tuple[str, ...], where: str, also: str = "") -> None:
         """Refuse a key of ``d`` not in ``known``, suggesting the nearest known key."""
@@ -584,6 +586,7 @@ def _channel(c, where: str, rd: _Reader, ring_frame=None) -> Channel:
             measured_step_m=step_m,
             measured_relative_m=rel_m,
             measured_source=origin,
+            **_path_uncertainty(rd, where),
         )
     except GeometryError as exc:
         raise rd.fail(where, str(exc)) from None
@@ -669,6 +672,13 @@ def path_problem(channel: Channel, path_m, rel_m=None, step_mm=None) -> tuple[st
 S_REF_FROM_PATH = "from_measured_path"
 
 
+def _path_uncertainty(rd: _Reader, where: str) -> dict:
+    """The measured path file's per-point uncertainty (m) and method, as Channel fields."""
+    sd_mm, method = rd.path_uncertainty.get(where, (None, ""))
+    return {"measured_sd_m": None if sd_mm is None else mm_to_m(np.asarray(sd_mm, dtype=float)),
+            "measured_method": method or ""}  # fmt: skip
+
+
 def _measured_path(c: dict, where: str, rd: _Reader):
     """The measured path (m), its relative positions as given (m, or None) and its provenance."""
     origin = rd.get(c, "measured_path_source", where, default=None)
@@ -688,6 +698,7 @@ def _measured_path(c: dict, where: str, rd: _Reader):
         name = c["measured_path_file"]
         pset = _read_csv_point_set(rd, f"{where}.measured_path_file", name, "path")
         path_m, rel_mm = pset.points_m, pset.relative_position_mm
+        rd.path_uncertainty[where] = (pset.sd_mm, pset.method)
         default_origin = f"user file {Path(pset.path).name}"
     else:
         return None, None, ""

@@ -63,6 +63,7 @@ from ringqa.pipeline.inputs import (
     load_input,
     loaded_text,
 )
+from ringqa.pipeline.measured_points import centreline_grid, compare_measured_points, is_sparse
 from ringqa.pipeline.reference import review_reference
 from ringqa.pipeline.result import CommissioningResult, RunSettings, Timings
 from ringqa.pipeline.settings import CommissionSettings
@@ -145,6 +146,10 @@ def commission(
     capsule_r_m, cable_r_m = instrument_radii_m(engine, ring, cable.preset)
     check_clearance(app, ring, cable_r_m)
     reference = reference_dwells(app, ring, cfg.plan_step_mm)
+    sparse = None  # a measured subset: compared at its own positions (pipeline.measured_points)
+    if is_sparse(reference, cfg.plan_step_mm):
+        sparse = (reference, review_reference(app, ring, reference, cfg.register, capsule_r_m))
+        reference = centreline_grid(app, ring, cfg.plan_step_mm)
     review = review_reference(app, ring, reference, cfg.register, capsule_r_m)
     compared_ref = review.registered
     registered = compared_ref.dwells if cfg.register != "none" and reference.kind == "measured" \
@@ -198,6 +203,15 @@ def commission(
         relative_position_mm=rel, flags=review.flags, numerical_error_mm=numerics.max_mm,
         numerical_warn_mm=NUMERICAL_ERROR_WARN_MM,
     )  # fmt: skip
+    measured_points = None
+    if sparse is not None:
+        measured_points = compare_measured_points(
+            app, ring, *sparse, cable=cable.preset, scene_overrides=cfg.scene_overrides,
+            limits_mm=cfg.position_limits_mm, engine=engine, stem_mm=cfg.stem_mm,
+            sd_mm=None if getattr(ring, "measured_sd_m", None) is None
+            else m_to_mm(ring.measured_sd_m), method=getattr(ring, "measured_method", ""),
+        )  # fmt: skip
+        verdicts = (*verdicts, measured_points.verdict())
     n_tandem = 0 if tandem is None else len(tandem.relative_position_mm)
     on_ring = rel <= ring_arc_mm(app, ring, 0.5) + 1e-9
     summary = summarise(
@@ -216,7 +230,7 @@ def commission(
         loaded_text(app, ring, loaded.kind),
         *correction_notes,
         *kink_notes(app, ring),
-        reference_note(reference),
+        *((reference_note(reference),) if measured_points is None else measured_points.lines()),
         *simulated.notes,
         *simulation_notes(simulated.info, cable),
         *tables.notes,

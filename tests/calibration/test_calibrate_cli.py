@@ -52,6 +52,11 @@ def test_calibrate_writes_the_contract_files(tmp_path, capsys):
     cfg = read_config_file(out / "calibrated_cable.toml")
     assert cfg["simulation.cable"] == "flexitron"
     assert cfg["scene.contact.mu_k"] == pytest.approx(p["value"], rel=1e-5)
+    from ringqa.sweep import load_spec
+
+    spec = load_spec(out / "calibration_sweep.toml")  # the fit's uncertainty as a sweep
+    (par,) = spec.parameters
+    assert par.key == "contact.mu_k" and par.distribution == "normal"
 
 
 @pytest.mark.parametrize(
