@@ -131,6 +131,10 @@ def _split_item(item: str, default_input) -> tuple[Any, str]:
                 "write APPLICATOR=FILE)"
             )
         return default_input, text
+    if not p.exists() and (
+        (default_input is not None and text == str(default_input)) or not (p.suffix or "/" in text)
+    ):
+        return text, ""  # an applicator by name (a shipped one): load_input says if unknown
     if not p.exists():
         raise CalibrationError(
             f"--measured {text}: no such file or folder (give a measured path CSV/JSON, an "
