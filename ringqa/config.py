@@ -30,7 +30,6 @@ import difflib
 import logging
 import math
 import os
-import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -44,6 +43,7 @@ from ringqa.pipeline.verdicts import DOSE_ACTION_PCT, POSITION_RECOMMENDED_MM, P
 from ringqa.plan import PLAN_STEP_MM, PRESCRIPTION_GY, DosePointSpec
 from ringqa.report.fields import ReportFields
 from ringqa.simulation.scene_keys import KEYS as SCENE_KEYS
+from ringqa.textio import read_toml
 
 log = logging.getLogger(__name__)
 
@@ -305,6 +305,10 @@ def _nearest(name: str, known) -> str:
     return f"did you mean {match[0]}?" if match else "known keys: see docs/config.md"
 
 
+def _config_error(path: Path, problem: str, fix: str) -> ConfigError:
+    return ConfigError(f"{path}: {problem} ({fix})")
+
+
 def read_config_file(path: str | Path) -> dict[str, Any]:
     """Read and check one configuration file: ``{dotted key: value}`` (scene keys as
     ``scene.<dotted scene key>``).
@@ -318,13 +322,7 @@ def read_config_file(path: str | Path) -> dict[str, Any]:
     p = Path(path)
     if not p.is_file():
         raise ConfigError(f"{p}: configuration file not found (give the path of a .toml file)")
-    try:
-        with open(p, "rb") as fh:
-            data = tomllib.load(fh)
-    except tomllib.TOMLDecodeError as exc:
-        raise ConfigError(f"{p}: not valid TOML: {exc} (fix the syntax there)") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ConfigError(f"{p}: cannot read the configuration file ({exc})") from None
+    data = read_toml(p, error=_config_error)  # ringqa.textio: encodings, errors named
     if _is_scene_file(data):
         log.info("%s: a scene file (ringqa accuracy's recommended.toml): numerical settings", p)
         return {f"scene.{k}": v for k, v in recommended_overrides(data).items()}

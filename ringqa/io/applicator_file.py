@@ -49,7 +49,6 @@ encoding than UTF-8 leave a note in ``metadata["notes"]``. Table: ``docs/validat
 from __future__ import annotations
 
 import difflib
-import json
 import math
 import os
 from pathlib import Path
@@ -74,6 +73,7 @@ from ringqa.io.points import PointSet, PointsFileError, check_points, read_point
 from ringqa.jsonio import json_text, to_jsonable
 from ringqa.outdir import atomic_write_text
 from ringqa.paths import data_dir
+from ringqa.textio import read_json
 from ringqa.units import m_to_mm, mm_to_m
 
 FORMAT = "ringqa-applicator"
@@ -334,18 +334,7 @@ class _Reader:
 
 
 def _load_json_file(path: Path) -> Applicator:
-    try:
-        doc = json.loads(path.read_text(encoding="utf-8-sig"))
-    except UnicodeDecodeError:
-        raise ApplicatorFileError(
-            path, "not a text (JSON) file", "give an applicator .json"
-        ) from None
-    except json.JSONDecodeError as exc:
-        raise ApplicatorFileError(
-            path, f"invalid JSON at line {exc.lineno} column {exc.colno}: {exc.msg}", "fix the file"
-        ) from None
-    except OSError as exc:
-        raise ApplicatorFileError(path, f"cannot be read ({exc.strerror})") from None
+    doc = read_json(path, error=ApplicatorFileError)  # strict: duplicate keys, depth, encoding
     return _from_dict(doc, _Reader(path))
 
 
@@ -358,10 +347,7 @@ def _load_folder(folder: Path) -> Applicator:
             f"add {FOLDER_FILE} with the lumen, s_ref_mm and ring frame beside centreline.csv "
             "(see data/applicators/README.md)",
         )
-    try:
-        doc = json.loads(spec.read_text(encoding="utf-8-sig"))
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise ApplicatorFileError(spec, f"invalid JSON ({exc})", "fix the file") from None
+    doc = read_json(spec, error=ApplicatorFileError)
     rd = _Reader(spec, folder)
     if isinstance(doc, dict) and "channels" not in doc:
         rd.known_keys(doc, FOLDER_KEYS, "")

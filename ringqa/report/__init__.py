@@ -25,6 +25,7 @@ from ringqa.outdir import MARKER_NAME, marker_record, staged_output
 from ringqa.report.fields import ReportFields
 from ringqa.report.pdf import write_batch_pdf, write_pdf
 from ringqa.report.tables import SCHEMA, results_dict, write_batch_tables, write_tables
+from ringqa.textio import read_csv_table
 
 __all__ = [
     "SCHEMA",
@@ -46,14 +47,7 @@ ACCURACY_COLUMNS = ("time_s", "max_err_mm", "status")
 def read_accuracy_csv(path) -> pd.DataFrame:
     """Read ``accuracy.csv`` of ``ringqa accuracy`` (for the report's accuracy page)."""
     p = Path(path)
-    try:
-        table = pd.read_csv(p)
-    except (OSError, ValueError) as exc:
-        raise InputFileError(
-            p,
-            f"cannot read the accuracy table ({exc})",
-            "give the accuracy.csv written by ringqa accuracy",
-        ) from exc
+    table = read_csv_table(p)  # ringqa.textio: encodings, repeated columns refused
     missing = [c for c in ACCURACY_COLUMNS if c not in table.columns]
     if missing:
         raise InputFileError(
