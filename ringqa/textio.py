@@ -10,8 +10,9 @@ same damaged file is refused the same way, in one line naming the file and what 
   Latin-1 with a note: ``latin1=True``). Text holding NUL characters is refused as not text.
 - **JSON.** A key given twice in one object is refused naming the key (the last one used to
   win without a word: a changed ``s_ref_mm`` moved the max deviation from 4.53 to 2.52 mm);
-  nesting deeper than :data:`MAX_JSON_DEPTH` is refused (no ``RecursionError``); ``NaN`` and
-  ``Infinity`` tokens (not JSON) are refused.
+  nesting deeper than :data:`MAX_JSON_DEPTH` is refused (no ``RecursionError``). (``NaN`` and
+  ``Infinity`` tokens are read as floats, so that the reader's finiteness check names the field
+  that holds one.)
 - **CSV.** A header naming a column twice is refused naming the column (the first one used to
   win).
 - **TOML.** Decoded as above (a scene saved as UTF-16 reads), the parser's errors and a
@@ -174,10 +175,6 @@ def _pairs(pairs: list[tuple[str, Any]]) -> dict:
     return out
 
 
-def _no_constant(token: str) -> Any:
-    raise ValueError(f"{token} is not a JSON number")
-
-
 def json_depth(obj: Any) -> int:
     """The nesting depth of parsed JSON (a scalar 0, ``[]`` 1, ``[[1]]`` 2), without recursion."""
     deepest = 0
@@ -194,7 +191,7 @@ def json_depth(obj: Any) -> int:
 
 
 def loads_json(text: str, path: str | Path, *, error: ErrorFactory = InputFileError) -> Any:
-    """Parse JSON text strictly (duplicate keys, depth, NaN tokens refused; see the module).
+    """Parse JSON text strictly (duplicate keys and depth refused; see the module).
 
     Raises
     ------
@@ -203,7 +200,7 @@ def loads_json(text: str, path: str | Path, *, error: ErrorFactory = InputFileEr
     """
     p = Path(path)
     try:
-        doc = json.loads(text, object_pairs_hook=_pairs, parse_constant=_no_constant)
+        doc = json.loads(text, object_pairs_hook=_pairs)
     except _DuplicateKey as exc:
         raise error(
             p,
@@ -222,8 +219,6 @@ def loads_json(text: str, path: str | Path, *, error: ErrorFactory = InputFileEr
             f"JSON nested too deeply (more than {MAX_JSON_DEPTH} levels of [ and {{)",
             "give the file ringqa's format",
         ) from None
-    except ValueError as exc:  # NaN / Infinity tokens
-        raise error(p, f"invalid JSON: {exc}", "write numbers as numbers, or null") from None
     depth = json_depth(doc)
     if depth > MAX_JSON_DEPTH:
         raise error(

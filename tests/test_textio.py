@@ -40,13 +40,6 @@ def test_deep_json_is_refused_without_recursion_error(tmp_path):
     assert json_depth(read_json(ok)) == MAX_JSON_DEPTH
 
 
-def test_json_nan_token_is_refused(tmp_path):
-    p = tmp_path / "n.json"
-    p.write_text('{"a": NaN}')
-    with pytest.raises(InputFileError, match="NaN is not a JSON number"):
-        read_json(p)
-
-
 @pytest.mark.parametrize(
     ("codec", "bom", "name"),
     [
