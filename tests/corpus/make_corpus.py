@@ -719,6 +719,11 @@ def _options(c: Path) -> list[Case]:
         argv=("commission", "ring99x99", "--out", "{out}"))  # fmt: skip
     add("opt_correction_in_batch", ["--all-shipped", "--centreline-correction", "x.csv"], 2,
         "give one applicator")  # fmt: skip
+    add("opt_set_nested_deep", ["--set", "solver.tol=" + "[" * 50_000 + "]" * 50_000], 2,
+        "solver.tol")  # fmt: skip
+    (c / "accuracy_dup_column.csv").write_text("time_s,max_err_mm,status,time_s\n1,0.1,0,2\n")
+    add("opt_accuracy_csv_dup_column", ["--accuracy-csv", "{c}/accuracy_dup_column.csv",
+        *FAST_RING], 2, "column 'time_s' twice")  # fmt: skip
 
     def centreline_run(out: Path) -> None:
         """ring26x60 with the centreline reference: dwells every 5 mm (the plan step) from
