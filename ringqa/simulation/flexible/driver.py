@@ -43,6 +43,8 @@ MAX_CUTS = 4
 #: the fallback tether's stiffness per node, as a fraction of the wall stiffness (as the rigid
 #: engine's: 1e-3 k_wall)
 TETHER_FRACTION = 1.0e-3
+#: Newton's tolerance is at least this many times the axial penalty's round-off (FlexModel)
+ROUNDOFF_FLOOR = 16.0
 #: the tangent offset used to slide a node's tangent along the channel in the predictor (m)
 TANGENT_PROBE_M = 0.5e-3
 
@@ -166,8 +168,17 @@ class FlexModel:
         flex = rod.el_section != rod.el_section[0] if rod.n_elements > 1 else np.ones(1, bool)
         l_flex = rod.el_len[flex] if np.any(flex) else rod.el_len
         ei_flex = rod.el_ei[flex] if np.any(flex) else rod.el_ei
-        self.tol_f = float(solver.tol) * max(float(np.max(ei_flex / l_flex**2)), 1e-2)
         self.l_ref = float(np.min(l_flex))
+        # Newton's tolerance: the rigid engine's (tol x EI / l^2), but never below the round-off
+        # floor of the axial penalty: an element's strain is known to ~eps |x| / l, so its force
+        # to EA eps |x| / l (x the coordinates' size; 1e-8 N for a ring, 4e-7 N for a
+        # cantilever 0.5 m from the origin with EA = 1e8 N)
+        x_size = float(np.max(np.abs(tb.pos))) + float(rod.sigma[-1])
+        floor = ROUNDOFF_FLOOR * np.finfo(float).eps * float(solver.axial_stiffness_n) * x_size
+        self.tol_f = max(
+            float(solver.tol) * max(float(np.max(ei_flex / l_flex**2)), 1e-2),
+            floor / self.l_ref,
+        )
         self.tol_m = self.tol_f * self.l_ref
         self.max_iter = int(solver.max_iter)
         self.max_step = 0.5 * self.clearance

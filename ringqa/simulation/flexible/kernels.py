@@ -284,6 +284,10 @@ def _converged(r, n_free, tol_f, tol_m):
     return True, worst
 
 
+#: full Newton steps the watchdog lets raise the merit before it returns to the best state
+WATCHDOG = 4
+
+
 @njit(cache=True, error_model="numpy")
 def newton(
     q, el_len, el_ei, el_ea, el_w, samp_el, samp_xi, samp_link, samp_alpha, samp_ro, samp_wt,
@@ -292,11 +296,18 @@ def newton(
     qs, qs_prev, qs_start, rs, Bs, law, mu_s, mu_k, v_brk, v_reg, dt, k_teth, q_ref, f_ext,
     n_free, r, B, out, tol_f, tol_m, max_iter, max_step, tan_scale, counters,
 ):  # fmt: skip
-    """Newton with an Armijo line search on the scaled |r|^2 (in place on ``q``).
+    """Newton with a watchdog (in place on ``q``).
 
-    Every step is limited to ``max_step`` (m) on the positions and 0.25 on the tangents; the
-    iteration stops when every position residual is <= ``tol_f`` (N) and every tangent residual
-    <= ``tol_m`` (N m). ``counters``: iterations, assemblies, halvings (added to).
+    Full Newton steps, each limited to ``max_step`` (m) on the positions and 0.25 on the
+    tangents. A full step may raise the merit (the scaled |r|^2) for up to :data:`WATCHDOG`
+    steps in a row: bending a cubic element changes its arc length at second order, which a
+    Newton step cannot see, so a step that is right to first order stretches the elements and
+    the stiff axial penalty answers with forces far above the bending forces; the next step
+    removes that (the Maratos effect of penalty methods: a monotone line search would cut every
+    such step). If the merit is still above the best state's after the watchdog's steps, the
+    iteration returns to the best state and takes an Armijo line-search step from it. Converged
+    when every position residual is <= ``tol_f`` (N) and every tangent residual <= ``tol_m``
+    (N m). ``counters``: iterations, assemblies, halvings (added to).
 
     Returns
     -------
@@ -308,7 +319,7 @@ def newton(
     """
     Bw = np.empty_like(B)
     rhs = np.empty(n_free)
-    q0 = np.empty_like(q)
+    q_best = q.copy()
     assemble(q, el_len, el_ei, el_ea, el_w, samp_el, samp_xi, samp_link, samp_alpha, samp_ro,
              samp_wt, h, pos, tan, nor, kappa_min_flat, seg_s, seg_rb, seg_ra, seg_flat,
              transition, max_frac, k_wall, contact_on, samp_s, samp_p, samp_d, samp_n, samp_H,
@@ -318,11 +329,23 @@ def newton(
     merit = _merit(r, n_free, tan_scale)
     best = merit
     since_best = 0
+    watch = 0
     res = 0.0
     for it in range(max_iter):
         ok, res = _converged(r, n_free, tol_f, tol_m)
         if ok:
             return 0, it, res
+        if watch >= WATCHDOG:
+            # back to the best state, then a line-search step from it
+            q[:] = q_best
+            assemble(q, el_len, el_ei, el_ea, el_w, samp_el, samp_xi, samp_link, samp_alpha,
+                     samp_ro, samp_wt, h, pos, tan, nor, kappa_min_flat, seg_s, seg_rb, seg_ra,
+                     seg_flat, transition, max_frac, k_wall, contact_on, samp_s, samp_p, samp_d,
+                     samp_n, samp_H, samp_z, samp_w, samp_F, samp_dF, qs, qs_prev, qs_start, rs,
+                     Bs, law, mu_s, mu_k, v_brk, v_reg, dt, k_teth, q_ref, f_ext, n_free, r, B,
+                     True, out)  # fmt: skip
+            counters[1] += 1
+            merit = best
         counters[0] += 1
         Bw[:, :] = B
         for i in range(n_free):
@@ -336,10 +359,11 @@ def newton(
             v = abs(rhs[i])
             if v * sc > lim:
                 sc = lim / v
-        q0[:] = q
+        q0 = q.copy()
         alpha = sc
+        searching = watch >= WATCHDOG
         accepted = False
-        for _ls in range(9):
+        for _ls in range(9 if searching else 1):
             for i in range(n_free):
                 q[i] = q0[i] + alpha * rhs[i]
             assemble(q, el_len, el_ei, el_ea, el_w, samp_el, samp_xi, samp_link, samp_alpha,
@@ -350,7 +374,7 @@ def newton(
                      True, out)  # fmt: skip
             counters[1] += 1
             m_new = _merit(r, n_free, tan_scale)
-            if m_new <= (1.0 - 1e-4 * alpha) * merit:
+            if not searching or m_new <= (1.0 - 1e-4 * alpha) * merit:
                 accepted = True
                 merit = m_new
                 break
@@ -361,13 +385,19 @@ def newton(
             if ok:
                 return 0, it + 1, res
             return 4, it + 1, res
-        if merit < 0.25 * best:
+        if merit < (1.0 - 1e-4) * best:
+            if merit < 0.25 * best:
+                since_best = 0
+            else:
+                since_best += 1
             best = merit
-            since_best = 0
+            q_best[:] = q
+            watch = 0
         else:
+            watch += 1
             since_best += 1
-            if since_best >= 20:
-                return 5, it + 1, res
+        if since_best >= 20:
+            return 5, it + 1, res
     ok, res = _converged(r, n_free, tol_f, tol_m)
     return (0 if ok else 3), max_iter, res
 
