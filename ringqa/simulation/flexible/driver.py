@@ -94,6 +94,8 @@ class FlexModel:
                 f"instrument {inst.name!r}: too short to reach advance {u_deep * 1e3:.1f} mm"
             )
         self.rod = rod
+        rigid = {k for k, sec in enumerate(inst.sections) if sec.rigid}
+        self.rigid_elements = [e for e in range(rod.n_elements) if int(rod.el_section[e]) in rigid]
         nn = rod.n_nodes
         self.n_nodes = nn
         self.n_all = ND * nn
@@ -216,8 +218,30 @@ class FlexModel:
         q[ND * k : ND * k + 3] = self.table.point(s)
         q[ND * k + 3 : ND * k + 6] = -self.table.tangent(s)
 
+    def predict(self, q: np.ndarray, du: float, u_new: float) -> None:
+        """Predictor (in place): every node and its tangent slid ``du`` along the channel, the
+        driven node clamped at ``u_new``, then each element's chord put back to its length before
+        the slide, from the driven end towards the tip (a node slid at an offset from the
+        centreline into a bend of another curvature changes its chord by ~1e-3, which the axial
+        penalty EA = 1e6 N answers with ~1 kN), and a rigid element's tangents along its chord."""
+        nn = self.n_nodes
+        qv = q.reshape(nn, ND)
+        chords = np.linalg.norm(qv[:-1, :3] - qv[1:, :3], axis=1)
+        self.slide(q, du)
+        self.prescribe(q, u_new)
+        for e in range(nn - 2, -1, -1):
+            c = qv[e, :3] - qv[e + 1, :3]
+            qv[e, :3] = qv[e + 1, :3] + c * (chords[e] / np.linalg.norm(c))
+        # a rigid element (the capsule) stays straight: its end tangents along its chord (a
+        # slid tangent off the chord by 1e-3 bends the stiff capsule with ~50 N)
+        for e in self.rigid_elements:
+            ch = qv[e, :3] - qv[e + 1, :3]
+            ch /= np.linalg.norm(ch)
+            for k in (e, e + 1):
+                qv[k, 3:] = -ch * np.linalg.norm(qv[k, 3:])
+
     def slide(self, q: np.ndarray, du: float) -> None:
-        """Predictor (in place): every node and its tangent slid ``du`` along the channel."""
+        """Every node and its tangent slid ``du`` along the channel (in place)."""
         nn = self.n_nodes
         x = np.ascontiguousarray(q.reshape(nn, ND)[:, :3])
         t = q.reshape(nn, ND)[:, 3:]
@@ -495,8 +519,7 @@ def _take_step(model: FlexModel, q: np.ndarray, u: float, du: float):
             for k in range(n_sub):
                 model.sample_positions(qc, model.qs_prev)
                 model.qs_start[:] = model.qs_prev
-                model.slide(qc, h)
-                model.prescribe(qc, u + (k + 1) * h)
+                model.predict(qc, h, u + (k + 1) * h)
                 q_ref = qc.copy()
                 kt = model.k_teth if tether else 0.0
                 st, it, _ = model.solve(qc, h, kt, q_ref)

@@ -284,8 +284,88 @@ def _converged(r, n_free, tol_f, tol_m):
     return True, worst
 
 
+@njit(cache=True, error_model="numpy")
+def project_strains(q0, q, el_len, n_free, l_ref, M, lam):
+    """Second-order correction of a Newton update ``q0 -> q`` (in place on ``q``): the smallest
+    change (positions in m, tangents weighted by ``l_ref``) that gives every Gauss point's axial
+    strain its LINEARISED value ``eps(q0) + deps/dq (q - q0)`` (one Gauss-Newton step on the
+    2E strain conditions; ``M`` (2E, 10) and ``lam`` (2E,) scratch).
+
+    Why: bending a cubic element, or rotating it, changes its arc length at second order, which
+    the Newton step cannot see; the stiff axial penalty would answer that stretch with forces
+    far above the bending forces and the iteration would zig-zag (the Maratos effect of penalty
+    methods). The correction is second order in the step, so Newton keeps its quadratic
+    convergence. The rigid engine does the same for its links (keeping each link's linearised
+    length, ``solvers/newton.update_chain``).
+    """
+    ne = el_len.shape[0]
+    m = 2 * ne
+    kl = 3
+    c = np.empty(4)
+    ah = np.empty((m, 3))
+    cc = np.empty((m, 4))
+    M[:, :] = 0.0
+    w_t = 1.0 / (l_ref * l_ref)  # inverse weight of a tangent block
+    nfb = (n_free // 6) * 2  # free 3-blocks: x and t of every free node
+    for e in range(ne):
+        L = el_len[e]
+        b0 = 6 * e
+        for g in range(2):
+            i = 2 * e + g
+            hermite_d1(G1 if g == 0 else G2, L, c)
+            a00 = a01 = a02 = 0.0
+            a0 = a1 = a2 = 0.0
+            for k in range(4):
+                a00 += c[k] * q0[b0 + 3 * k]
+                a01 += c[k] * q0[b0 + 3 * k + 1]
+                a02 += c[k] * q0[b0 + 3 * k + 2]
+                a0 += c[k] * q[b0 + 3 * k]
+                a1 += c[k] * q[b0 + 3 * k + 1]
+                a2 += c[k] * q[b0 + 3 * k + 2]
+            A0 = math.sqrt(a00 * a00 + a01 * a01 + a02 * a02)
+            A1 = math.sqrt(a0 * a0 + a1 * a1 + a2 * a2)
+            lin = A0 + (a00 * (a0 - a00) + a01 * (a1 - a01) + a02 * (a2 - a02)) / A0
+            lam[i] = A1 - lin
+            ah[i, 0] = a0 / A1
+            ah[i, 1] = a1 / A1
+            ah[i, 2] = a2 / A1
+            for k in range(4):
+                cc[i, k] = c[k]
+    # M = A W^-1 A^T over the free blocks; rows i (element e) and j (element f) share a block
+    for i in range(m):
+        e = i // 2
+        for j in range(max(0, i - kl), min(m, i + kl + 1)):
+            f = j // 2
+            acc = 0.0
+            dot = ah[i, 0] * ah[j, 0] + ah[i, 1] * ah[j, 1] + ah[i, 2] * ah[j, 2]
+            for k in range(4):
+                blk = 2 * e + k
+                kf = blk - 2 * f
+                if blk >= nfb:
+                    continue
+                if 0 <= kf < 4:
+                    wi = w_t if (k % 2) == 1 else 1.0
+                    acc += cc[i, k] * cc[j, kf] * wi * dot
+            M[i, kl + j - i] = acc
+    if not band_solve(M, kl, lam, m):
+        return
+    for i in range(m):
+        e = i // 2
+        for k in range(4):
+            blk = 2 * e + k
+            if blk >= nfb:
+                continue
+            wi = w_t if (k % 2) == 1 else 1.0
+            base = 6 * e + 3 * k
+            for d in range(3):
+                q[base + d] -= wi * cc[i, k] * lam[i] * ah[i, d]
+
+
+#: largest change of a tangent in one Newton step (rad, about): the strain correction
+#: (:func:`project_strains`) is a Gauss-Newton step, accurate for strains ~ beta^2 / 2 << 1
+TANGENT_STEP = 0.25
 #: full Newton steps the watchdog lets raise the merit before it returns to the best state
-WATCHDOG = 4
+WATCHDOG = 8
 
 
 @njit(cache=True, error_model="numpy")
@@ -320,6 +400,8 @@ def newton(
     Bw = np.empty_like(B)
     rhs = np.empty(n_free)
     q_best = q.copy()
+    Pm = np.empty((2 * el_len.shape[0], 10))
+    lam = np.empty(2 * el_len.shape[0])
     assemble(q, el_len, el_ei, el_ea, el_w, samp_el, samp_xi, samp_link, samp_alpha, samp_ro,
              samp_wt, h, pos, tan, nor, kappa_min_flat, seg_s, seg_rb, seg_ra, seg_flat,
              transition, max_frac, k_wall, contact_on, samp_s, samp_p, samp_d, samp_n, samp_H,
@@ -355,7 +437,7 @@ def newton(
         # trust region
         sc = 1.0
         for i in range(n_free):
-            lim = 0.25 if (i % 6) >= 3 else max_step
+            lim = TANGENT_STEP if (i % 6) >= 3 else max_step
             v = abs(rhs[i])
             if v * sc > lim:
                 sc = lim / v
@@ -366,6 +448,7 @@ def newton(
         for _ls in range(9 if searching else 1):
             for i in range(n_free):
                 q[i] = q0[i] + alpha * rhs[i]
+            project_strains(q0, q, el_len, n_free, 1.0 / tan_scale, Pm, lam)
             assemble(q, el_len, el_ei, el_ea, el_w, samp_el, samp_xi, samp_link, samp_alpha,
                      samp_ro, samp_wt, h, pos, tan, nor, kappa_min_flat, seg_s, seg_rb, seg_ra,
                      seg_flat, transition, max_frac, k_wall, contact_on, samp_s, samp_p, samp_d,

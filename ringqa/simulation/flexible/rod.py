@@ -20,7 +20,7 @@ import numpy as np
 from ringqa.errors import SimulationError
 
 #: bending stiffness of a rigid section relative to the stiffest flexible one
-RIGID_EI_FACTOR = 1.0e3
+RIGID_EI_FACTOR = 1.0e2
 #: coordinates per node: position (3) and tangent (3)
 ND = 6
 #: the cable length that carries the scene's wall stiffness with ``contact.stiffness_per_length``
