@@ -141,6 +141,14 @@ def add_parser(subparsers) -> None:
         help="simulate the whole channel (however long its straight shaft)",
     )
     p.add_argument(
+        "--cross-check",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help="also run the flexible-element engine (model.formulation = flexible) and compare its "
+        "dwells; a disagreement above max(0.2 mm, 2 x the numerical errors) fails the numerics "
+        "(off by default: it adds ~1-2 s)",
+    )
+    p.add_argument(
         "--centreline-correction",
         type=Path,
         default=None,
@@ -250,6 +258,7 @@ OPTION_KEYS = {
     "cable": "simulation.cable",
     "stem_mm": "simulation.stem_mm",
     "whole_channel": "simulation.whole_channel",
+    "cross_check": "simulation.cross_check",
 }
 
 

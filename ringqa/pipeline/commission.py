@@ -160,6 +160,7 @@ def commission(
         app, ring, reference.relative_position_mm, cable=cable.preset,
         scene_overrides=cfg.scene_overrides, engine=engine, progress=progress,
         stem_mm=cfg.stem_mm,
+        cross_check=cfg.cross_check,
     )  # fmt: skip
     simulation_s = time.perf_counter() - t0
     log.info("%s: simulated in %.2f s", app.name, simulation_s)
@@ -197,6 +198,7 @@ def commission(
         reference.kind, dev, tables.doses, plans, cfg.position_limits_mm, cfg.dose_action_pct,
         relative_position_mm=rel, flags=review.flags, numerical_error_mm=numerics.max_mm,
         numerical_warn_mm=NUMERICAL_ERROR_WARN_MM,
+        cross_check=numerics.cross_check,
     )  # fmt: skip
     n_tandem = 0 if tandem is None else len(tandem.relative_position_mm)
     on_ring = rel <= ring_arc_mm(app, ring, 0.5) + 1e-9

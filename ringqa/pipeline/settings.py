@@ -69,6 +69,9 @@ class CommissionSettings:
     stem_mm : float or None
         Straight channel kept before the first bend in the simulation, mm (60, the shipped rings'
         stem; None: the whole channel). See :mod:`ringqa.geometry.stem`.
+    cross_check : bool
+        Also run the flexible-element engine and compare its dwells with the reported ones
+        (``--cross-check``; :func:`ringqa.pipeline.simulate.cross_check_run`).
     centreline_correction : str, Path or None
         A CT/film centreline segment (CSV/JSON, mm, proximal -> distal, in the applicator's frame)
         spliced over the channel's library centreline (``--centreline-correction``;
@@ -101,6 +104,7 @@ class CommissionSettings:
     dose_action_pct: float = DOSE_ACTION_PCT
     register: str = "none"
     stem_mm: float | None = DEFAULT_STEM_MM
+    cross_check: bool = False
     centreline_correction: str | Path | None = None
     require_measured: bool | None = None
     settings_origin: Mapping[str, str] = field(default_factory=dict)
