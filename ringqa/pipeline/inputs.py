@@ -202,12 +202,14 @@ def choose_source(source, sk_U: float | None, rtplan) -> SourceChoice:
 def kink_notes(app, channel) -> tuple[str, ...]:
     """One sentence per kink of ``channel``'s centreline (:mod:`ringqa.geometry.kinks`)."""
     from ringqa.geometry import Channel
+    from ringqa.geometry.families import family_of
     from ringqa.geometry.kinks import find_kinks
 
     if not isinstance(channel, Channel):
         return ()
-    out = []
-    for k in find_kinks(channel, float(app.ring_radius_m)):
+    family = family_of(app, channel)
+    out = list(family.checks(app, channel))
+    for k in find_kinks(channel, float(family.curvature_scale_m(app, channel))):
         rel = m_to_mm(channel.s_ref_m - k.s_m)
         out.append(
             f"The {channel.name} channel's centreline bends sharply at arc length "
@@ -245,9 +247,16 @@ def loaded_text(app, ring, kind: str) -> str:
         else:
             text += ", no measured path"
         parts.append(text)
-    radius = m_to_mm(float(app.ring_radius_m))
+    from ringqa.geometry.families import family_of
+
     s_ref = m_to_mm(ring.s_ref_m)
+    family = family_of(app, ring)
+    if family.name == "ring":
+        radius = m_to_mm(float(app.ring_radius_m))
+        frame = f"; ring centreline radius {radius:.2f} mm"
+    else:
+        frame = f"; {ring.name} is a {family.words.channel} ({family.name} family)"
     return (
         f"Loaded ({kind}): {app.name}; " + "; ".join(parts)
-        + f"; ring centreline radius {radius:.2f} mm; s_ref ({ring.name}) = {s_ref:.2f} mm."
+        + f"{frame}; s_ref ({ring.name}) = {s_ref:.2f} mm."
     )  # fmt: skip
