@@ -179,7 +179,7 @@ def commission_channels(
 
     cfg = CommissionSettings() if settings is None else settings
     t_start = time.perf_counter()
-    loaded = load_input(input)
+    loaded = _load(input, cfg)
     load_s = time.perf_counter() - t_start
     app = loaded.applicator
     wanted = default_channels(app) if not channels else tuple(str(c) for c in channels)
@@ -192,6 +192,13 @@ def commission_channels(
         for n in names
     )  # fmt: skip
     return ChannelRuns(results, unsimulated_channels(loaded))
+
+
+def _load(input, cfg):
+    """:func:`load_input` of ``input`` (with the settings' structure set and lumen)."""
+    if cfg.structures is None and cfg.lumen_mm is None:
+        return load_input(input)
+    return load_input(input, cfg.structures, cfg.lumen_mm)
 
 
 def unsimulated_channels(loaded) -> tuple[str, ...]:
@@ -249,7 +256,7 @@ def commission(
 
     cfg = CommissionSettings() if settings is None else settings
     t_start = time.perf_counter()
-    loaded = load_input(input)
+    loaded = _load(input, cfg)
     load_s = time.perf_counter() - t_start
     name = _channel_name(loaded.applicator, cfg.channel)
     if name != cfg.channel:
@@ -349,6 +356,7 @@ def _commission_loaded(input, loaded, cfg, *, engine, progress, t_start, load_s)
         *(f"Warning [{n}]: {m}" for n, m in map(split_warning, warnings)),
         *(n for n in src.notes if split_warning(n, "")[0] == ""),
         loaded_text(app, ring, loaded.kind),
+        *getattr(loaded, "notes", ()),
         *correction_notes,
         *kink_notes(app, ring),
         reference_note(reference),

@@ -52,7 +52,7 @@ def tandem_frame(tandem, others=(), left=None, right=None) -> Frame:
     Returns
     -------
     Frame
-        ``scale_m``: the distance from the origin to the tandem tip (at least 5 mm).
+        ``scale_m``: the distance from the origin to the tandem tip (kept within 5-100 mm).
     """
     rel = np.linspace(0.0, min(AXIS_MM, tandem.s_ref_m * 1e3), 13)
     pts = channel_points_mm(tandem, rel)
@@ -75,7 +75,7 @@ def tandem_frame(tandem, others=(), left=None, right=None) -> Frame:
             lateral = d / np.linalg.norm(d)
     if lateral is None:
         lateral = patient_left_in_plane(axis)
-    scale = max(float(np.linalg.norm(tip - origin)), 5.0)
+    scale = min(max(float(np.linalg.norm(tip - origin)), 5.0), 100.0)
     return Frame(mm_to_m(origin), axis, lateral, mm_to_m(scale))
 
 
