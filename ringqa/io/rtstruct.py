@@ -54,6 +54,7 @@ __all__ = [
     "StructuresApplicator",
     "applicator_from_structures",
     "match_channels",
+    "oriented_points_mm",
     "read_rtstruct",
 ]
 
@@ -307,6 +308,17 @@ def match_channels(plan, structures: StructureSet, tolerance_mm: float = MATCH_T
     return tuple(out)
 
 
+def oriented_points_mm(points_mm, dwells_mm) -> np.ndarray:
+    """A channel contour's points ordered PROXIMAL -> DISTAL: reversed when its dwells lie
+    nearer its first point than its last (by their mean arc length along the polyline), (n, 3)."""
+    pts = np.asarray(points_mm, dtype=float)
+    seg = np.linalg.norm(np.diff(pts, axis=0), axis=1)
+    s_pts = np.concatenate([[0.0], np.cumsum(seg)])
+    d = np.linalg.norm(np.asarray(dwells_mm, float).reshape(-1, 3)[:, None, :] - pts[None], axis=2)
+    s_dwells = s_pts[np.argmin(d, axis=1)]
+    return pts[::-1].copy() if float(np.mean(s_dwells)) < 0.5 * s_pts[-1] else pts.copy()
+
+
 def lumen_table(path=None) -> list[tuple[re.Pattern, float, str]]:
     """The per-applicator lumen table: (pattern, lumen diameter mm, source) rows."""
     if path is None:
@@ -378,11 +390,8 @@ def applicator_from_structures(plan, structures: StructureSet, *, lumen_mm=None,
         pch = plan.channel(m.channel)
         dwells = np.asarray(pch.positions_mm, dtype=float).reshape(-1, 3)
         try:
-            cl = Centreline.from_points(mm_to_m(pts))
+            cl = Centreline.from_points(mm_to_m(oriented_points_mm(pts, dwells)))
             s, _ = cl.closest(mm_to_m(dwells))
-            if float(np.mean(s)) < 0.5 * cl.length_m:  # the dwells lie near the first point
-                cl = Centreline.from_points(mm_to_m(pts[::-1]))
-                s, _ = cl.closest(mm_to_m(dwells))
             dia, src = _lumen_for(m.roi_name, pch.applicator_id, lumen_mm, table, where)
             r_b = mm_to_m(dia) / 2
             lumen = Lumen.circular(r_b, r_b - mm_to_m(0.1))

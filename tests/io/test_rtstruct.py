@@ -204,3 +204,55 @@ def test_every_channel_commissioned(pair):
         "A1",
         "A2",
     } <= points
+
+
+def test_import_with_structures_writes_each_channel(pair, tmp_path):
+    """ringqa import --structures: centreline_ch1..3.csv (proximal -> distal: the ovoid L contour,
+    stored tip first, comes out reversed) and structures.json with each match."""
+    import json
+
+    from ringqa.cli import main
+
+    plan, rs = pair
+    out = tmp_path / "imp"
+    assert main(["import", str(plan), "--structures", str(rs), "--out", str(out)]) == 0
+    data = json.loads((out / "structures.json").read_text())
+    assert [(m["channel"], m["roi"]) for m in data["matches"]] == [
+        (1, "Tandem"),
+        (2, "Ovoid L"),
+        (3, "Ovoid R"),
+    ]
+    rows = (out / "centreline_ch2.csv").read_text().splitlines()
+    last = np.array([float(v) for v in rows[-1].split(",")])
+    assert np.allclose(last, LEFT[0][-1], atol=1e-3)
+
+
+@pytest.mark.slow
+def test_commission_every_channel_end_to_end(pair, tmp_path):
+    """ringqa commission RP --structures RS --lumen-mm 2: the real engine on the three channels
+    (the ovoids' 45 deg, 15 mm bends: no refusal, no stabilised step), channel folders, the
+    combined CSVs with the channel column and channels.json; --channel 2 --channel 3 restricts
+    it to the ovoids."""
+    import json
+
+    import pandas as pd
+
+    from ringqa.cli import main
+
+    plan, rs = pair
+    out = tmp_path / "all"
+    args = ["commission", str(plan), "--structures", str(rs), "--lumen-mm", "2",
+            "--centreline-reference", "--no-pdf", "--quiet"]  # fmt: skip
+    assert main([*args, "--out", str(out)]) == 0
+    record = json.loads((out / "channels.json").read_text())
+    assert [c["channel"] for c in record["channels"]] == ["1", "2", "3"]
+    assert record["not_simulated"] == []
+    for c in record["channels"]:
+        res = json.loads((out / c["folder"] / "results.json").read_text())
+        assert res["simulation"]["status"] == 0
+        assert res["simulation"]["settings"]["n_stabilised_steps"] == 0
+        assert res["numerical_check"]["max_numerical_error_mm"] < 0.1
+    assert set(pd.read_csv(out / "summary.csv")["channel"].astype(str)) == {"1", "2", "3"}
+    out2 = tmp_path / "ovoids"
+    assert main([*args, "--channel", "2", "--channel", "3", "--out", str(out2)]) == 0
+    assert set(pd.read_csv(out2 / "dwells.csv")["channel"].astype(str)) == {"2", "3"}
