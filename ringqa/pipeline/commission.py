@@ -203,8 +203,8 @@ def _load(input, cfg):
 
 def unsimulated_channels(loaded) -> tuple[str, ...]:
     """One sentence per RT Plan channel with dwells but no centreline in the applicator."""
-    plan = loaded.rtplan
-    if plan is None:
+    plan = getattr(loaded, "rtplan", None)
+    if plan is None or not hasattr(plan, "channels"):
         return ()
     labels = {getattr(c, "label", "") for c in loaded.applicator.channels}
     out = []
@@ -410,8 +410,9 @@ def collect_warnings(loaded, app, cfg, src, preset: str, verdicts) -> tuple[str,
     """Every named warning of the input stages (:func:`ringqa.errors.named_warning` strings):
     the RT Plan reader's (``plan.*``; unnamed ones ``plan.reader``), the input files' notes
     (``csv.encoding``, ``input.note``), the source choice (``plan.source_model``), bends the
-    source capsule cannot pass (``channel.tight_bend``) and a plan whose own dwells miss the
-    TPS doses (``plan.tps_dose``)."""
+    source capsule cannot pass (``channel.tight_bend``), plan channels with dwells but no
+    centreline (``plan.channel_not_simulated``) and a plan whose own dwells miss the TPS doses
+    (``plan.tps_dose``)."""
     from ringqa.geometry.shape_checks import tight_bend_warning
     from ringqa.simulation.instruments import CABLE_PRESETS
 
@@ -432,6 +433,8 @@ def collect_warnings(loaded, app, cfg, src, preset: str, verdicts) -> tuple[str,
                                       f"applicator {app.name}, channel {ch.name}")  # fmt: skip
             if text:
                 out.append(named_warning("channel.tight_bend", text))
+    for text in unsimulated_channels(loaded):
+        out.append(named_warning("plan.channel_not_simulated", text))
     for v in verdicts:
         if v.check == CHECK_TPS and v.status == "ACTION":
             out.append(named_warning("plan.tps_dose", v.text))
