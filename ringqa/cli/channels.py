@@ -1,8 +1,10 @@
 """``ringqa commission`` of several channels of one input (issue 30): each channel its own
 simulation, comparison, numerical error and report (``DIR/channel-<N>/``), and the combined
-``dwells.csv``, ``doses.csv`` and ``summary.csv`` (with the ``channel`` column) and
-``channels.json`` (each channel's conclusion, the channels NOT simulated, one conclusion) in
-``DIR``, all written together (:func:`ringqa.outdir.staged_output`).
+``dwells.csv``, ``doses.csv`` and ``summary.csv`` (with the ``channel`` column),
+``channels.json`` (each channel's conclusion, the channels NOT simulated, one conclusion) and
+``summary.pdf`` (the report's cross-result summary: every channel's row, the channels not
+simulated, the signature block) in ``DIR``, all written together
+(:func:`ringqa.outdir.staged_output`).
 """
 
 from __future__ import annotations
@@ -67,6 +69,10 @@ def run_channels(item, settings, wanted, args, fields) -> int:
                 stage / name, index=False, float_format=FLOAT_FORMAT, encoding=csv_encoding(table)
             )
         write_json(stage / "channels.json", channels_record(runs), indent=2)
+        if not args.no_pdf and runs.results:
+            from ringqa.report import write_batch_pdf
+
+            write_batch_pdf(summary_batch(runs), stage / "summary.pdf", fields=fields)
     for res in runs.results:
         verdicts = "; ".join(f"{v.status} {v.check}" for v in res.verdicts)
         print(
@@ -77,6 +83,22 @@ def run_channels(item, settings, wanted, args, fields) -> int:
         print(f"ringqa commission: warning: {note}", file=sys.stderr)
     print(f"ringqa commission: {conclusion(runs)} -> {args.out}")
     return 0
+
+
+def summary_batch(runs):
+    """The channels as a :class:`ringqa.pipeline.BatchResult` for the report's summary PDF
+    (one row per channel, named ``<applicator> channel <N>``; the channels not simulated are
+    its failures)."""
+    from ringqa.pipeline import BatchResult
+
+    rows = [
+        {**r.summary.as_row(), "applicator": f"{r.applicator} channel {r.channel}",
+         "error": "", "folder": _folder_name(r.channel)}
+        for r in runs.results
+    ]  # fmt: skip
+    failures = tuple(("not simulated", note) for note in runs.not_simulated)
+    labels = tuple(_folder_name(r.channel) for r in runs.results)
+    return BatchResult(tuple(runs.results), failures, pd.DataFrame(rows), labels)
 
 
 def conclusion(runs) -> str:
