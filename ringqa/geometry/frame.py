@@ -27,7 +27,7 @@ import numpy as np
 from ringqa.geometry.centreline import GeometryError
 from ringqa.geometry.ring_frame import fit_circle
 
-__all__ = ["SCALE_RANGE_M", "Frame", "fit_frame", "patient_left_in_plane"]
+__all__ = ["SCALE_RANGE_M", "Frame", "fit_frame", "frame_of", "patient_left_in_plane"]
 
 #: The range (m) a fitted frame's ``scale_m`` is kept in.
 SCALE_RANGE_M = (0.005, 0.1)
@@ -105,3 +105,12 @@ def fit_frame(centrelines) -> Frame:
         radius = SCALE_RANGE_M[1]
     scale = float(np.clip(radius, *SCALE_RANGE_M))
     return Frame(tips.mean(axis=0), axis, patient_left_in_plane(axis), scale)
+
+
+def frame_of(app) -> Frame:
+    """The frame of an applicator (``app.frame``), or of an object with the four frame fields
+    (``ring_centre_m``, ``ring_normal``, ``ring_lateral``, ``ring_radius_m``: a stand-in)."""
+    frame = getattr(app, "frame", None)
+    if isinstance(frame, Frame):
+        return frame
+    return Frame(app.ring_centre_m, app.ring_normal, app.ring_lateral, app.ring_radius_m)

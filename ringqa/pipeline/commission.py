@@ -39,6 +39,7 @@ from pathlib import Path
 import numpy as np
 
 from ringqa.errors import named_warning, split_warning
+from ringqa.geometry.frame import frame_of
 from ringqa.pipeline.deviations import (
     DwellColumns,
     centreline_offsets,
@@ -317,7 +318,7 @@ def _commission_loaded(input, loaded, cfg, *, engine, progress, t_start, load_s)
     if registered is not None:
         supplied = deviation_components(
             registered.positions_mm, registered.directions, reference.dwells.positions_mm,
-            m_to_mm(np.asarray(app.ring_centre_m, dtype=float)), app.ring_normal,
+            m_to_mm(np.asarray(frame_of(app).centre_m, dtype=float)), frame_of(app).normal,
         )  # fmt: skip
     columns = DwellColumns(review.flags, simulated.numerics.error_mm, offsets, supplied)
     dwells = dwell_table(app.name, reference, registered and compared_ref, selection,

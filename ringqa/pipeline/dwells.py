@@ -14,6 +14,7 @@ import numpy as np
 
 from ringqa.errors import RingQAError
 from ringqa.geometry.families import family_of
+from ringqa.geometry.frame import frame_of
 from ringqa.geometry.registration import RegistrationError, reference_positions
 from ringqa.pipeline.result import RingGeometry
 from ringqa.plan import PLAN_STEP_MM, DwellSet, path_directions
@@ -278,11 +279,12 @@ def ring_geometry(app, s_ref_mm: float) -> RingGeometry:
     -------
     RingGeometry
     """
+    frame = frame_of(app)
     return RingGeometry(
-        ring_centre_mm=m_to_mm(np.asarray(app.ring_centre_m, dtype=float)),
-        ring_normal=np.asarray(app.ring_normal, dtype=float),
-        ring_lateral=np.asarray(app.ring_lateral, dtype=float),
-        ring_radius_mm=m_to_mm(float(app.ring_radius_m)),
+        ring_centre_mm=m_to_mm(np.asarray(frame.centre_m, dtype=float)),
+        ring_normal=np.asarray(frame.normal, dtype=float),
+        ring_lateral=np.asarray(frame.lateral, dtype=float),
+        ring_radius_mm=m_to_mm(float(frame.scale_m)),
         s_ref_mm=float(s_ref_mm),
         centrelines_mm={c.name: _dense_centreline_mm(c) for c in app.channels},
         metadata=dict(getattr(app, "metadata", {}) or {}),

@@ -165,14 +165,19 @@ def applicator_dose_points(applicator, spec: DosePointSpec | None = None) -> tup
     once. For a ring this is the six points of :func:`dose_points_from_frame`, in that order.
     """
     from ringqa.geometry.families import family_named, family_of
+    from ringqa.geometry.frame import frame_of
 
     spec = spec or DosePointSpec()
-    for attr in ("ring_centre_m", "ring_normal", "ring_lateral", "ring_radius_m"):
-        if getattr(applicator, attr, None) is None:
-            raise RingQAError(
-                f"applicator {getattr(applicator, 'name', '?')}: no {attr}; dose points need the "
-                "ring frame (define the ring centre, normal, lateral direction and radius)"
-            )
+    try:
+        frame = frame_of(applicator)
+    except AttributeError:
+        frame = None
+    if frame is None or any(v is None for v in (frame.centre_m, frame.normal, frame.lateral,
+                                                   frame.scale_m)):  # fmt: skip
+        raise RingQAError(
+            f"applicator {getattr(applicator, 'name', '?')}: no frame; dose points need the "
+            "applicator's frame (define its centre, normal, lateral direction and radius)"
+        )
     channels = tuple(getattr(applicator, "channels", ()) or ())
     families = [family_of(applicator, ch) for ch in channels]
     if not channels:  # a frame alone: its family's points (a ring's, by default)
@@ -181,9 +186,8 @@ def applicator_dose_points(applicator, spec: DosePointSpec | None = None) -> tup
     pts: list[DosePoint] = []
     if any(f.gynae for f in families):
         pts += point_a_points(
-            m_to_mm(np.asarray(applicator.ring_centre_m, dtype=float)), applicator.ring_normal,
-            applicator.ring_lateral, spec,
-        )  # fmt: skip
+            m_to_mm(np.asarray(frame.centre_m, dtype=float)), frame.normal, frame.lateral, spec
+        )
     for ch, fam in zip(channels, families, strict=True):
         for p in fam.points(applicator, ch, spec):
             if all(p.name != q.name for q in pts):

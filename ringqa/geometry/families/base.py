@@ -30,6 +30,7 @@ from typing import Any, Protocol, runtime_checkable
 import numpy as np
 
 from ringqa.geometry.centreline import GeometryError
+from ringqa.geometry.frame import frame_of
 from ringqa.units import m_to_mm, mm_to_m
 
 __all__ = [
@@ -123,22 +124,24 @@ def span_on_grid_mm(channel, span_mm: float, step_mm: float) -> float:
 def lateral_side(app, position_mm) -> str:
     """``"left"`` or ``"right"``: the side of the applicator frame's axis ``position_mm`` lies
     on (along the frame's lateral axis, patient left positive)."""
-    c = m_to_mm(np.asarray(app.ring_centre_m, dtype=float))
+    frame = frame_of(app)
+    c = m_to_mm(np.asarray(frame.centre_m, dtype=float))
     d = np.asarray(position_mm, dtype=float) - c
-    return "left" if float(d @ np.asarray(app.ring_lateral, dtype=float)) >= 0.0 else "right"
+    return "left" if float(d @ np.asarray(frame.lateral, dtype=float)) >= 0.0 else "right"
 
 
 def radial_outward(app, position_mm) -> np.ndarray:
     """Unit vector from the applicator frame's axis (through its centre along its normal)
     towards ``position_mm``, perpendicular to the axis; the frame's lateral axis (signed by the
     side) when the point lies on the axis. (3,)"""
-    c = m_to_mm(np.asarray(app.ring_centre_m, dtype=float))
-    n = np.asarray(app.ring_normal, dtype=float)
+    frame = frame_of(app)
+    c = m_to_mm(np.asarray(frame.centre_m, dtype=float))
+    n = np.asarray(frame.normal, dtype=float)
     d = np.asarray(position_mm, dtype=float) - c
     d = d - float(d @ n) * n
     norm = float(np.linalg.norm(d))
     if norm < 1e-9:
-        lat = np.asarray(app.ring_lateral, dtype=float)
+        lat = np.asarray(frame.lateral, dtype=float)
         return lat if lateral_side(app, position_mm) == "left" else -lat
     return d / norm
 

@@ -36,6 +36,7 @@ from ringqa.geometry.families.base import (
     radial_outward,
     span_on_grid_mm,
 )
+from ringqa.geometry.frame import frame_of
 from ringqa.units import m_to_mm
 
 __all__ = ["OVOID", "OVOID_SURFACE_MM", "SPAN_MM", "OvoidFamily"]
@@ -69,8 +70,9 @@ class OvoidFamily:
         span = min(SPAN_MM, m_to_mm(float(channel.s_ref_m)))
         rel = np.arange(0.0, span + 1e-9, _SEARCH_MM)
         pts = channel_points_mm(channel, rel)
-        c = m_to_mm(np.asarray(app.ring_centre_m, dtype=float))
-        n = np.asarray(app.ring_normal, dtype=float)
+        frame = frame_of(app)
+        c = m_to_mm(np.asarray(frame.centre_m, dtype=float))
+        n = np.asarray(frame.normal, dtype=float)
         d = pts - c
         radial = np.linalg.norm(d - np.outer(d @ n, n), axis=1)
         p = pts[int(np.argmax(np.round(radial, 6)))]  # ties (to 1e-6 mm): the most distal
