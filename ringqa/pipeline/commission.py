@@ -326,7 +326,9 @@ def _commission_loaded(input, loaded, cfg, *, engine, progress, t_start, load_s)
 
     t0 = time.perf_counter()
     points = dose_points(app, loaded.rtplan, cfg.point_spec)
-    tandem = tandem_dwells(app, cfg.tandem_dwells, cfg.plan_step_mm)
+    tandem = (
+        None if ring.name == "tandem" else tandem_dwells(app, cfg.tandem_dwells, cfg.plan_step_mm)
+    )
     plans = standard_plans(
         reference, registered, selection, simulated.dwells, centreline, tandem, points,
         src.source, prescription_gy=cfg.prescription_gy, sk_U=src.sk_U,
