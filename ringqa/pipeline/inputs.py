@@ -269,7 +269,9 @@ def loaded_text(app, ring, kind: str) -> str:
     s_ref = m_to_mm(ring.s_ref_m)
     family = family_of(app, ring)
     if family.name == "ring":
-        radius = m_to_mm(float(app.ring_radius_m))
+        from ringqa.geometry.frame import frame_of
+
+        radius = m_to_mm(float(frame_of(app).scale_m))
         frame = f"; ring centreline radius {radius:.2f} mm"
     else:
         frame = f"; {ring.name} is a {family.words.channel} ({family.name} family)"
