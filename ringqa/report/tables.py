@@ -102,17 +102,29 @@ def write_tables(result: CommissioningResult, folder: Path) -> list[Path]:
     return out
 
 
+def batch_summary_with_channel(batch: BatchResult) -> pd.DataFrame:
+    """The batch's summary with the ``channel`` column last (each result's channel, matched by
+    its output folder; ``""`` for a failed input)."""
+    summary = batch.summary
+    if "channel" in summary.columns or "folder" not in summary.columns:
+        return summary
+    by_folder = {batch.label(i): channel_of_result(r) for i, r in enumerate(batch.results)}
+    out = summary.copy()
+    out["channel"] = [by_folder.get(f, "") for f in out["folder"]]
+    return out
+
+
 def write_batch_tables(batch: BatchResult, folder: Path) -> list[Path]:
     """The cross-applicator summary.csv, all_dwells.csv and batch.json of a BatchResult."""
     folder = Path(folder)
-    summary = batch.summary
+    summary = batch_summary_with_channel(batch)
     summary.to_csv(
         folder / "summary.csv", index=False, float_format=FLOAT_FORMAT,
         encoding=csv_encoding(summary),
     )  # fmt: skip
     for name, frames in (
-        ("all_dwells.csv", [r.dwells for r in batch.results]),
-        ("all_doses.csv", [r.doses for r in batch.results]),
+        ("all_dwells.csv", [with_channel(r, r.dwells) for r in batch.results]),
+        ("all_doses.csv", [with_channel(r, r.doses) for r in batch.results]),
     ):
         if frames:
             table = pd.concat(frames, ignore_index=True)
