@@ -50,7 +50,8 @@ class CommissionSettings:
         afterloader (:data:`~ringqa.pipeline.simulate.SOURCE_CABLE`: Flexisource -> flexitron,
         mHDR-v2 -> microselectron), the Flexitron cable for other sources (said in the report).
     channel : str
-        The applicator channel to simulate (``"ring"``).
+        The applicator channel to simulate (``"ring"``; a name or the plan's channel number;
+        ``"ring"`` for an applicator of another family: its first channel).
     point_spec : DosePointSpec
         Where the standard dose points are.
     plan_step_mm : float
@@ -84,6 +85,12 @@ class CommissionSettings:
         Where each setting came from (configuration key -> ``"default"``, ``"user config
         <path>"``, ``"--config <path>"``, ``"command line"``; :mod:`ringqa.config`); carried
         into the result (``results.json`` ``settings_origin``). Empty when built in Python.
+    structures : str or Path or None
+        An RT Structure Set whose open contours are the RT Plan's channels
+        (:mod:`ringqa.io.rtstruct`; ``--structures``).
+    lumen_mm : float or None
+        Lumen diameter (mm) of the channels read from a structure set (``--lumen-mm``; None:
+        the per-applicator lumen table).
 
     Raises
     ------
@@ -108,10 +115,19 @@ class CommissionSettings:
     centreline_correction: str | Path | None = None
     require_measured: bool | None = None
     settings_origin: Mapping[str, str] = field(default_factory=dict)
+    structures: str | Path | None = None
+    lumen_mm: float | None = None
 
     def __post_init__(self) -> None:
         def keep(name: str, value) -> None:
             object.__setattr__(self, name, value)
+
+        if self.lumen_mm is not None and not (_is_number(self.lumen_mm) and
+                                              0 < self.lumen_mm <= 10):  # fmt: skip
+            raise RingQAError(
+                f"--lumen-mm {self.lumen_mm!r}: must be a lumen diameter in mm, > 0 and <= 10 "
+                "(gynaecological applicator channels are 1.5-4 mm)"
+            )
 
         if not (_is_number(self.prescription_gy) and self.prescription_gy > 0):
             raise RingQAError(f"--prescription-gy {self.prescription_gy!r}: must be a number > 0")
