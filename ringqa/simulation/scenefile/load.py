@@ -30,6 +30,7 @@ from ringqa.simulation.scenefile.sections import (
     read_effects,
     read_instrument,
     read_lumen,
+    read_model,
     read_motion,
     read_outputs,
     read_solver,
@@ -114,6 +115,7 @@ def scene_from_data(
             description=ck.value("", "description"),
             channel_spec=ChannelSpec(spec, channel) if spec else None,
             lumen=read_lumen(ck),
+            model=read_model(ck),
         )
     except SceneError as exc:  # a dataclass's own check: name the file too
         if origin and not str(exc).startswith(origin):

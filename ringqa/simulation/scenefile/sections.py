@@ -25,6 +25,7 @@ from ringqa.simulation.scene import (
     Effects,
     Instrument,
     LumenSettings,
+    ModelSettings,
     Motion,
     Outputs,
     SolverSettings,
@@ -232,6 +233,11 @@ def read_lumen(ck: Checker) -> LumenSettings:
     return LumenSettings(**given_fields(ck, "lumen", ck.section("lumen")))
 
 
+def read_model(ck: Checker) -> ModelSettings:
+    """``[model]``."""
+    return ModelSettings(**given_fields(ck, "model", ck.section("model")))
+
+
 __all__ = [
     "DEFAULT_GRAVITY_M_S2",
     "DEFAULT_SPAN_MM",
@@ -244,6 +250,7 @@ __all__ = [
     "read_effects",
     "read_instrument",
     "read_lumen",
+    "read_model",
     "read_motion",
     "read_outputs",
     "read_solver",

@@ -104,6 +104,8 @@ def scene_to_dict(scene: Scene) -> dict:
     out["outputs"] = section_dict("outputs", scene.outputs)
     if scene.lumen.diameter_delta_m != 0.0:
         out["lumen"] = section_dict("lumen", scene.lumen)
+    if scene.model != type(scene.model)():  # written only when not the default (rigid)
+        out["model"] = section_dict("model", scene.model)
     return plain(out)
 
 
