@@ -202,7 +202,7 @@ def sweep_spec_text(cal: Calibration) -> str:
     first = cal.measured[0]
     lines += [
         'description = "the calibrated cable\'s parameter uncertainty (ringqa calibrate)"',
-        f"input = {json_str(first.input)}",
+        f"input = {json_str(_resolved(first.input))}",
         f"samples = {SWEEP_SAMPLES}",
         "seed = 1",
         "",
@@ -214,6 +214,13 @@ def sweep_spec_text(cal: Calibration) -> str:
                   f"mean = {f.values[k]:.6g}", f"sd = {f.se[k]:.6g}",
                   'source = "ringqa calibrate: fitted value and its standard error"']  # fmt: skip
     return "\n".join(lines) + "\n"
+
+
+def _resolved(item: str) -> str:
+    """An input path made absolute (the spec resolves paths against its own folder); a shipped
+    name as it is."""
+    p = Path(item)
+    return str(p.resolve()) if p.exists() else str(item)
 
 
 def json_str(text: str) -> str:
