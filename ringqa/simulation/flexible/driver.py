@@ -43,6 +43,11 @@ MAX_CUTS = 4
 #: the fallback tether's stiffness per node, as a fraction of the wall stiffness (as the rigid
 #: engine's: 1e-3 k_wall)
 TETHER_FRACTION = 1.0e-3
+#: Load-step predictor: the slide plus this fraction of the previous step's Newton correction
+#: (its solution minus its slide) when the step continues the previous one (same increment,
+#: solved whole in at most EXTRAPOLATE_MAX_ITERS iterations); as the rigid engine's predictor
+EXTRAPOLATE_FRACTION = 0.5
+EXTRAPOLATE_MAX_ITERS = 8
 #: Newton's tolerance is at least this many times the axial penalty's round-off (FlexModel)
 ROUNDOFF_FLOOR = 16.0
 #: the tangent offset used to slide a node's tangent along the channel in the predictor (m)
@@ -187,6 +192,9 @@ class FlexModel:
         self.k_teth = TETHER_FRACTION * self.k_wall
         self._chan = tb.args()
         self.node_s = np.zeros(nn)
+        #: the last whole load step's Newton correction and its increment (the predictor)
+        self.last_correction: np.ndarray | None = None
+        self.last_du = float("nan")
         self.node_s2 = np.zeros(nn)
         # the source: element and parameter at sigma = cft
         e_src = int(np.clip(np.searchsorted(rod.sigma, self.cft, side="right") - 1, 0,
@@ -507,6 +515,9 @@ def _take_step(model: FlexModel, q: np.ndarray, u: float, du: float):
     failed = 0
     save_s = model.samp_s.copy()
     save_ns = (model.node_s.copy(), model.node_s2.copy())
+    corr = model.last_correction if model.last_du == du else None
+    model.last_correction = None
+    model.last_du = du
     for tether in (False, True):
         for cut in range(MAX_CUTS + 1):
             n_sub = 2**cut
@@ -520,14 +531,26 @@ def _take_step(model: FlexModel, q: np.ndarray, u: float, du: float):
                 model.sample_positions(qc, model.qs_prev)
                 model.qs_start[:] = model.qs_prev
                 model.predict(qc, h, u + (k + 1) * h)
+                q_plain = qc.copy()
+                extrapolated = corr is not None and n_sub == 1 and not tether
+                if extrapolated:
+                    qc[: model.n_free] += EXTRAPOLATE_FRACTION * corr[: model.n_free]
                 q_ref = qc.copy()
                 kt = model.k_teth if tether else 0.0
                 st, it, _ = model.solve(qc, h, kt, q_ref)
                 iters += it
+                if st != 0 and extrapolated:  # retried from the plain slide
+                    failed += 1
+                    model.samp_s[:] = save_s + h
+                    qc[:] = q_plain
+                    st, it, _ = model.solve(qc, h, kt, q_plain)
+                    iters += it
                 if st != 0:
                     ok = False
                     failed += 1
                     break
+                if n_sub == 1 and not tether and it <= EXTRAPOLATE_MAX_ITERS and du > 0:
+                    model.last_correction = qc - q_plain
                 wf += model.out[2]
                 if tether:
                     dx = (qc - q_ref).reshape(-1, ND)[:-1, :3]
