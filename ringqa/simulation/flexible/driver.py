@@ -10,9 +10,11 @@ the channel by the increment), its own Newton, a failed step cut into halves and
 a viscous tether to the predictor (the fallback stabilisation, counted and reported).
 
 Supported: quasi-static solver; contact; friction none / Coulomb / Stribeck; gravity; constant
-or stepwise forward motion (pauses cost nothing quasi-statically). Refused with a
-:class:`~ringqa.errors.SceneError` naming the key: the dynamic solver (inertia), torsion, wall
-damping, retraction and backward stepping, an always-on stabilisation.
+or stepwise forward motion (pauses cost nothing quasi-statically); jams (push force above
+``solver.jam_force_n``, or the tip moving less than 10 % of the input over
+``solver.jam_length_m``). Refused with a :class:`~ringqa.errors.SceneError` naming the key: the
+dynamic solver (inertia), torsion, wall damping, retraction and backward stepping, an always-on
+stabilisation, ``outputs.trajectory``.
 """
 
 from __future__ import annotations
@@ -71,6 +73,9 @@ def check_supported(scene) -> None:
     if m.kind == "retract" or m.backward:
         raise SceneError(f"motion.kind = {m.kind!r} (backward = {m.backward}): the flexible engine "
                          f"pushes forward only; {fix}")  # fmt: skip
+    if scene.outputs.trajectory:
+        raise SceneError(f"outputs.trajectory: the flexible engine records the requested advances "
+                         f"only; {fix}")  # fmt: skip
     if scene.solver.stabilisation != 0.0:
         raise SceneError(f"solver.stabilisation: an always-on tether is not modelled by the "
                          f"flexible engine (it uses one only as the fallback); {fix}")  # fmt: skip
@@ -84,6 +89,11 @@ class FlexModel:
         self.scene = scene
         self.warnings: list[str] = []
         solver = scene.solver
+        if solver.integrator == "bdf2":
+            self.warnings.append(
+                "solver.integrator = 'bdf2' applies to the dynamic solver only: ignored by the "
+                "quasi-static load steps"
+            )
         self.table = tb = ChannelTable.from_channel(scene.channel)
         inst = scene.instrument
         self.cft = float(inst.centre_from_tip_m)
@@ -379,6 +389,8 @@ def run_flexible(scene, advances_m: np.ndarray, progress: bool = False) -> SimRe
     push = model.push_force()
     max_pen = 0.0
     jam_f = float(scene.solver.jam_force_n)
+    jam_len = float(scene.solver.jam_length_m)
+    tip_hist = [(u, float(model.samp_s[0]))]  # (input, the tip's arc length)
     for target, idx in targets if status == STATUS_SUCCESS else ():
         while status == STATUS_SUCCESS and target - u > 1e-12:
             du = min(model.increment, target - u)
@@ -408,6 +420,15 @@ def run_flexible(scene, advances_m: np.ndarray, progress: bool = False) -> SimRe
                 status = STATUS_JAMMED
                 message = (f"jammed: push force {push:.2f} N above solver.jam_force_n = "
                            f"{jam_f:g} N at advance {u * 1e3:.2f} mm")  # fmt: skip
+            tip_hist.append((u, model.table.closest(q[0:3], tip_hist[-1][1])[0]))
+            back = [h for h in tip_hist if h[0] <= u - jam_len + 1e-12]
+            if status == STATUS_SUCCESS and back:
+                u0, s0 = back[-1]
+                if tip_hist[-1][1] - s0 < 0.1 * (u - u0):
+                    status = STATUS_JAMMED
+                    message = (f"jammed: the tip moved {(tip_hist[-1][1] - s0) * 1e3:.2f} mm "
+                               f"over the last {(u - u0) * 1e3:.1f} mm of input "
+                               f"(solver.jam_length_mm) at advance {u * 1e3:.2f} mm")  # fmt: skip
         if status != STATUS_SUCCESS:
             break
         src, d, tip = model.source(q)
