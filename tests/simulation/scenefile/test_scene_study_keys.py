@@ -61,3 +61,19 @@ def test_engine_uses_the_scaled_ei():
     a, b, c = simulate(keyed), simulate(doubled), simulate(base)
     np.testing.assert_array_equal(a.source_pos_m, b.source_pos_m)
     assert np.max(np.abs(a.source_pos_m - c.source_pos_m)) > 1e-6
+
+
+def test_flexible_engine_uses_the_scaled_ei_and_widened_lumen():
+    """The flexible formulation honours both keys as the rigid one does: EI x 2 through the key
+    equals sections carrying 2 EI bit for bit; +0.2 mm of lumen moves the dwells."""
+    from dataclasses import replace
+
+    base = load_scene("ring26-flexitron", {"motion.advances_mm": [120.0, 140.0],
+                                           "model.formulation": "flexible"})  # fmt: skip
+    keyed = scene_with_overrides(base, {"instrument.ei_scale": 2.0})
+    inst = base.instrument
+    doubled = base.replace(instrument=replace(inst, sections=tuple(
+        replace(s, ei_nm2=s.ei_nm2 * 2.0) for s in inst.sections)))  # fmt: skip
+    np.testing.assert_array_equal(simulate(keyed).source_pos_m, simulate(doubled).source_pos_m)
+    wide = scene_with_overrides(base, {"lumen.diameter_delta_mm": 0.2})
+    assert np.max(np.abs(simulate(wide).source_pos_m - simulate(base).source_pos_m)) > 1e-6
