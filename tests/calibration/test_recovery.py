@@ -41,11 +41,15 @@ def test_noisy_film_positions_recover_mu_k(seed):
 
 
 def test_noise_free_recovers_mu_k_within_2_percent():
-    """No noise, the default keys: mu_k within 2 % of 0.15, the residual median < 0.02 mm;
-    mu_s moves nothing (identifiable false, undetermined error)."""
+    """No noise, the default keys: mu_k and EI within 2 % of 0.15 and 1.25 (without noise
+    even EI's 0.005 mm is found), the residual median < 0.02 mm; mu_s moves nothing
+    (identifiable false, undetermined error), and EI is still not identifiable: its standard
+    error follows the stated 0.2 mm uncertainty, not the lucky absence of noise."""
     m = synthetic(noise_mm=0.0)
     cal = calibrate([m], stem_mm=STEM_MM)
     f = cal.fit
     assert abs(f.values["contact.mu_k"] - TRUTH["contact.mu_k"]) <= 0.02 * TRUTH["contact.mu_k"]
+    assert abs(f.values["instrument.ei_scale"] - 1.25) <= 0.02 * 1.25
+    assert not f.identifiable["instrument.ei_scale"]
     assert np.median(cal.used_distances("after")) < 0.02
     assert f.identifiable["contact.mu_s"] is False and np.isinf(f.se["contact.mu_s"])
