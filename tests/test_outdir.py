@@ -419,3 +419,37 @@ def test_sighup_is_handled_like_sigterm(tmp_path):
         time.sleep(5)
     assert info.value.exit_status == 129
     assert list(tmp_path.iterdir()) == []
+
+
+def _concurrent_writer(out: str, k: int, start: float) -> None:
+    """A child process: wait for the common start, write a folder of 20 files, commit it."""
+    with staged_output(out) as stage:
+        for i in range(20):
+            (stage / f"f{i}.csv").write_text(f"run {k} file {i}\n")
+        time.sleep(max(0.0, start - time.time()))  # all commit at about the same moment
+    os._exit(0)
+
+
+def test_concurrent_runs_leave_one_complete_folder(tmp_path):
+    """Six processes commit into the same --out at the same moment, three times over: every one
+    exits 0, the folder holds one run's 20 files (all from the same run, as its marker lists
+    them) and nothing hidden is left beside it (the retry when another run's output lands
+    between a check and a rename)."""
+    import multiprocessing
+
+    ctx = multiprocessing.get_context("fork")
+    out = tmp_path / "out"
+    for _ in range(3):
+        start = time.time() + 0.5
+        procs = [ctx.Process(target=_concurrent_writer, args=(str(out), k, start))
+                 for k in range(6)]  # fmt: skip
+        for p in procs:
+            p.start()
+        for p in procs:
+            p.join(60)
+        assert [p.exitcode for p in procs] == [0] * 6
+        marker = json.loads((out / MARKER_NAME).read_text())
+        assert sorted(e["path"] for e in marker["files"]) == sorted(f"f{i}.csv" for i in range(20))
+        runs = {(out / f"f{i}.csv").read_text().split(" file")[0] for i in range(20)}
+        assert len(runs) == 1, runs
+        assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
