@@ -360,19 +360,28 @@ def _run(args: argparse.Namespace) -> int:
 
 
 def check_paths(args: argparse.Namespace) -> None:
-    """Check ``--out`` (:func:`ringqa.outdir.check_out_path`) and that ``--log-file`` does not
-    lie inside it, before any work.
+    """Check ``--out`` (:func:`ringqa.outdir.check_out_path`) and that ``--log-file`` neither
+    lies inside it nor is one of the command's input files, before any work.
 
     Raises
     ------
     RingQAError
         Naming the option, the reason and the fix.
     """
+    log = getattr(args, "log_file", None)
+    if log is not None and Path(log).is_file():
+        for name, value in vars(args).items():
+            values = value if isinstance(value, list | tuple) else [value]
+            for v in values:
+                if name != "log_file" and isinstance(v, str | Path) and _same_file(v, log):
+                    raise RingQAError(
+                        f"--log-file {log}: is also an input of the command ({v}); the log "
+                        "would be appended to it (give a separate log file)"
+                    )
     out = getattr(args, "out", None)
     if out is None:
         return
     check_out_path(out)
-    log = getattr(args, "log_file", None)
     if log is not None:
         out_abs, log_abs = Path(out).resolve(), Path(log).resolve()
         if out_abs in log_abs.parents:
@@ -380,6 +389,13 @@ def check_paths(args: argparse.Namespace) -> None:
                 f"--log-file {log}: lies inside --out {out}, which ringqa replaces as a whole "
                 "(put the log file beside the output folder)"
             )
+
+
+def _same_file(a, b) -> bool:
+    try:
+        return os.path.samefile(a, b)
+    except (OSError, ValueError, TypeError):
+        return False
 
 
 #: what to do about an operating-system error, by errno
