@@ -242,13 +242,18 @@ def console_main() -> None:
 class LogFileHandler(logging.FileHandler):
     """The ``--log-file`` handler: when the file stops accepting lines (a full disk, a
     device like /dev/full) it says so once on standard error and writes nothing more, instead of
-    a traceback per record and an exit status 1 after a finished run."""
+    a traceback per record and an exit status 1 after a finished run. Control characters of
+    logged text are escaped as on the terminal."""
 
     failed: BaseException | None = None
 
     def emit(self, record: logging.LogRecord) -> None:
         if self.failed is None:
             super().emit(record)
+
+    def format(self, record: logging.LogRecord) -> str:
+        """The record as a line, control characters from files escaped (``cat run.log``)."""
+        return terminal_text(super().format(record))
 
     def handleError(self, record: logging.LogRecord) -> None:
         exc = sys.exc_info()[1]
