@@ -548,6 +548,17 @@ def check_out_path(out_dir: str | Path) -> Path:
         raise RingQAError(
             f"--out {out}: folder {probe} is not writable (choose a folder you can write to)"
         )
+    try:
+        name_max = os.pathconf(probe, "PC_NAME_MAX")
+    except (OSError, ValueError):
+        name_max = 255
+    longest = len(os.fsencode(f".{out.name}.staging-{os.getpid()}-xxxxxxxx"))
+    if name_max and longest > name_max:
+        raise RingQAError(
+            f"--out {out}: the folder name is {len(os.fsencode(out.name))} bytes long; with "
+            f"ringqa's staging suffix it passes the file system's {name_max} (choose a name "
+            f"of at most {name_max - longest + len(os.fsencode(out.name))} bytes)"
+        )
     return out
 
 

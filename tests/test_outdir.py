@@ -380,10 +380,13 @@ def test_folders_and_files_follow_the_umask(tmp_path):
         os.umask(old)
 
 
-@pytest.mark.parametrize("kind", ["symlink", "dot", "parent_of_cwd", "file", "below_a_file"])
+@pytest.mark.parametrize(
+    "kind", ["symlink", "dot", "parent_of_cwd", "file", "below_a_file", "name_too_long"]
+)
 def test_bad_out_paths_are_refused_at_once(tmp_path, monkeypatch, kind):
-    """--out as a symbolic link, '.', a folder holding the current folder, a file, or a path
-    below a file: refused by check_writable with the reason; nothing created."""
+    """--out as a symbolic link, '.', a folder holding the current folder, a file, a path
+    below a file, or a name too long for its staging folder's (255-byte names): refused by
+    check_writable with the reason; nothing created."""
     real = tmp_path / "real"
     real.mkdir()
     monkeypatch.chdir(real)
@@ -393,6 +396,7 @@ def test_bad_out_paths_are_refused_at_once(tmp_path, monkeypatch, kind):
         "parent_of_cwd": str(tmp_path),
         "file": tmp_path / "f.txt",
         "below_a_file": tmp_path / "f.txt" / "out",
+        "name_too_long": tmp_path / ("a" * 240),  # + ".staging-PID-XXXXXXXX" > 255 bytes
     }
     (tmp_path / "link").symlink_to(real)
     (tmp_path / "f.txt").write_text("x")
@@ -402,6 +406,7 @@ def test_bad_out_paths_are_refused_at_once(tmp_path, monkeypatch, kind):
         "parent_of_cwd": "current folder",
         "file": "not a folder",
         "below_a_file": "is a file",
+        "name_too_long": "the folder name is 240 bytes long",
     }
     before = sorted(p.name for p in tmp_path.iterdir())
     with pytest.raises(RingQAError, match=words[kind]):

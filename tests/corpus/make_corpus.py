@@ -776,6 +776,7 @@ def _output(c: Path) -> list[Case]:
         setup="saved_during_rerun")  # fmt: skip
     add("out_symlink", [*imp, "{out}"], 2, "symbolic link", setup="symlink")
     add("out_dot", [*imp, "."], 2, "current folder")
+    add("out_name_too_long", [*imp, "{c}/" + "o" * 240], 2, "240 bytes long")
     add("out_log_inside", ["--log-file", "{out}/run.log", *imp, "{out}"], 2, "inside --out")
     add("out_log_dev_full", ["--log-file", "/dev/full", *imp, "{out}"], 2, "No space left")
     (c / "log_target.dcm").write_bytes(PLAN.read_bytes())
