@@ -33,7 +33,7 @@ from pathlib import Path
 
 from ringqa import __version__
 from ringqa.errors import RingQAError
-from ringqa.outdir import OutputInterrupted, check_out_path, running_command
+from ringqa.outdir import OutputInterrupted, check_out_path, check_writable, running_command
 from ringqa.textio import terminal_text
 
 # command name -> module (imported lazily so that `ringqa --help` stays fast)
@@ -364,6 +364,10 @@ def _run(args: argparse.Namespace) -> int:
         return 130
 
 
+#: commands that keep a cache in their --out folder while they work (checked by the command)
+KEEPS_CACHE = frozenset({"accuracy", "sweep"})
+
+
 def check_paths(args: argparse.Namespace) -> None:
     """Check ``--out`` (:func:`ringqa.outdir.check_out_path`) and that ``--log-file`` neither
     lies inside it nor is one of the command's input files, before any work.
@@ -387,6 +391,8 @@ def check_paths(args: argparse.Namespace) -> None:
     if out is None:
         return
     check_out_path(out)
+    if getattr(args, "command", None) not in KEEPS_CACHE:  # these check with their cache's name
+        check_writable(out)  # the folder's content too: a foreign file refused at once
     if log is not None:
         out_abs, log_abs = Path(out).resolve(), Path(log).resolve()
         if out_abs in log_abs.parents:
