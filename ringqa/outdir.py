@@ -206,8 +206,9 @@ def _walk(folder: Path) -> tuple[list[str], list[str]]:
 
 
 def list_files(folder: Path, unhashed: Iterable[str] = ()) -> dict:
-    """The file list a marker records for ``folder``: ``files`` (path, size in bytes, SHA-256)
-    and ``folders`` (paths), the marker itself left out.
+    """The file list a marker records for ``folder``: ``files`` (path, size in bytes, SHA-256,
+    modification time in ns) and ``folders`` (paths), the marker itself left out. A later check
+    hashes a file again only when its modification time differs from the recorded one.
 
     Parameters
     ----------
@@ -224,11 +225,13 @@ def list_files(folder: Path, unhashed: Iterable[str] = ()) -> dict:
         if rel == MARKER_NAME:
             continue
         p = folder / rel
+        st = p.lstat()
         entries.append(
             {
                 "path": rel,
-                "size": p.lstat().st_size,
+                "size": st.st_size,
                 "sha256": None if rel in skip else sha256_file(p),
+                "mtime_ns": st.st_mtime_ns,
             }
         )
     return {"files": entries, "folders": folders}
@@ -277,8 +280,8 @@ def _unchanged(path: Path, entry: dict) -> bool:
     if entry.get("size") is not None and st.st_size != entry.get("size"):
         return False
     digest = entry.get("sha256")
-    if digest is None:
-        return True
+    if digest is None or entry.get("mtime_ns") == st.st_mtime_ns:
+        return True  # a cache, or not touched since (a rename keeps the time): no hashing
     try:
         return sha256_file(path) == digest
     except OSError:

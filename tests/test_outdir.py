@@ -458,3 +458,19 @@ def test_concurrent_runs_leave_one_complete_folder(tmp_path):
         runs = {(out / f"f{i}.csv").read_text().split(" file")[0] for i in range(20)}
         assert len(runs) == 1, runs
         assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
+
+
+def test_a_same_size_change_is_found_by_its_checksum(tmp_path):
+    """report.pdf rewritten with other bytes of the same length (its time changed): refused by
+    the SHA-256; the same bytes only touched (time changed, checksum equal): replaced as
+    ringqa's."""
+    out = _earlier_output(tmp_path / "out", ("report.pdf",))
+    (out / "report.pdf").write_text("OLD")  # 3 bytes, as "old"
+    os.utime(out / "report.pdf", ns=(1, 1))
+    with pytest.raises(RingQAError, match=r"report.pdf \(changed since ringqa wrote it\)"):
+        check_writable(out)
+    (out / "report.pdf").write_text("old")
+    os.utime(out / "report.pdf", ns=(2, 2))
+    with staged_output(out) as stage:
+        (stage / "new.csv").write_text("new")
+    assert sorted(p.name for p in out.iterdir()) == [MARKER_NAME, "new.csv"]
