@@ -126,6 +126,9 @@ def main(argv: list[str] | None = None) -> int:
         except RingQAError as exc:
             print(f"ringqa {args.command}: error: {exc}", file=sys.stderr)
             return 2
+        except OSError as exc:  # removing a left-over staging folder, reading --out
+            print(os_error_line(args.command, exc, getattr(args, "out", None)), file=sys.stderr)
+            return 2
         words = sys.argv[1:] if argv is None else argv
         logging.getLogger(__name__).debug("ringqa %s: ringqa %s", __version__, " ".join(words))
         try:
