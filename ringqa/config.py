@@ -267,6 +267,14 @@ KEYS: tuple[ConfigKey, ...] = (
         "simulate the whole channel (ignores stem_mm)",
         option="--whole-channel",
     ),
+    ConfigKey(
+        "simulation.cross_check",
+        "",
+        False,
+        "flag",
+        "also run the flexible-element engine and compare its dwells (the cross-check)",
+        option="--cross-check",
+    ),
     ConfigKey("report.institution", "", "", "text", "hospital / department"),
     ConfigKey("report.physicist", "", "", "text", "the physicist who signs"),
     ConfigKey("report.afterloader", "", "", "text", "afterloader model and serial number"),
@@ -496,6 +504,7 @@ class EffectiveConfig:
                 dose_action_pct=v["tolerances.dose_action_pct"],
                 register=v["simulation.register"],
                 stem_mm=None if v["simulation.whole_channel"] else v["simulation.stem_mm"],
+                cross_check=bool(v["simulation.cross_check"]),
                 settings_origin=dict(self.origins),
                 **self.extra,
             )

@@ -35,6 +35,7 @@ from pathlib import Path
 import numpy as np
 
 from ringqa.errors import InputFileError
+from ringqa.geometry.centreline import MAX_POINTS, point_count_problem
 from ringqa.jsonio import json_text
 from ringqa.outdir import atomic_write_text
 from ringqa.textio import check_columns, read_json, read_text
@@ -136,6 +137,7 @@ def read_point_set(path: str | Path, kind: str = "centreline") -> PointSet:
     encoding = "UTF-8"
     if suffix == ".csv":
         text, encoding = read_text_any(p)
+        _check_line_count(p, text, kind)
         pts, rel, labels = _read_csv(p, text)
     elif suffix == ".json":
         pts, rel, labels = _read_json(p)
@@ -159,6 +161,17 @@ def read_point_set(path: str | Path, kind: str = "centreline") -> PointSet:
         encoding=encoding,
         notes=notes,
     )
+
+
+def _check_line_count(p: Path, text: str, kind: str) -> None:
+    """Refuse a CSV with more data rows than a centreline or path may have before parsing it
+    (issue 25: a 10^6-row file took 10 s and 800 MB to parse before any check)."""
+    if text.count("\n") <= MAX_POINTS:
+        return
+    rows = sum(1 for line in text.splitlines() if line.strip() and not line.lstrip()[:1] == "#")
+    too_many = point_count_problem(rows - 1, KIND_NAMES[kind])
+    if too_many is not None:
+        raise PointsFileError(p, *too_many)
 
 
 def read_text_any(p: Path) -> tuple[str, str]:
@@ -377,6 +390,9 @@ def check_points(p, pts: np.ndarray, rel: np.ndarray | None, labels, kind: str) 
     """
     n = len(pts)
     name = KIND_NAMES[kind]
+    too_many = point_count_problem(n, name)
+    if too_many is not None:
+        raise PointsFileError(p, *too_many)
     if n < MIN_POINTS[kind]:
         raise PointsFileError(
             p,

@@ -41,6 +41,7 @@ CHANGED = {
     "simulation.register": "rigid",
     "simulation.stem_mm": 50.0,
     "simulation.whole_channel": True,
+    "simulation.cross_check": True,
     "report.institution": "St Elsewhere, Radiotherapy",
     "report.physicist": "J. Jansen",
     "report.afterloader": "Flexitron #123",
@@ -81,6 +82,7 @@ def _attr(settings: CommissionSettings, fields, key: str):
         "simulation.register": settings.register,
         "simulation.stem_mm": settings.stem_mm,
         "simulation.whole_channel": settings.stem_mm is None,
+        "simulation.cross_check": settings.cross_check,
     }.get(key, getattr(spec, name, None) if table == "dose_points" else getattr(fields, name, None))
 
 
