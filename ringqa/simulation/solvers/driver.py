@@ -267,17 +267,18 @@ def _result(scene, model, integrator, monitor, recorder, status, message, v, tim
     """The :class:`SimResult` of a finished run (messages, warnings, work, settings, counters)."""
     n_req = recorder.push_force_n.size
     max_pen = monitor.max_penetration_m
-    if status == STATUS_SUCCESS and max_pen > model.max_radius:
-        status = STATUS_FAILED
-        message = (
+    if status == STATUS_SUCCESS:
+        message = f"reached all {n_req} requested advances"
+    else:
+        message += f"; {recorder.n_missing} of {n_req} requested advances not reached (NaN rows)"
+    if status != STATUS_FAILED and max_pen > model.max_radius:  # a jam in the wall: no result
+        sank = (
             f"the instrument sank {max_pen * 1e3:.3f} mm into the wall, more than its "
             f"{model.max_radius * 1e3:.3f} mm radius: its axis left the lumen, so its positions "
             f"mean nothing (raise contact.stiffness_n_m; {PAPER_STIFFNESS})"
         )
-    elif status == STATUS_SUCCESS:
-        message = f"reached all {n_req} requested advances"
-    else:
-        message += f"; {recorder.n_missing} of {n_req} requested advances not reached (NaN rows)"
+        message = sank if status == STATUS_SUCCESS else f"{sank}; {message}"
+        status = STATUS_FAILED
     advances_mm = m_to_mm(np.asarray(recorder.advances_m, dtype=float))
     outside = outside_lumen(
         model.table, recorder.s_m, recorder.offset_m, recorder.tip_pos_m, advances_mm
