@@ -24,6 +24,14 @@ def test_a_csv_with_too_many_rows_is_refused_before_parsing(tmp_path, kind):
     assert "dense.csv" in msg and f"{n:,} points" in msg and "resample" in msg
 
 
+def test_old_mac_line_ends_are_counted_too(tmp_path):
+    """A CSV with CR-only line ends (splitlines reads them as lines) is counted as well."""
+    p = tmp_path / "cr.csv"
+    p.write_text("x_mm,y_mm,z_mm\r" + "1.0,2.0,3.0\r" * (MAX_POINTS + 1))
+    with pytest.raises(PointsFileError, match=f"{MAX_POINTS + 1:,} points"):
+        read_point_set(p)
+
+
 def test_a_csv_at_the_limit_is_parsed(tmp_path):
     """MAX_POINTS rows plus a comment and a header pass the count (the next check then speaks:
     all rows are one point, which looks like metres)."""
