@@ -24,10 +24,11 @@ Three checks, each stated with its threshold:
     :data:`WORK_BALANCE_WARN` means the load steps do not follow the equilibrium path: with a
     stiff wall the contact force changes over a sink of ``F / k`` (nanometres at 1e7 N/m), so an
     increment of a millimetre steps over the path's snap-throughs and the forces at the
-    recorded advances are those of a state off the path (issue 25: 1e7 N/m per contact point,
-    frictionless, 1 mm increments: work 49-61 % off, forces up to 254 % too high; the same scene
-    at 0.1 mm closes to 0.1 %). The shipped scenes close to <= 1.3 % (the dynamic one; the
-    quasi-static ones <= 0.3 %).
+    recorded advances are those of a state off the path (ring26-flexitron, frictionless, 1 mm
+    increments: 43 % at 1e6 N/m per contact point, 71 % at 1e7 with push forces up to 4x those
+    of the paper's wall; it closes to 0.09 % at 0.1 mm (1e6) and to 0.0 % at 0.03 mm (1e7):
+    docs/engine.md). The shipped scenes close to <= 1.3 % (the dynamic one; the quasi-static
+    ones <= 0.3 %).
 
 The paper's wall stiffness (Straathof et al., Med Phys 2024, Table 1) is named in every
 message: 1e5 N/m per contact point for the Flexitron cable, 1e6 N/m for the catheter.
@@ -41,7 +42,7 @@ import numpy as np
 
 from ringqa.errors import SceneError
 
-#: A point (cable node, source centre) farther than this beyond the lumen wall r_b is outside
+#: A point (source centre, cable tip) farther than this beyond the lumen wall r_b is outside
 #: the channel (m): the engine's accuracy goal, 0.05 mm (docs/simulate.md, the benchmark).
 OUTSIDE_MARGIN_M = 0.05e-3
 #: A work balance error (relative) above this is reported as a warning.
