@@ -28,7 +28,6 @@ from __future__ import annotations
 
 import csv
 import io
-import json
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -39,6 +38,7 @@ from ringqa.errors import InputFileError
 from ringqa.geometry.centreline import MAX_POINTS, point_count_problem
 from ringqa.jsonio import json_text
 from ringqa.outdir import atomic_write_text
+from ringqa.textio import check_columns, read_json, read_text
 from ringqa.units import m_to_mm, mm_to_m
 
 KINDS = ("centreline", "path", "correction")
@@ -178,26 +178,8 @@ def read_text_any(p: Path) -> tuple[str, str]:
     """The text of ``p`` and the encoding used: UTF-8 (with or without BOM), UTF-16 (with its
     BOM, as Excel's "Unicode text" writes it), else Latin-1 (which decodes any bytes: the
     fallback for files from a non-UTF-8 Excel or editor)."""
-    try:
-        raw = p.read_bytes()
-    except OSError as exc:
-        raise PointsFileError(p, f"cannot be read ({exc.strerror})", "check the path") from None
-    if raw.startswith(b"\xef\xbb\xbf"):
-        try:
-            return raw[3:].decode("utf-8"), "UTF-8 with BOM"
-        except UnicodeDecodeError:
-            pass
-    if raw.startswith((b"\xff\xfe", b"\xfe\xff")):
-        try:
-            return raw.decode("utf-16"), "UTF-16"
-        except UnicodeDecodeError:
-            pass
-    for name, codec in CSV_ENCODINGS:
-        try:
-            return raw.decode(codec), name
-        except UnicodeDecodeError:
-            continue
-    raise PointsFileError(p, "not a text file", "save it as a CSV")  # unreachable: Latin-1
+    tf = read_text(p, what="CSV", latin1=True, error=PointsFileError)  # ringqa.textio
+    return tf.text, tf.encoding
 
 
 def write_points(
@@ -283,6 +265,7 @@ def _read_csv(p: Path, text: str) -> tuple[np.ndarray, np.ndarray | None, list[s
     delimiter = next((d for d in (",", ";", "\t") if d in head), ",")
     rows = list(csv.reader([line for _, line in lines], delimiter=delimiter))
     header = [h.strip() for h in rows[0]]
+    check_columns(header, p, error=PointsFileError)  # a repeated column: refused, named
     err = _metre_columns_error(p, header)
     if err:
         raise err
@@ -324,10 +307,7 @@ def _read_csv(p: Path, text: str) -> tuple[np.ndarray, np.ndarray | None, list[s
 
 
 def _read_json(p: Path) -> tuple[np.ndarray, np.ndarray | None, list[str]]:
-    try:
-        doc = json.loads(p.read_text(encoding="utf-8-sig"))
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise PointsFileError(p, f"not valid JSON ({exc})", "check the file's syntax") from None
+    doc = read_json(p, error=PointsFileError)  # strict: duplicate keys, depth, encoding
     if not isinstance(doc, dict):
         raise PointsFileError(
             p, "top level is not an object", 'write {"units": "mm", "points": [[x, y, z], ...]}'
