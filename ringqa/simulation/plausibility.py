@@ -36,7 +36,7 @@ message: 1e5 N/m per contact point for the Flexitron cable, 1e6 N/m for the cath
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -62,23 +62,41 @@ PAPER_STIFFNESS = (
 )
 
 
-def bending_force(model) -> tuple[float, float, float]:
-    """``(F, EI, kappa)``: the force (N) with which the stiffest flexible section (EI, N m^2)
-    presses on the wall of the channel's tightest bend (curvature kappa, 1/m),
-    ``F = EI kappa^2 / 2``; F = 0 on a straight channel or for a chain without a flexible
-    link."""
-    ei = np.asarray(model.chain.link_ei, dtype=float)
+def flexible_ei_nm2(ei) -> float:
+    """The largest finite positive bending stiffness in ``ei`` (N m^2; 0 if none): rigid links
+    (``inf``) and sections marked rigid are left out by the callers."""
+    ei = np.asarray(ei, dtype=float).reshape(-1)
     ei = ei[np.isfinite(ei) & (ei > 0)]
-    kappa = np.asarray(model.table.kappa, dtype=float)
+    return float(ei.max()) if ei.size else 0.0
+
+
+def bending_force(ei_nm2: float, table) -> tuple[float, float]:
+    """``(F, kappa)``: the force (N) with which a cable of bending stiffness ``ei_nm2`` (N m^2)
+    presses on the wall of the channel's tightest bend (curvature kappa, 1/m, from the run's
+    :class:`~ringqa.simulation.channel.ChannelTable`), ``F = EI kappa^2 / 2``; 0 on a straight
+    channel."""
+    kappa = np.asarray(table.kappa, dtype=float)
     kappa = kappa[np.isfinite(kappa)]
-    if ei.size == 0 or kappa.size == 0:
-        return 0.0, 0.0, 0.0
-    e, c = float(ei.max()), float(kappa.max())
-    return 0.5 * e * c**2, e, c
+    if kappa.size == 0 or not ei_nm2 > 0:
+        return 0.0, 0.0
+    c = float(kappa.max())
+    return 0.5 * float(ei_nm2) * c**2, c
 
 
-def check_wall_stiffness(model) -> None:
+def check_wall_stiffness(scene, table, clearance_m: float, ei_nm2: float) -> None:
     """Refuse a wall too soft to hold the cable in the lumen (module docstring).
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene (``contact.stiffness_n_m``, ``effects.contact``).
+    table : ringqa.simulation.channel.ChannelTable
+        The run's channel table (curvature, lumen segments).
+    clearance_m : float
+        The smallest clearance r_b - r_o (m).
+    ei_nm2 : float
+        The largest bending stiffness of the modelled flexible cable (N m^2;
+        :func:`flexible_ei_nm2`).
 
     Raises
     ------
@@ -86,14 +104,15 @@ def check_wall_stiffness(model) -> None:
         Naming ``contact.stiffness_n_m``, the estimated sink, the stiffness that holds the cable
         to a tenth of the clearance and the paper's values.
     """
-    if not model.contact_on:
+    if not scene.effects.contact:
         return
-    k = float(model.wall_stiffness_n_m)
-    force, ei, kappa = bending_force(model)
-    r_b = float(np.min(model.table.seg_rb))
+    k = float(scene.contact.stiffness_n_m)
+    force, kappa = bending_force(ei_nm2, table)
+    ei = float(ei_nm2)
+    r_b = float(np.min(table.seg_rb))
     if force <= 0.0 or force / k <= SINK_REFUSE_RADII * r_b:
         return
-    k_fit = force / (0.1 * model.clearance)
+    k_fit = force / (0.1 * clearance_m)
     raise SceneError(
         f"contact.stiffness_n_m = {k:g} N/m is too soft for this cable: bent round the "
         f"channel's tightest bend (radius {1e3 / kappa:.3g} mm) the cable (EI {ei:.3g} N m^2) "
@@ -244,3 +263,39 @@ def work_balance_warning(work: dict, scene, n_stabilised: int) -> str:
         f"steps ({step}{snaps}) do not follow the equilibrium path, so the push and contact "
         f"forces and the positions at the recorded advances may be far off. {why}"
     )
+
+
+def checked_result(result, scene, table):
+    """``result`` after the monitor's checks (for an engine that does not run them itself: the
+    flexible one; the rigid driver runs the same checks while composing its message).
+
+    Parameters
+    ----------
+    result : SimResult
+        A finished run.
+    scene : Scene
+        Its scene.
+    table : ringqa.simulation.channel.ChannelTable
+        Its channel table.
+
+    Returns
+    -------
+    SimResult
+        Failed (status -1, the message saying where the cable left the lumen, the original
+        message kept) when a recorded source centre or tip lies outside the lumen; the work
+        balance warning added when the balance does not close.
+    """
+    status, message = int(result.status), str(result.message)
+    out = outside_lumen(table, result.s_m, result.offset_m, result.tip_pos_m, result.advances_mm)
+    if out is not None:
+        why = outside_message(out, float(scene.contact.stiffness_n_m))
+        message = f"{why}; {message}"
+        status = -1
+    warnings = tuple(result.warnings)
+    n_stab = int(getattr(result.stats, "n_stabilised_steps", 0))
+    unbalanced = work_balance_warning(dict(result.work), scene, n_stab)
+    if unbalanced:
+        warnings = (*warnings, unbalanced)
+    if status == result.status and warnings == tuple(result.warnings):
+        return result
+    return replace(result, status=status, message=message, warnings=warnings)

@@ -158,3 +158,41 @@ def test_the_pipeline_matches_the_engine_s_work_balance_text():
     from ringqa.simulation.plausibility import WORK_BALANCE_TEXT
 
     assert WORK_BALANCE_WARNING == WORK_BALANCE_TEXT
+
+
+def test_the_flexible_engine_is_monitored_too():
+    """model.formulation = "flexible" runs its own driver; simulate() applies the same monitor:
+    the absurdly soft wall is refused before the run, naming the paper's value."""
+    over = {"model.formulation": "flexible", "contact.stiffness_n_m": 1e-3}
+    with pytest.raises(SceneError, match=r"too soft for this cable.*1e5 N/m"):
+        simulate(load_scene("ring13-push100", overrides=over))
+
+
+def test_checked_result_fails_outside_positions_and_warns_an_open_balance():
+    """The generic check (used for the flexible engine's results): a result whose source lies
+    0.5 mm outside a 1.5 mm lumen becomes failed with its message kept after the reason; a
+    balance error of 20 % adds the warning; a plausible result is returned unchanged."""
+    from ringqa.simulation.plausibility import checked_result
+    from ringqa.simulation.result import SimResult
+
+    tab = _straight_table()
+    sc = load_scene("ring26-flexitron")
+    nan3 = np.full((1, 3), np.nan)
+
+    def result(offset_m, balance):
+        return SimResult(
+            status=0, message="reached all 1 requested advances", advances_mm=np.array([50.0]),
+            source_pos_m=nan3, source_dir=nan3, tip_pos_m=nan3, push_force_n=np.array([0.1]),
+            contact_force_n=np.zeros((1, 3)), newton_iters=np.array([3]),
+            s_m=np.array([0.05]), offset_m=np.array([offset_m]), n_elements=2,
+            solve_time_s=0.0, work={"input": 1.0, "elastic": 1.0 - balance,
+                                    "balance_error": balance},
+        )  # fmt: skip
+
+    ok = result(1.0e-3, 0.001)
+    assert checked_result(ok, sc, tab) is ok
+    bad = checked_result(result(2.0e-3, 0.2), sc, tab)
+    assert bad.status == -1
+    assert bad.message.startswith("the source centre lies 2.00 mm from the centreline")
+    assert bad.message.endswith("; reached all 1 requested advances")
+    assert any(w.startswith("the work balance does not close") for w in bad.warnings)

@@ -30,6 +30,7 @@ from ringqa.simulation.model import Model
 from ringqa.simulation.plausibility import (
     PAPER_STIFFNESS,
     check_wall_stiffness,
+    flexible_ei_nm2,
     outside_lumen,
     outside_message,
     work_balance_warning,
@@ -207,7 +208,7 @@ def run(
     schedule = Schedule(model, advances_m, history_free)
     check_budget(schedule, scene)
     check_rigid_links_fit(model, advances_m)
-    check_wall_stiffness(model)
+    check_wall_stiffness(scene, model.table, model.clearance, flexible_ei_nm2(model.chain.link_ei))
     monitor = Monitor(model, history_free)
     recorder = Recorder(model, advances_m, bool(scene.outputs.trajectory))
     stepper = Stepper(model, integrator, monitor, cut_grown=schedule.slide_grow)
