@@ -186,7 +186,8 @@ def run_sweep(
         nominal_s = time.perf_counter() - t0
         cheap = spec.numerics == "calibrated"
         nom_cheap = None
-        if cheap:  # the nominal cheap sample: prepares this process, times a sample
+        if cheap:  # the nominal cheap sample: prepares this process, then times a sample
+            cheap_sample(job, -1, nominal, None, None)
             nom_cheap = cheap_sample(job, -1, nominal, None, None)
             if not nom_cheap.ok:
                 raise RingQAError(
