@@ -27,6 +27,7 @@ message that says so (never an endless sample).
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import json
 import os
@@ -171,13 +172,6 @@ class NumericalBound:
         }
 
 
-def _nominal_like(job: Job) -> list:
-    """Placeholder values (only the non-varied settings are read from them)."""
-    from ringqa.pipeline.uncertainty import PERTURBATION_KEYS
-
-    return [PERTURBATION_KEYS[k][0] if k in PERTURBATION_KEYS else 0.0 for k in job.names]
-
-
 def prepare(job: Job) -> Prepared:
     """The sample-independent part of a commissioning run of ``job`` (the steps of
     :func:`ringqa.pipeline.commission` before and around the simulation).
@@ -202,7 +196,8 @@ def prepare(job: Job) -> Prepared:
     from ringqa.plan import points_array_mm
     from ringqa.units import m_to_mm, mm_to_m
 
-    cfg, _ = commission_settings(job, _nominal_like(job))  # the settings every sample shares
+    # the settings every sample shares (the varied keys left out)
+    cfg, _ = commission_settings(dataclasses.replace(job, names=()), ())
     if cfg.centreline_correction is not None:  # pragma: no cover - not a sweep setting
         raise ValueError("a centreline correction is not supported by the cheap sample")
     loaded = load_input(job.input)

@@ -76,6 +76,13 @@ def test_sweep_through_scheduler_address_resumes_and_is_worker_independent(
     record = json.loads((out / "sweep.json").read_text())
     assert record["resumed_from"] == 3 and record["computed_now"] == 2
     assert record["seed"] == 11 and record["versions"]["distributed"]
+    # calibrated numerics: the bound every sample reports is the calibration's (kept in the file
+    # for the resumed run), the intervals say whether they are conditional on success
+    check = record["numerical_check"]
+    assert check["mode"] == "calibrated" and check["calibration_samples"][0] == -1
+    np.testing.assert_array_equal(s.arrays["numerical_error_mm"][4], check["error_mm_per_dwell"])
+    assert record["intervals"] == "every sample succeeded"
+    assert record["failure_report"]["n_failed"] == 0 and record["sensitivity_note"] == ""
     assert (out / "uncertainty.png").stat().st_size > 10_000
 
     # --partial with samples=7: nothing runs (no scheduler needed), the outputs cover the 5
