@@ -48,9 +48,12 @@ TASKS_PER_WORKER = 4
 def one_core() -> None:
     """This process runs one sample at a time on one core: its commissioning runs fork no
     children (the sweep's workers use the cores already)."""
+    import numba
+
     import ringqa.pipeline.simulate as simulate
 
     simulate.CONCURRENT_RUNS = False
+    numba.set_num_threads(1)  # a remote cluster's workers too (a local one starts with 1)
 
 
 def warm_worker(job: Job, nominal: Sequence, cheap: bool = False) -> str:
