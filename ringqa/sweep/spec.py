@@ -12,7 +12,6 @@ import hashlib
 import json
 import math
 import numbers
-import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -20,6 +19,7 @@ from typing import Any
 
 from ringqa.errors import RingQAError
 from ringqa.pipeline.uncertainty import PERTURBATION_KEYS
+from ringqa.textio import read_toml
 
 __all__ = [
     "DISTRIBUTIONS",
@@ -205,14 +205,11 @@ def load_spec(path: str | Path, sets: Mapping[str, Any] | None = None) -> SweepS
         Unreadable file, unknown key, bad value or impossible distribution.
     """
     p = Path(path)
-    try:
-        data = tomllib.loads(p.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise SweepSpecError(f"{p}: no such sweep spec (give the path of a .toml file)") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise SweepSpecError(f"{p}: cannot be read ({exc})") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise SweepSpecError(f"{p}: not valid TOML ({exc})") from None
+    if not p.exists():
+        raise SweepSpecError(f"{p}: no such sweep spec (give the path of a .toml file)")
+    data = read_toml(
+        p, error=lambda path, problem, fix: SweepSpecError(f"{path}: {problem} ({fix})")
+    )
     data = apply_spec_sets(data, sets or {}, str(p))
     base = p.parent
     inp = data.get("input")
