@@ -301,6 +301,10 @@ def _engine_run(scene, advances_mm: np.ndarray, budget_s: float | None):
     from ringqa.simulation.solvers.driver import run
     from ringqa.units import m_to_mm, mm_to_m
 
+    if getattr(getattr(scene, "model", None), "formulation", "rigid") != "rigid":
+        from ringqa.simulation import simulate  # another engine: no budget inside its run
+
+        run = lambda sc, adv, deadline=None: simulate(sc, advances_mm=m_to_mm(adv))  # noqa: E731
     deadline = None if budget_s is None else time.perf_counter() + budget_s
     res = run(scene, mm_to_m(advances_mm), deadline=deadline)
     if res.settings.get("budget_exceeded"):
