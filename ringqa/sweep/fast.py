@@ -50,6 +50,7 @@ __all__ = [
     "prepare",
     "prepared",
     "run_cheap_batch",
+    "tick",
 ]
 
 #: Wall-clock budget of one sample's engine run when no calibration set one, s.
@@ -438,10 +439,31 @@ def run_cheap_batch(
     batch: Sequence[tuple[int, Sequence]],
     error_mm: Sequence[float] | None,
     budget_s: float | None,
+    progress: str | None = None,
 ) -> list[SampleRecord]:
-    """The Dask task of a calibrated sweep: :func:`cheap_sample` of every ``(index, values)``."""
+    """The Dask task of a calibrated sweep: :func:`cheap_sample` of every ``(index, values)``;
+    ``progress``: the name of a ``distributed.Queue`` told of every finished sample (the
+    command's progress bar moves per sample)."""
     err = None if error_mm is None else np.asarray(error_mm, dtype=float)
-    return [cheap_sample(job, i, v, err, budget_s) for i, v in batch]
+    out = []
+    for i, v in batch:
+        out.append(cheap_sample(job, i, v, err, budget_s))
+        tick(progress)
+    return out
+
+
+def tick(queue: str | None) -> None:
+    """Put one item on the ``distributed.Queue`` named ``queue`` (nothing without a name, or
+    outside a worker; a failure is ignored: it only moves a progress bar)."""
+    if queue is None:
+        return
+    try:
+        from distributed import Queue, get_worker
+
+        get_worker()
+        Queue(queue).put(1, timeout=1)
+    except Exception:
+        return
 
 
 def calibrate_one(job: Job, index: int, values: Sequence) -> dict:

@@ -156,7 +156,7 @@ def test_killing_a_worker_mid_sweep_loses_nothing(
 
 @pytest.mark.slow
 def test_interrupted_sweep_resumes_without_recomputing(tmp_path, spec_writer):
-    """A real ``ringqa sweep`` process stopped with SIGINT after its first stored sample exits
+    """A real ``ringqa sweep`` process stopped with SIGINT after its first samples exits
     130 and keeps samples.h5; the same command again computes only the samples not stored
     (computed now = 40 - stored), each index once. (40 cheap samples of ~0.1 s: with 6 the
     sweep finished before the signal came.)"""
@@ -187,7 +187,9 @@ def test_interrupted_sweep_resumes_without_recomputing(tmp_path, spec_writer):
     env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[2])}
     proc = subprocess.Popen(cmd, stderr=subprocess.PIPE, stdout=subprocess.PIPE, env=env)
     seen = b""
-    while not re.search(rb"\b([1-9]|[1-2][0-9])/40", seen):
+    # the bar moves per sample finished on the worker, a little ahead of samples.h5: wait
+    # for 5 (the first tasks of one sample each are stored by then)
+    while not re.search(rb"\b([5-9]|[1-2][0-9])/40", seen):
         ch = proc.stderr.read(1)
         assert ch, seen.decode(errors="replace")
         seen += ch
