@@ -64,6 +64,10 @@ HANDLED_SIGNALS: tuple[signal.Signals, ...] = (signal.SIGINT, signal.SIGTERM, si
 #: how many foreign files a refusal names (then "and N more")
 NAMED_FILES = 5
 
+#: how often a commit (or the reading of a folder) is tried again when another ringqa run put
+#: its output in place meanwhile
+COMMIT_ATTEMPTS = 8
+
 _COMMAND: contextvars.ContextVar[str] = contextvars.ContextVar("ringqa_command", default="")
 _UMASK_LOCK = threading.Lock()
 
@@ -202,8 +206,9 @@ def _walk(folder: Path) -> tuple[list[str], list[str]]:
 
 
 def list_files(folder: Path, unhashed: Iterable[str] = ()) -> dict:
-    """The file list a marker records for ``folder``: ``files`` (path, size in bytes, SHA-256)
-    and ``folders`` (paths), the marker itself left out.
+    """The file list a marker records for ``folder``: ``files`` (path, size in bytes, SHA-256,
+    modification time in ns) and ``folders`` (paths), the marker itself left out. A later check
+    hashes a file again only when its modification time differs from the recorded one.
 
     Parameters
     ----------
@@ -220,11 +225,13 @@ def list_files(folder: Path, unhashed: Iterable[str] = ()) -> dict:
         if rel == MARKER_NAME:
             continue
         p = folder / rel
+        st = p.lstat()
         entries.append(
             {
                 "path": rel,
-                "size": p.lstat().st_size,
+                "size": st.st_size,
                 "sha256": None if rel in skip else sha256_file(p),
+                "mtime_ns": st.st_mtime_ns,
             }
         )
     return {"files": entries, "folders": folders}
@@ -273,8 +280,8 @@ def _unchanged(path: Path, entry: dict) -> bool:
     if entry.get("size") is not None and st.st_size != entry.get("size"):
         return False
     digest = entry.get("sha256")
-    if digest is None:
-        return True
+    if digest is None or entry.get("mtime_ns") == st.st_mtime_ns:
+        return True  # a cache, or not touched since (a rename keeps the time): no hashing
     try:
         return sha256_file(path) == digest
     except OSError:
@@ -283,6 +290,10 @@ def _unchanged(path: Path, entry: dict) -> bool:
 
 def folder_state(out: Path, ours: Iterable[str] = ()) -> FolderState:
     """Classify the output folder ``out`` (see :class:`FolderState`).
+
+    The folder is read by path; if another run put its own output in ``out``'s place while it
+    was being read (its identity, device and inode, changed), it is read again, so that a
+    marker and files of two different folders are never compared.
 
     Parameters
     ----------
@@ -293,18 +304,37 @@ def folder_state(out: Path, ours: Iterable[str] = ()) -> FolderState:
         study's run cache): never foreign.
     """
     out = Path(out)
+    ours = tuple(ours)
+    state = FolderState("missing")
+    for _ in range(COMMIT_ATTEMPTS):
+        before = _identity(out)
+        state = _classify(out, ours)
+        if _identity(out) == before:
+            break
+    return state
+
+
+def _identity(path: Path) -> tuple[int, int] | None:
+    try:
+        st = path.lstat()
+    except OSError:
+        return None
+    return st.st_dev, st.st_ino
+
+
+def _classify(out: Path, ours: tuple[str, ...]) -> FolderState:
     if not out.exists() and not out.is_symlink():
         return FolderState("missing")
     files, folders = _walk(out)
     if not files and not folders:
         return FolderState("empty")
-    ours = set(ours)
+    own = set(ours)
     data = read_marker(out)
     listed = None if data is None else _listed(data)
     recorded, recorded_dirs = listed if listed is not None else ({}, set())
     foreign: list[str] = []
     for rel in files:
-        if rel in ours or (rel == MARKER_NAME and data is not None):
+        if rel in own or (rel == MARKER_NAME and data is not None):
             continue
         if rel in recorded:
             if not _unchanged(out / rel, recorded[rel]):
@@ -521,6 +551,17 @@ def check_out_path(out_dir: str | Path) -> Path:
         raise RingQAError(
             f"--out {out}: folder {probe} is not writable (choose a folder you can write to)"
         )
+    try:
+        name_max = os.pathconf(probe, "PC_NAME_MAX")
+    except (OSError, ValueError):
+        name_max = 255
+    longest = len(os.fsencode(f".{out.name}.staging-{os.getpid()}-xxxxxxxx"))
+    if name_max and longest > name_max:
+        raise RingQAError(
+            f"--out {out}: the folder name is {len(os.fsencode(out.name))} bytes long; with "
+            f"ringqa's staging suffix it passes the file system's {name_max} (choose a name "
+            f"of at most {name_max - longest + len(os.fsencode(out.name))} bytes)"
+        )
     return out
 
 
@@ -629,6 +670,9 @@ def carry_over(out: Path, stage: Path, names: Iterable[str]) -> None:
             shutil.copy2(src, dst)
 
 
+_RACED = (errno.ENOTEMPTY, errno.EEXIST)
+
+
 def commit_folder(stage: Path, out: Path, ours: Iterable[str] = ()) -> None:
     """Put the finished staging folder ``stage`` in the place of ``out``.
 
@@ -639,6 +683,11 @@ def commit_folder(stage: Path, out: Path, ours: Iterable[str] = ()) -> None:
     listed files of the old folder deleted; anything else found there is kept
     (:func:`_delete_owned`).
 
+    Runs into the same ``out`` at once: when another run's output lands in ``out`` between
+    this run's check and its rename (the rename then fails with ENOTEMPTY), the check is made
+    again and the commit repeated (at most :data:`COMMIT_ATTEMPTS` times), so that the last run
+    to finish leaves one complete folder and no hidden one.
+
     Raises
     ------
     RingQAError
@@ -648,6 +697,17 @@ def commit_folder(stage: Path, out: Path, ours: Iterable[str] = ()) -> None:
         If a rename fails (``out`` is then as it was).
     """
     ours = tuple(ours)
+    for _ in range(COMMIT_ATTEMPTS):
+        if _commit_once(stage, out, ours):
+            return
+    raise RingQAError(
+        f"--out {out}: other ringqa runs kept putting their output in place while this one "
+        f"tried {COMMIT_ATTEMPTS} times; nothing of this run was written (run it again)"
+    )
+
+
+def _commit_once(stage: Path, out: Path, ours: tuple[str, ...]) -> bool:
+    """One attempt of :func:`commit_folder`; False when another run's output got in first."""
     state = folder_state(out, ours)
     if state.kind == "foreign":
         raise RingQAError(foreign_message(out, state, at_commit=True))
@@ -655,16 +715,16 @@ def commit_folder(stage: Path, out: Path, ours: Iterable[str] = ()) -> None:
         try:
             os.replace(stage, out)  # POSIX: replaces an empty folder in one step
         except OSError as exc:
-            if exc.errno not in (errno.ENOTEMPTY, errno.EEXIST):
+            if exc.errno not in _RACED:
                 raise
-            # a file arrived in the empty folder just now
-            raise RingQAError(
-                foreign_message(out, folder_state(out, ours), at_commit=True)
-            ) from None
-        return
+            return False  # something arrived just now: look again
+        return True
     aside = Path(tempfile.mkdtemp(prefix=f".{out.name}.old-{os.getpid()}-", dir=_parent(out)))
     try:
         os.replace(out, aside)
+    except FileNotFoundError:  # another run set it aside first
+        aside.rmdir()
+        return False
     except BaseException:
         aside.rmdir()
         raise
@@ -674,10 +734,23 @@ def commit_folder(stage: Path, out: Path, ours: Iterable[str] = ()) -> None:
         raise RingQAError(foreign_message(out, again, at_commit=True))
     try:
         os.replace(stage, out)
+    except OSError as exc:
+        if exc.errno in _RACED and folder_state(out, ours).kind != "foreign":
+            # another run's complete output landed meanwhile (and may be set aside by a third
+            # already): the set-aside one (checked just now) is superseded; remove what ringqa
+            # wrote there and try again
+            _report_kept(out, _delete_owned(aside, again))
+            return False
+        _put_back(aside, out)
+        raise
     except BaseException:
         _put_back(aside, out)
         raise
-    kept = _delete_owned(aside, again)
+    _report_kept(out, _delete_owned(aside, again))
+    return True
+
+
+def _report_kept(out: Path, kept: Path | None) -> None:
     if kept is not None:
         _say(f"kept files that reached the earlier output of {out} during the run in {kept}")
 

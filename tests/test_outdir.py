@@ -380,10 +380,13 @@ def test_folders_and_files_follow_the_umask(tmp_path):
         os.umask(old)
 
 
-@pytest.mark.parametrize("kind", ["symlink", "dot", "parent_of_cwd", "file", "below_a_file"])
+@pytest.mark.parametrize(
+    "kind", ["symlink", "dot", "parent_of_cwd", "file", "below_a_file", "name_too_long"]
+)
 def test_bad_out_paths_are_refused_at_once(tmp_path, monkeypatch, kind):
-    """--out as a symbolic link, '.', a folder holding the current folder, a file, or a path
-    below a file: refused by check_writable with the reason; nothing created."""
+    """--out as a symbolic link, '.', a folder holding the current folder, a file, a path
+    below a file, or a name too long for its staging folder's (255-byte names): refused by
+    check_writable with the reason; nothing created."""
     real = tmp_path / "real"
     real.mkdir()
     monkeypatch.chdir(real)
@@ -393,6 +396,7 @@ def test_bad_out_paths_are_refused_at_once(tmp_path, monkeypatch, kind):
         "parent_of_cwd": str(tmp_path),
         "file": tmp_path / "f.txt",
         "below_a_file": tmp_path / "f.txt" / "out",
+        "name_too_long": tmp_path / ("a" * 240),  # + ".staging-PID-XXXXXXXX" > 255 bytes
     }
     (tmp_path / "link").symlink_to(real)
     (tmp_path / "f.txt").write_text("x")
@@ -402,6 +406,7 @@ def test_bad_out_paths_are_refused_at_once(tmp_path, monkeypatch, kind):
         "parent_of_cwd": "current folder",
         "file": "not a folder",
         "below_a_file": "is a file",
+        "name_too_long": "the folder name is 240 bytes long",
     }
     before = sorted(p.name for p in tmp_path.iterdir())
     with pytest.raises(RingQAError, match=words[kind]):
@@ -419,3 +424,53 @@ def test_sighup_is_handled_like_sigterm(tmp_path):
         time.sleep(5)
     assert info.value.exit_status == 129
     assert list(tmp_path.iterdir()) == []
+
+
+def _concurrent_writer(out: str, k: int, start: float) -> None:
+    """A child process: wait for the common start, write a folder of 20 files, commit it."""
+    with staged_output(out) as stage:
+        for i in range(20):
+            (stage / f"f{i}.csv").write_text(f"run {k} file {i}\n")
+        time.sleep(max(0.0, start - time.time()))  # all commit at about the same moment
+    os._exit(0)
+
+
+def test_concurrent_runs_leave_one_complete_folder(tmp_path):
+    """Six processes commit into the same --out at the same moment, three times over: every one
+    exits 0, the folder holds one run's 20 files (all from the same run, as its marker lists
+    them) and nothing hidden is left beside it (the retry when another run's output lands
+    between a check and a rename)."""
+    import multiprocessing
+
+    ctx = multiprocessing.get_context("fork")
+    out = tmp_path / "out"
+    for _ in range(3):
+        start = time.time() + 0.5
+        procs = [ctx.Process(target=_concurrent_writer, args=(str(out), k, start))
+                 for k in range(6)]  # fmt: skip
+        for p in procs:
+            p.start()
+        for p in procs:
+            p.join(60)
+        assert [p.exitcode for p in procs] == [0] * 6
+        marker = json.loads((out / MARKER_NAME).read_text())
+        assert sorted(e["path"] for e in marker["files"]) == sorted(f"f{i}.csv" for i in range(20))
+        runs = {(out / f"f{i}.csv").read_text().split(" file")[0] for i in range(20)}
+        assert len(runs) == 1, runs
+        assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
+
+
+def test_a_same_size_change_is_found_by_its_checksum(tmp_path):
+    """report.pdf rewritten with other bytes of the same length (its time changed): refused by
+    the SHA-256; the same bytes only touched (time changed, checksum equal): replaced as
+    ringqa's."""
+    out = _earlier_output(tmp_path / "out", ("report.pdf",))
+    (out / "report.pdf").write_text("OLD")  # 3 bytes, as "old"
+    os.utime(out / "report.pdf", ns=(1, 1))
+    with pytest.raises(RingQAError, match=r"report.pdf \(changed since ringqa wrote it\)"):
+        check_writable(out)
+    (out / "report.pdf").write_text("old")
+    os.utime(out / "report.pdf", ns=(2, 2))
+    with staged_output(out) as stage:
+        (stage / "new.csv").write_text("new")
+    assert sorted(p.name for p in out.iterdir()) == [MARKER_NAME, "new.csv"]

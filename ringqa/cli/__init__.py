@@ -33,7 +33,7 @@ from pathlib import Path
 
 from ringqa import __version__
 from ringqa.errors import RingQAError
-from ringqa.outdir import OutputInterrupted, check_out_path, running_command
+from ringqa.outdir import OutputInterrupted, check_out_path, check_writable, running_command
 from ringqa.textio import terminal_text
 
 # command name -> module (imported lazily so that `ringqa --help` stays fast)
@@ -126,6 +126,9 @@ def main(argv: list[str] | None = None) -> int:
             handlers = configure_logging(args.verbose, args.log_file)
         except RingQAError as exc:
             print(f"ringqa {args.command}: error: {exc}", file=sys.stderr)
+            return 2
+        except OSError as exc:  # removing a left-over staging folder, reading --out
+            print(os_error_line(args.command, exc, getattr(args, "out", None)), file=sys.stderr)
             return 2
         words = sys.argv[1:] if argv is None else argv
         logging.getLogger(__name__).debug("ringqa %s: ringqa %s", __version__, " ".join(words))
@@ -243,13 +246,18 @@ def console_main() -> None:
 class LogFileHandler(logging.FileHandler):
     """The ``--log-file`` handler: when the file stops accepting lines (a full disk, a
     device like /dev/full) it says so once on standard error and writes nothing more, instead of
-    a traceback per record and an exit status 1 after a finished run."""
+    a traceback per record and an exit status 1 after a finished run. Control characters of
+    logged text are escaped as on the terminal."""
 
     failed: BaseException | None = None
 
     def emit(self, record: logging.LogRecord) -> None:
         if self.failed is None:
             super().emit(record)
+
+    def format(self, record: logging.LogRecord) -> str:
+        """The record as a line, control characters from files escaped (``cat run.log``)."""
+        return terminal_text(super().format(record))
 
     def handleError(self, record: logging.LogRecord) -> None:
         exc = sys.exc_info()[1]
@@ -360,20 +368,35 @@ def _run(args: argparse.Namespace) -> int:
         return 130
 
 
+#: commands that keep a cache in their --out folder while they work (checked by the command)
+KEEPS_CACHE = frozenset({"accuracy", "sweep"})
+
+
 def check_paths(args: argparse.Namespace) -> None:
-    """Check ``--out`` (:func:`ringqa.outdir.check_out_path`) and that ``--log-file`` does not
-    lie inside it, before any work.
+    """Check ``--out`` (:func:`ringqa.outdir.check_out_path`) and that ``--log-file`` neither
+    lies inside it nor is one of the command's input files, before any work.
 
     Raises
     ------
     RingQAError
         Naming the option, the reason and the fix.
     """
+    log = getattr(args, "log_file", None)
+    if log is not None and Path(log).is_file():
+        for name, value in vars(args).items():
+            values = value if isinstance(value, list | tuple) else [value]
+            for v in values:
+                if name != "log_file" and isinstance(v, str | Path) and _same_file(v, log):
+                    raise RingQAError(
+                        f"--log-file {log}: is also an input of the command ({v}); the log "
+                        "would be appended to it (give a separate log file)"
+                    )
     out = getattr(args, "out", None)
     if out is None:
         return
     check_out_path(out)
-    log = getattr(args, "log_file", None)
+    if getattr(args, "command", None) not in KEEPS_CACHE:  # these check with their cache's name
+        check_writable(out)  # the folder's content too: a foreign file refused at once
     if log is not None:
         out_abs, log_abs = Path(out).resolve(), Path(log).resolve()
         if out_abs in log_abs.parents:
@@ -381,6 +404,13 @@ def check_paths(args: argparse.Namespace) -> None:
                 f"--log-file {log}: lies inside --out {out}, which ringqa replaces as a whole "
                 "(put the log file beside the output folder)"
             )
+
+
+def _same_file(a, b) -> bool:
+    try:
+        return os.path.samefile(a, b)
+    except (OSError, ValueError, TypeError):
+        return False
 
 
 #: what to do about an operating-system error, by errno

@@ -208,7 +208,15 @@ def applicator_from_rtplan(plan):
         if any(c.name == name for c in channels):
             name = f"{name}_{number}"
         cl_mm = lc.centreline_mm
-        centreline = Centreline.from_points(mm_to_m(cl_mm))
+        try:
+            centreline = Centreline.from_points(mm_to_m(cl_mm))
+        except GeometryError as exc:  # e.g. more points than MAX_POINTS: name the plan
+            raise InputFileError(
+                plan.path,
+                f"library part {lc.part_id} (channel {number}) centreline: "
+                + str(exc).removeprefix("points_m: "),
+                "export the plan again, or give the applicator instead",
+            ) from None
         diam = lc.lumen_diameter_mm
         if diam is None:
             raise InputFileError(

@@ -239,7 +239,7 @@ def path_uncertainty(p, extra: dict, n: int, labels, kind: str) -> tuple[np.ndar
 def _check_line_count(p: Path, text: str, kind: str) -> None:
     """Refuse a CSV with more data rows than a centreline or path may have before parsing it
     (issue 25: a 10^6-row file took 10 s and 800 MB to parse before any check)."""
-    if text.count("\n") <= MAX_POINTS:
+    if max(text.count("\n"), text.count("\r")) <= MAX_POINTS:  # also old Mac line ends
         return
     rows = sum(1 for line in text.splitlines() if line.strip() and not line.lstrip()[:1] == "#")
     too_many = point_count_problem(rows - 1, KIND_NAMES[kind])

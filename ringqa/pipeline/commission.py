@@ -71,6 +71,7 @@ from ringqa.pipeline.result import CommissioningResult, RunSettings, Timings
 from ringqa.pipeline.settings import CommissionSettings
 from ringqa.pipeline.simulate import (
     NUMERICAL_ERROR_WARN_MM,
+    WORK_BALANCE_WARNING,
     Engine,
     check_clearance,
     choose_cable,
@@ -371,6 +372,11 @@ def _commission_loaded(input, loaded, cfg, *, engine, progress, t_start, load_s)
         "the tandem is not simulated, so its dwells are the same in all plans."
     )
     warnings = collect_warnings(loaded, app, cfg, src, cable.preset, verdicts)
+    warnings += tuple(  # the engine's work balance (issue 25): on the terminal and page 1
+        named_warning("simulation.work_balance", w)
+        for w in simulated.info.warnings
+        if w.startswith(WORK_BALANCE_WARNING)
+    )
     notes = (
         *(f"Warning [{n}]: {m}" for n, m in map(split_warning, warnings)),
         *(n for n in src.notes if split_warning(n, "")[0] == ""),

@@ -910,6 +910,10 @@ def cross_check_run(
 #: Engine warnings about the fallback stabilisation start with a count and contain this; the
 #: report states them in plain words (:func:`numerical_text`) instead.
 _STABILISATION_WARNING = "needed the fallback stabilisation"
+#: The engine's work balance warning starts with this
+#: (``ringqa.simulation.plausibility.WORK_BALANCE_TEXT``); the commissioning run makes it the
+#: named warning ``simulation.work_balance`` (terminal, results.json, the report's page 1).
+WORK_BALANCE_WARNING = "the work balance does not close"
 
 
 def simulation_notes(info: SimulationInfo, cable: CableChoice) -> list[str]:
@@ -924,7 +928,11 @@ def simulation_notes(info: SimulationInfo, cable: CableChoice) -> list[str]:
         The cable simulated and why.
     """
     notes = [cable.note]
-    other = [w for w in info.warnings if _STABILISATION_WARNING not in w]
+    other = [
+        w
+        for w in info.warnings
+        if _STABILISATION_WARNING not in w and not w.startswith(WORK_BALANCE_WARNING)
+    ]  # the work balance warning is a named warning of the run (pipeline.commission)
     if other:
         notes.append("Simulation warnings: " + "; ".join(other))
     return notes

@@ -73,9 +73,23 @@ def simulate(scene, advances_mm=None, progress: bool = False) -> SimResult:
     if not np.all(np.isfinite(adv)):
         raise SimulationError("advances_mm: all advances must be finite numbers (mm)")
     if getattr(getattr(scene, "model", None), "formulation", "rigid") == "flexible":
+        from ringqa.simulation.channel import ChannelTable
         from ringqa.simulation.flexible import run_flexible
+        from ringqa.simulation.plausibility import (
+            check_wall_stiffness,
+            checked_result,
+            flexible_ei_nm2,
+        )
 
-        return run_flexible(scene, adv, progress=progress)
+        table = ChannelTable.from_channel(  # the monitor's (issue 25)
+            getattr(scene, "simulated_channel", scene.channel))  # fmt: skip
+        secs = scene.instrument.sections
+        r_o = max(float(sec.r_o_m) for sec in secs)
+        scale = float(getattr(scene.instrument, "ei_scale", 1.0))  # instrument.ei_scale
+        ei = flexible_ei_nm2([sec.ei_nm2 * scale for sec in secs
+                              if not getattr(sec, "rigid", False)])  # fmt: skip
+        check_wall_stiffness(scene, table, float(np.min(table.seg_rb)) - r_o, ei)
+        return checked_result(run_flexible(scene, adv, progress=progress), scene, table)
     from ringqa.simulation.solvers.driver import run
 
     return run(scene, adv, progress=progress)

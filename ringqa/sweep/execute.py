@@ -48,9 +48,12 @@ TASKS_PER_WORKER = 4
 def one_core() -> None:
     """This process runs one sample at a time on one core: its commissioning runs fork no
     children (the sweep's workers use the cores already)."""
+    import numba
+
     import ringqa.pipeline.simulate as simulate
 
     simulate.CONCURRENT_RUNS = False
+    numba.set_num_threads(1)  # a remote cluster's workers too (a local one starts with 1)
 
 
 def warm_worker(job: Job, nominal: Sequence, cheap: bool = False) -> str:
@@ -130,10 +133,54 @@ def stream(
     nominal: Sequence | None = None,
     task: Callable[..., list[SampleRecord]] = run_batch,
     task_args: Sequence = (),
+    ticks: tuple[str, Callable[[int], None]] | None = None,
 ) -> None:
     """Run ``todo`` on the cluster; call ``on_batch`` with each finished batch's records
     (``nominal``: the values each worker runs once first, to warm its numba kernels; ``task``:
-    the Dask task, ``task(job, batch, *task_args)``, default :func:`run_batch`)."""
+    the Dask task, ``task(job, batch, *task_args)``, default :func:`run_batch`; ``ticks``: the
+    name of the ``distributed.Queue`` the task puts an item on per finished sample and the
+    function called, from a thread here, with the number of new items)."""
+
+    with _pumping(client, ticks):
+        _stream(client, job, todo, batch_size, on_batch, nominal, task, task_args)
+
+
+@contextlib.contextmanager
+def _pumping(client, ticks):
+    """A thread that empties the ``ticks`` queue every 0.2 s into its function (none: nothing)."""
+    if ticks is None:
+        yield
+        return
+    import threading
+
+    from distributed import Queue
+
+    name, fn = ticks
+    stop = threading.Event()
+    queue = Queue(name, client=client)
+
+    def pump() -> None:
+        while True:
+            done = stop.wait(0.2)
+            try:
+                n = len(queue.get(batch=True))
+            except Exception:
+                return
+            if n:
+                fn(n)
+            if done:
+                return
+
+    thread = threading.Thread(target=pump, name="ringqa-sweep-progress", daemon=True)
+    thread.start()
+    try:
+        yield
+    finally:
+        stop.set()
+        thread.join(timeout=5)
+
+
+def _stream(client, job, todo, batch_size, on_batch, nominal, task, task_args) -> None:
     from distributed import as_completed
 
     # warm each worker once (numba cache); workers that join later warm on their first task

@@ -27,6 +27,7 @@ message that says so (never an endless sample).
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import json
 import os
@@ -49,6 +50,7 @@ __all__ = [
     "prepare",
     "prepared",
     "run_cheap_batch",
+    "tick",
 ]
 
 #: Wall-clock budget of one sample's engine run when no calibration set one, s.
@@ -171,13 +173,6 @@ class NumericalBound:
         }
 
 
-def _nominal_like(job: Job) -> list:
-    """Placeholder values (only the non-varied settings are read from them)."""
-    from ringqa.pipeline.uncertainty import PERTURBATION_KEYS
-
-    return [PERTURBATION_KEYS[k][0] if k in PERTURBATION_KEYS else 0.0 for k in job.names]
-
-
 def prepare(job: Job) -> Prepared:
     """The sample-independent part of a commissioning run of ``job`` (the steps of
     :func:`ringqa.pipeline.commission` before and around the simulation).
@@ -202,7 +197,8 @@ def prepare(job: Job) -> Prepared:
     from ringqa.plan import points_array_mm
     from ringqa.units import m_to_mm, mm_to_m
 
-    cfg, _ = commission_settings(job, _nominal_like(job))  # the settings every sample shares
+    # the settings every sample shares (the varied keys left out)
+    cfg, _ = commission_settings(dataclasses.replace(job, names=()), ())
     if cfg.centreline_correction is not None:  # pragma: no cover - not a sweep setting
         raise ValueError("a centreline correction is not supported by the cheap sample")
     loaded = load_input(job.input)
@@ -306,6 +302,10 @@ def _engine_run(scene, advances_mm: np.ndarray, budget_s: float | None):
     from ringqa.simulation.solvers.driver import run
     from ringqa.units import m_to_mm, mm_to_m
 
+    if getattr(getattr(scene, "model", None), "formulation", "rigid") != "rigid":
+        from ringqa.simulation import simulate  # another engine: no budget inside its run
+
+        run = lambda sc, adv, deadline=None: simulate(sc, advances_mm=m_to_mm(adv))  # noqa: E731
     deadline = None if budget_s is None else time.perf_counter() + budget_s
     res = run(scene, mm_to_m(advances_mm), deadline=deadline)
     if res.settings.get("budget_exceeded"):
@@ -439,10 +439,31 @@ def run_cheap_batch(
     batch: Sequence[tuple[int, Sequence]],
     error_mm: Sequence[float] | None,
     budget_s: float | None,
+    progress: str | None = None,
 ) -> list[SampleRecord]:
-    """The Dask task of a calibrated sweep: :func:`cheap_sample` of every ``(index, values)``."""
+    """The Dask task of a calibrated sweep: :func:`cheap_sample` of every ``(index, values)``;
+    ``progress``: the name of a ``distributed.Queue`` told of every finished sample (the
+    command's progress bar moves per sample)."""
     err = None if error_mm is None else np.asarray(error_mm, dtype=float)
-    return [cheap_sample(job, i, v, err, budget_s) for i, v in batch]
+    out = []
+    for i, v in batch:
+        out.append(cheap_sample(job, i, v, err, budget_s))
+        tick(progress)
+    return out
+
+
+def tick(queue: str | None) -> None:
+    """Put one item on the ``distributed.Queue`` named ``queue`` (nothing without a name, or
+    outside a worker; a failure is ignored: it only moves a progress bar)."""
+    if queue is None:
+        return
+    try:
+        from distributed import Queue, get_worker
+
+        get_worker()
+        Queue(queue).put(1, timeout=1)
+    except Exception:
+        return
 
 
 def calibrate_one(job: Job, index: int, values: Sequence) -> dict:

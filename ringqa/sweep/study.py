@@ -22,6 +22,7 @@ import platform
 import signal
 import sys
 import time
+import uuid
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -186,7 +187,8 @@ def run_sweep(
         nominal_s = time.perf_counter() - t0
         cheap = spec.numerics == "calibrated"
         nom_cheap = None
-        if cheap:  # the nominal cheap sample: prepares this process, times a sample
+        if cheap:  # the nominal cheap sample: prepares this process, then times a sample
+            cheap_sample(job, -1, nominal, None, None)
             nom_cheap = cheap_sample(job, -1, nominal, None, None)
             if not nom_cheap.ok:
                 raise RingQAError(
@@ -221,18 +223,21 @@ def run_sweep(
             t_run = time.perf_counter()
 
             guard = _AppendGuard()
+            shown = _Shown(bar, len(done), len(table))
 
             def on_batch(records: list[SampleRecord]) -> None:
                 with guard:
                     st.append(records)
-                bar.update(len(records))
+                shown.stored(len(records))
 
             try:
                 with guard.installed():
                     if todo and cheap:
                         err = None if bound is None else [float(x) for x in bound.error_mm]
+                        ticks = f"ringqa-sweep-{uuid.uuid4().hex}" if progress else None
                         stream(cl, job, todo, batch_size, on_batch, nominal, run_cheap_batch,
-                               (err, budget_s))  # fmt: skip
+                               (err, budget_s, ticks),
+                               None if ticks is None else (ticks, shown.ticked))  # fmt: skip
                     elif todo:
                         stream(cl, job, todo, batch_size, on_batch, nominal)
             finally:
@@ -358,6 +363,34 @@ def _write(out, summ, sens, record, samples, nominal_mm, reference_mm, title) ->
         write_json(stage / "sweep.json", record)
         fig = uncertainty_figure(samples, nominal_mm, reference_mm, summ, title)
         fig.savefig(stage / "uncertainty.png", dpi=110)
+
+
+class _Shown:
+    """The progress bar's count: samples finished on the workers (per sample, from the tasks'
+    ticks) or stored (per task), whichever is ahead, never past the total (a retried task ticks
+    twice)."""
+
+    def __init__(self, bar, done: int, total: int) -> None:
+        import threading
+
+        self.bar, self.total = bar, total
+        self.n_stored = self.n_ticked = done
+        self.lock = threading.Lock()
+
+    def _show(self) -> None:
+        n = min(self.total, max(self.n_stored, self.n_ticked))
+        if n > self.bar.n:
+            self.bar.update(n - self.bar.n)
+
+    def stored(self, k: int) -> None:
+        with self.lock:
+            self.n_stored += k
+            self._show()
+
+    def ticked(self, k: int) -> None:
+        with self.lock:
+            self.n_ticked += k
+            self._show()
 
 
 class _AppendGuard:

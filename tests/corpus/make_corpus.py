@@ -776,8 +776,13 @@ def _output(c: Path) -> list[Case]:
         setup="saved_during_rerun")  # fmt: skip
     add("out_symlink", [*imp, "{out}"], 2, "symbolic link", setup="symlink")
     add("out_dot", [*imp, "."], 2, "current folder")
+    add("out_name_too_long", [*imp, "{c}/" + "o" * 240], 2, "240 bytes long")
     add("out_log_inside", ["--log-file", "{out}/run.log", *imp, "{out}"], 2, "inside --out")
     add("out_log_dev_full", ["--log-file", "/dev/full", *imp, "{out}"], 2, "No space left")
+    (c / "log_target.dcm").write_bytes(PLAN.read_bytes())
+    add("out_log_is_the_input", ["--log-file", "{c}/log_target.dcm", "import",
+        "{c}/log_target.dcm", "--out", "{out}"], 2, "also an input",
+        setup="log_target")  # fmt: skip
     add("out_stdout_closed", [*imp, "{out}"], 0, "standard output could not be written",
         setup="stdout_epipe", check=_has_plan_json)  # fmt: skip
 

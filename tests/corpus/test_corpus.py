@@ -150,6 +150,9 @@ def _arrange(case: Case, corpus: Path, out: Path, monkeypatch, capsys) -> dict:
         monkeypatch.setattr(sys, "stdout", Closed())
     elif setup == "umask022":
         after["restore_umask"] = os.umask(0o022)
+    elif setup == "log_target":  # the plan named as --log-file too: not a byte appended
+        target = corpus / "log_target.dcm"
+        after["unchanged"] = {target: target.read_bytes()}
     elif setup == "no_raw_escape":
         after["no_raw_escape"] = True
     elif setup == "staging":

@@ -181,15 +181,16 @@ def test_exported_plan_names_ringqa_as_its_maker(exported):
 def test_results_json_lists_the_export_with_sha256(repo_root, example_result, tmp_path):
     """write_report with export: results.json 'export' lists both files with their size and
     SHA-256 (recomputed here with hashlib) and 'files' names them; the report's note names
-    them (export_note)."""
+    them (export_note), and the PDF holds that line."""
     import hashlib
     import json
 
     from ringqa.io.export_tps import check_export, export_note
     from ringqa.report import write_report
+    from tests.report.conftest import pdf_pages_text
 
     out = tmp_path / "out"
-    write_report(example_result, out, pdf=False, export=True)
+    write_report(example_result, out, pdf=True, export=True)
     record = json.loads((out / "results.json").read_text())
     names = ["export/source_path_ring.csv", "export/RP_simulated.dcm"]
     assert [e["path"] for e in record["export"]] == names
@@ -199,3 +200,5 @@ def test_results_json_lists_the_export_with_sha256(repo_root, example_result, tm
     assert set(names) <= set(record["files"])
     (line,) = export_note(check_export(example_result))
     assert all(n in line for n in names)
+    text = " ".join(pdf_pages_text(out / "report.pdf")).replace("\r\n", " ")
+    assert "Exported for the planning system: export/source_path_ring.csv, " in text

@@ -27,6 +27,14 @@ from ringqa.provenance import Provenance
 from ringqa.simulation._kernels import restore_lengths
 from ringqa.simulation.effects.base import Samples
 from ringqa.simulation.model import Model
+from ringqa.simulation.plausibility import (
+    PAPER_STIFFNESS,
+    check_wall_stiffness,
+    flexible_ei_nm2,
+    outside_lumen,
+    outside_message,
+    work_balance_warning,
+)
 from ringqa.simulation.result import (
     STATUS_FAILED,
     STATUS_SUCCESS,
@@ -200,6 +208,7 @@ def run(
     schedule = Schedule(model, advances_m, history_free)
     check_budget(schedule, scene)
     check_rigid_links_fit(model, advances_m)
+    check_wall_stiffness(scene, model.table, model.clearance, flexible_ei_nm2(model.chain.link_ei))
     monitor = Monitor(model, history_free)
     recorder = Recorder(model, advances_m, bool(scene.outputs.trajectory))
     stepper = Stepper(model, integrator, monitor, cut_grown=schedule.slide_grow)
@@ -273,24 +282,36 @@ def _result(scene, model, integrator, monitor, recorder, status, message, v, tim
     """The :class:`SimResult` of a finished run (messages, warnings, work, settings, counters)."""
     n_req = recorder.push_force_n.size
     max_pen = monitor.max_penetration_m
-    if status == STATUS_SUCCESS and max_pen > model.max_radius:
-        status = STATUS_FAILED
-        message = (
-            f"the instrument sank {max_pen * 1e3:.3f} mm into the wall, more than its "
-            f"{model.max_radius * 1e3:.3f} mm radius: its axis left the lumen, so its positions "
-            "mean nothing (raise contact.stiffness_n_m)"
-        )
-    elif status == STATUS_SUCCESS:
+    if status == STATUS_SUCCESS:
         message = f"reached all {n_req} requested advances"
     else:
         message += f"; {recorder.n_missing} of {n_req} requested advances not reached (NaN rows)"
+    if status != STATUS_FAILED and max_pen > model.max_radius:  # a jam in the wall: no result
+        sank = (
+            f"the instrument sank {max_pen * 1e3:.3f} mm into the wall, more than its "
+            f"{model.max_radius * 1e3:.3f} mm radius: its axis left the lumen, so its positions "
+            f"mean nothing (raise contact.stiffness_n_m; {PAPER_STIFFNESS})"
+        )
+        message = sank if status == STATUS_SUCCESS else f"{sank}; {message}"
+        status = STATUS_FAILED
+    advances_mm = m_to_mm(np.asarray(recorder.advances_m, dtype=float))
+    outside = outside_lumen(
+        model.table, recorder.s_m, recorder.offset_m, recorder.tip_pos_m, advances_mm
+    )
+    if outside is not None:  # whatever the status: a jam outside the lumen is no result either
+        why = outside_message(outside, model.wall_stiffness_n_m, PAPER_STIFFNESS not in message)
+        message = why if status == STATUS_SUCCESS else f"{why}; {message}"
+        status = STATUS_FAILED
     work = monitor.work(v, model.dynamic)
     warnings = list(model.warnings)
+    unbalanced = work_balance_warning(work, scene, monitor.n_stabilised)
+    if unbalanced:
+        warnings.append(unbalanced)
     if PENETRATION_WARN * model.clearance < max_pen <= model.max_radius:
         warnings.append(
             f"the instrument sank up to {max_pen * 1e3:.3f} mm into the wall "
             f"({100 * max_pen / model.clearance:.0f} % of the clearance): raise "
-            "contact.stiffness_n_m for a tight lumen"
+            f"contact.stiffness_n_m for a tight lumen ({PAPER_STIFFNESS})"
         )
     if monitor.n_stabilised:
         warnings.append(
@@ -329,7 +350,7 @@ def _result(scene, model, integrator, monitor, recorder, status, message, v, tim
     return SimResult(
         status=status,
         message=message,
-        advances_mm=m_to_mm(np.asarray(recorder.advances_m, dtype=float)),
+        advances_mm=advances_mm,
         source_pos_m=recorder.source_pos_m,
         source_dir=recorder.source_dir,
         tip_pos_m=recorder.tip_pos_m,
