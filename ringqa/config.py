@@ -279,6 +279,15 @@ KEYS: tuple[ConfigKey, ...] = (
         "source serial and calibration (certificate, date)",
     ),
     ConfigKey("report.notes", "", "", "text", "free notes printed on the first page"),
+    ConfigKey(
+        "report.strict",
+        "",
+        False,
+        "flag",
+        "exit status 1 when a verdict is FAIL or ACTION (for scripts; the files are written "
+        "either way)",
+        option="--strict",
+    ),
 )
 _BY_KEY = {k.key: k for k in KEYS}
 TABLES = ("tolerances", "plan", "dose_points", "simulation", "scene", "report")

@@ -521,6 +521,30 @@ def accuracy_caption(table: pd.DataFrame) -> str:
     )
 
 
+def batch_distances(batch) -> tuple[list[np.ndarray], list[str], list[str]]:
+    """What :func:`batch_distances_figure` plots: per applicator and compared path, the 3D
+    distances the verdicts judge (to the registered reference, reference positions outside the
+    channel left out: :meth:`~ringqa.pipeline.result.CommissioningResult.compared_dwells`),
+    with the box's label and colour. Their medians and maxima are summary.csv's
+    ``median_dist_*`` / ``max_dist_*`` (``_registered`` for a registered run).
+
+    Returns
+    -------
+    (list of ndarray, list of str, list of str)
+        Distances (mm), labels, colours; one per box.
+    """
+    data, labels, colours = [], [], []
+    for r in batch.results:
+        for path in ("centreline", "simulated"):
+            if path == r.reference:
+                continue
+            data.append(r.compared_dwells(path)["dist_to_reference_mm"].to_numpy(dtype=float))
+            name = textwrap.shorten(r.applicator, 22, placeholder="...")
+            labels.append(f"{name}\n{path[:3]}. vs {r.reference[:4]}.")
+            colours.append(COLOURS[path])
+    return data, labels, colours
+
+
 def batch_distances_figure(batch, title: str | None = None):
     """Distances to the reference per applicator, like Figure 5 of Straathof et al. (2024):
     one box per applicator and compared path (mm), with the position tolerances.
@@ -536,16 +560,7 @@ def batch_distances_figure(batch, title: str | None = None):
     """
     fig = new_figure(BATCH_SIZE)
     ax = fig.add_subplot()
-    data, labels, colours = [], [], []
-    for r in batch.results:
-        for path in ("centreline", "simulated"):
-            if path == r.reference:
-                continue
-            sub = r.dwells[r.dwells["path"] == path]["dist_to_reference_mm"].to_numpy()
-            data.append(sub)
-            name = textwrap.shorten(r.applicator, 22, placeholder="...")
-            labels.append(f"{name}\n{path[:3]}. vs {r.reference[:4]}.")
-            colours.append(COLOURS[path])
+    data, labels, colours = batch_distances(batch)
     if data:
         bp = ax.boxplot(data, patch_artist=True, sym="x")
         ax.set_xticks(range(1, len(labels) + 1), labels, fontsize=6.5, rotation=45, ha="right")

@@ -378,6 +378,22 @@ class Summary:
             row[f"median_height_{tag}_mm"] = value
         return row
 
+    def judged(self) -> tuple[PathNumbers, PathNumbers | None, dict[str, dict[str, float]]]:
+        """The numbers the verdicts judge: against the registered reference where the run
+        registered (else as supplied), reference positions outside the channel left out.
+
+        Returns
+        -------
+        (PathNumbers, PathNumbers or None, dict)
+            Simulated and centreline path numbers, and the largest |dose difference| per plan
+            and point kind (%). Every page and summary row that shows one number per path reads
+            these (the "as supplied" column of page 1 is the only other).
+        """
+        sim = self.simulated_registered or self.simulated
+        cl = self.centreline_registered or self.centreline
+        diffs = self.max_abs_diff_registered_pct or self.max_abs_diff_pct
+        return sim, cl, diffs
+
 
 @dataclass(frozen=True)
 class Timings:
@@ -505,6 +521,29 @@ class CommissioningResult:
             severity = "note" if name in NOTE_CHECKS else "warning"
             out.append({"name": name, "severity": severity, "message": message})
         return out
+
+    @property
+    def input_label(self) -> str:
+        """The input as outputs name it: ``ringqa:data/...`` for a shipped file (never an
+        install path), else as the user gave it (:func:`ringqa.provenance.display_path`)."""
+        from ringqa.provenance import display_path
+
+        if self.input_kind in ("shipped", "object"):
+            return self.input
+        return display_path(self.input)
+
+    def summary_row(self) -> dict[str, Any]:
+        """The ``summary.csv`` row: :meth:`Summary.as_row` and the ``input`` (two inputs of the
+        same model are told apart by it)."""
+        return {**self.summary.as_row(), "input": self.input_label}
+
+    def compared_dwells(self, path: str) -> pd.DataFrame:
+        """The rows of ``dwells`` of one path that the verdicts judge (reference positions
+        outside the channel left out); ``dist_to_reference_mm`` is then the distance judged."""
+        d = self.dwells[self.dwells["path"] == path]
+        if "reference_flag" in d:
+            d = d[d["reference_flag"].astype(str) != "outside_channel"]
+        return d
 
     @property
     def passed(self) -> bool:

@@ -43,6 +43,16 @@ import numpy as np
 import pandas as pd
 from reportlab.platypus import CondPageBreak, KeepTogether, PageBreak, Table, TableStyle
 
+from ringqa.pipeline.numbers import (
+    ANGLE_DEG,
+    DIST_MM,
+    DOSE_GY,
+    DOSE_PCT,
+    ERROR_MM,
+    OFFSET_MM,
+    SIGNED_PCT,
+)
+from ringqa.pipeline.numbers import fmt as _fmt_number
 from ringqa.pipeline.plots import (
     FLAG_COLOURS,
     FLAG_NAMES,
@@ -124,20 +134,10 @@ class TextItem:
         return [self.text]
 
 
-def fmt_value(value, fmt: str = "{:.2f}", missing: str = "-") -> str:
-    """``value`` formatted with ``fmt``; ``missing`` for None, NaN or infinity (never "nan")."""
-    if value is None:
-        return missing
-    try:
-        if not np.isfinite(float(value)):
-            return missing
-    except (TypeError, ValueError):
-        return str(value)
-    try:
-        text, zero = fmt.format(value), fmt.format(0.0)
-    except (TypeError, ValueError):
-        return str(value)
-    return zero if text.lstrip("+-") == zero.lstrip("+-") else text  # no "-0.00"
+def fmt_value(value, form: str = DIST_MM, missing: str = "-") -> str:
+    """``value`` in its printed ``form`` (:func:`ringqa.pipeline.numbers.fmt`): ``missing`` for
+    None, NaN or infinity (never "nan"), never "-0.00"."""
+    return _fmt_number(value, form, missing)
 
 
 def plain_wording(text: str, keep: Iterable[str] = ()) -> str:
@@ -169,7 +169,7 @@ def transform_text(matrix_m) -> str:
     rot = m[:3, :3]
     t_mm = m_to_mm(m[:3, 3])
     angle = float(np.degrees(np.arccos(np.clip((np.trace(rot) - 1.0) / 2.0, -1.0, 1.0))))
-    xyz = ", ".join(fmt_value(x, "{:+.2f}") for x in t_mm)
+    xyz = ", ".join(fmt_value(x, OFFSET_MM) for x in t_mm)
     text = (
         f"Transform applied to the supplied path (patient coordinates): translation "
         f"(x, y, z) = ({xyz}) mm, {fmt_value(float(np.linalg.norm(t_mm)))} mm in all; "
@@ -197,7 +197,7 @@ def header_items(res) -> list[TextItem]:
     prov = res.provenance
     items = [
         TextItem(
-            "field", f"{res.applicator}  (input: {res.input}, {res.input_kind})", "Applicator"
+            "field", f"{res.applicator}  (input: {res.input_label}, {res.input_kind})", "Applicator"
         ),
         TextItem(
             "field",
@@ -319,7 +319,7 @@ def comparison_rows(res) -> list[tuple[str, str, str]]:
             err = (s.max_numerical_error_mm, s.median_numerical_error_mm)
             if num is not None:
                 err = (num.max_mm, num.median_mm)
-            text = f"{fmt_value(err[0], '{:.3f}')} ({fmt_value(err[1], '{:.3f}')})"
+            text = f"{fmt_value(err[0], ERROR_MM)} ({fmt_value(err[1], ERROR_MM)})"
             rows.append(("Simulated: numerical error, max (median) (mm)", text, text))
     reg_diffs = s.max_abs_diff_registered_pct or s.max_abs_diff_pct
     for plan, per_kind in s.max_abs_diff_pct.items():
@@ -327,8 +327,8 @@ def comparison_rows(res) -> list[tuple[str, str, str]]:
             rows.append(
                 (
                     f"{plan.capitalize()} plan: max |dose difference|, {where} (%)",
-                    fmt_value(per_kind.get(kind)),
-                    fmt_value(reg_diffs.get(plan, {}).get(kind)),
+                    fmt_value(per_kind.get(kind), DOSE_PCT),
+                    fmt_value(reg_diffs.get(plan, {}).get(kind), DOSE_PCT),
                 )
             )
     if measured:
@@ -444,13 +444,13 @@ def _plan_label(plan: str, reference: str) -> str:
 
 def _dose_cell(row, plan: str, reference: str, registered: bool) -> str:
     """One dose-table cell: the dose, and the difference(s) to the reference plan(s)."""
-    dose = fmt_value(row["dose_gy"], "{:.3f}")
+    dose = fmt_value(row["dose_gy"], DOSE_GY)
     if plan == reference:
         return dose
-    raw = fmt_value(row["diff_pct"], "{:+.2f}")
+    raw = fmt_value(row["diff_pct"], SIGNED_PCT)
     if plan == "registered" or not registered:
         return f"{dose} ({raw} %)"
-    return f"{dose} ({raw} / {fmt_value(row.get('diff_registered_pct'), '{:+.2f}')} %)"
+    return f"{dose} ({raw} / {fmt_value(row.get('diff_registered_pct'), SIGNED_PCT)} %)"
 
 
 def dose_table(res) -> tuple[list[str], list[list[str]]]:
@@ -525,16 +525,16 @@ def dwell_table(res) -> pd.DataFrame:
     for p in others:
         sub = d[d["path"] == p].reset_index(drop=True)
         columns = [
-            ("dist_to_reference_mm", f"{p}\n3D (mm)", "{:.2f}"),
-            ("along_mm", f"{p}\nalong\n(mm)", "{:+.2f}"),
-            ("radial_mm", f"{p}\nradial\n(mm)", "{:+.2f}"),
-            ("out_of_plane_mm", f"{p}\nout of\nplane (mm)", "{:+.2f}"),
-            ("angle_deg", f"{p}\nangle\n(deg)", "{:.1f}"),
+            ("dist_to_reference_mm", f"{p}\n3D (mm)", DIST_MM),
+            ("along_mm", f"{p}\nalong\n(mm)", OFFSET_MM),
+            ("radial_mm", f"{p}\nradial\n(mm)", OFFSET_MM),
+            ("out_of_plane_mm", f"{p}\nout of\nplane (mm)", OFFSET_MM),
+            ("angle_deg", f"{p}\nangle\n(deg)", ANGLE_DEG),
         ]
         if p == "simulated" and "numerical_error_mm" in sub:
-            columns.append(("numerical_error_mm", "simulated\nnumerical\nerror (mm)", "{:.3f}"))
-        for key, col, fmt in columns:
-            data[col] = sub[key].map(lambda x, fmt=fmt: fmt_value(x, fmt))
+            columns.append(("numerical_error_mm", "simulated\nnumerical\nerror (mm)", ERROR_MM))
+        for key, col, form in columns:
+            data[col] = sub[key].map(lambda x, form=form: fmt_value(x, form))
     return pd.DataFrame(data)
 
 
@@ -554,14 +554,19 @@ def table2_rows(results) -> list[list[str]]:
                 (r.reference, plan), {"point_a": [], "surface": [], "depth5": [], "n": []}
             )
             for kind in ("point_a", "surface", "depth5"):
-                per_kind[kind].append(float(d.loc[d["kind"] == kind, "diff_pct"].abs().max()))
+                # the dose difference the verdicts judge (to the registered reference plan)
+                col = "diff_registered_pct" if "diff_registered_pct" in d else "diff_pct"
+                per_kind[kind].append(float(d.loc[d["kind"] == kind, col].abs().max()))
             per_kind["n"].append(1.0)
     rows = []
     for (ref, plan), per_kind in groups.items():
         cells = [f"{ref} - {plan} ({len(per_kind['n'])})"]
         for kind in ("point_a", "surface", "depth5"):
             v = np.asarray(per_kind[kind])
-            cells.append(f"{np.median(v):.1f} ({v.min():.1f} - {v.max():.1f})")
+            cells.append(
+                f"{fmt_value(np.median(v), DOSE_PCT)} ({fmt_value(v.min(), DOSE_PCT)} - "
+                f"{fmt_value(v.max(), DOSE_PCT)})"
+            )
         rows.append(cells)
     return rows
 
@@ -812,7 +817,7 @@ def doses_flowables(res) -> list:
                 str(r.point),
                 fmt_value(r.tps_dose_gy, "{:.4f}"),
                 fmt_value(r.dose_gy, "{:.4f}"),
-                f"{fmt_value(r.diff_pct, '{:+.2f}')} %",
+                f"{fmt_value(r.diff_pct, SIGNED_PCT)} %",
             ]
             for r in own.itertuples()
         ]
@@ -1061,6 +1066,42 @@ def write_pdf(
     )
 
 
+#: summary.pdf's table: (summary.csv column as judged, header, form); ``{reg}`` is
+#: ``_registered`` for a registered run
+BATCH_COLUMNS = (
+    ("median_dist_sim{reg}_mm", "sim. median (mm)", DIST_MM),
+    ("max_dist_sim{reg}_mm", "sim. max (mm)", DIST_MM),
+    ("max_dist_centreline{reg}_mm", "cl. max (mm)", DIST_MM),
+    ("max_abs_diff_surface_simulated{reg}_pct", "sim. surface max |dD| (%)", DOSE_PCT),
+)
+
+
+#: summary.pdf's table column widths (fractions of the frame)
+BATCH_WIDTHS = (0.17, 0.25, 0.09, 0.11, 0.075, 0.075, 0.075, 0.075, 0.08)
+
+
+def batch_summary_rows(batch) -> tuple[list[str], list[list[str]]]:
+    """summary.pdf's table (header, rows), one row per input as in summary.csv: applicator,
+    input, reference, registration, then the numbers the verdicts judge (the ``_registered``
+    columns of a registered run, :meth:`~ringqa.pipeline.result.Summary.judged`) and the
+    verdict."""
+    header = ["applicator", "input", "ref.", "reg.", *(c[1] for c in BATCH_COLUMNS), "verdict"]
+    rows = []
+    for row in batch.summary.to_dict("records"):
+        mode = str(row.get("registration") or "none")
+        reg = "" if mode in ("none", "nan") else "_registered"
+        cells = [
+            _fmt(row.get("applicator"), "{}"),
+            _fmt(row.get("input"), "{}"),
+            _fmt(row.get("reference"), "{}"),
+            "" if row.get("verdict") == "ERROR" else mode,
+        ]
+        cells += [fmt_value(row.get(key.format(reg=reg)), form) for key, _, form in BATCH_COLUMNS]
+        cells.append(_fmt(row.get("verdict"), "{}"))
+        rows.append(cells)
+    return header, rows
+
+
 def write_batch_pdf(batch, path: Path, *, fields: ReportFields | None = None) -> Path:
     """Cross-applicator report ``summary.pdf``: the same header/footer, Figure-5-like boxplots,
     the summary table, the dose table over applicators, failures, signature block."""
@@ -1102,21 +1143,18 @@ def write_batch_pdf(batch, path: Path, *, fields: ReportFields | None = None) ->
                 markup=True,
             )
         )
-    cols = [
-        ("applicator", "applicator", "{}"),
-        ("reference", "ref.", "{}"),
-        ("median_dist_sim_mm", "sim. median (mm)", "{:.2f}"),
-        ("max_dist_sim_mm", "sim. max (mm)", "{:.2f}"),
-        ("max_dist_centreline_mm", "cl. max (mm)", "{:.2f}"),
-        ("max_abs_diff_surface_simulated_pct", "sim. surface max |dD| (%)", "{:.1f}"),
-        ("verdict", "verdict", "{}"),
-    ]
-    rows = [[c[1] for c in cols]]
-    rows += [[_fmt(row.get(k), f) for k, _, f in cols] for row in batch.summary.to_dict("records")]
+    header, rows = batch_summary_rows(batch)
     w = layout.FRAME_WIDTH
     story += [
         heading("Summary", 1),
-        grid_table(rows, [0.3 * w, *([0.7 * w / 6] * 6)]),
+        para(
+            "Distances and dose differences as the verdicts judge them: against the registered "
+            "reference path where the run registered it (column reg.), reference positions "
+            "outside the channel left out; the same numbers as the boxes above and each "
+            "applicator's report. Input: the file commissioned (summary.csv input).",
+            "small",
+        ),
+        grid_table([header, *rows], [f * w for f in BATCH_WIDTHS]),
     ]
     t2 = table2_rows(results)
     if t2:

@@ -30,6 +30,7 @@ import pandas as pd
 
 from ringqa.errors import RingQAError
 from ringqa.outdir import check_writable, staged_output
+from ringqa.provenance import display_path
 from ringqa.sweep.analysis import sensitivity, summary
 from ringqa.sweep.runner import Job, SampleRecord, commission_settings
 from ringqa.sweep.sampling import design, n_runs, salib_problem
@@ -227,6 +228,11 @@ def run_sweep(
             "values": dict(zip(spec.names, nominal, strict=True)),
             "max_deviation_mm": float(np.max(nom_rec.dwell["deviation_mm"])),
             "max_numerical_error_mm": float(np.max(nom_rec.dwell["numerical_error_mm"])),
+            # the nominal run's dose differences as the report's verdicts judge them (to the
+            # registered reference plan): the uncertainty page's intervals are of these
+            "dose_diff_pct": dict(
+                zip(nom_rec.point_names, map(float, nom_rec.point["dose_diff_pct"]), strict=True)
+            ),
         },
         "spread_vs_numerics": _spread_vs_numerics(summ),
         "parameters": [
@@ -243,7 +249,7 @@ def run_sweep(
         samples,
         nom_rec.positions_mm,
         reference_mm,
-        f"{nom_res.applicator}: {spec.path}",
+        f"{nom_res.applicator}: {display_path(spec.path)}",  # never an install path
     )
     return SweepResult(out, samples, summ, sens, record)
 

@@ -1,0 +1,220 @@
+"""``report.html``: the commissioning result as a 3D view a physicist can turn, beside report.pdf.
+
+The PDF shows 2D projections; a ring, its channel and four source paths are 3D. The HTML page
+shows, from the same :class:`~ringqa.pipeline.result.CommissioningResult` as the PDF:
+
+- a rotatable 3D view (plotly) of every channel's centre line, the reference path (as supplied
+  and registered), the simulated path, the centreline dwells and the dose points; hovering a
+  simulated dwell shows its deviation from the reference (3D, along, radial, out of plane), its
+  numerical error and the dwell's reference flag; hovering a dose point shows its dose and the
+  dose differences of the simulated and centreline plans;
+- the verdicts, the conclusion and the dose table, with the PDF's numbers in the PDF's forms
+  (:mod:`ringqa.pipeline.numbers`; the dose table is :func:`ringqa.report.pdf.dose_table`).
+
+The page is self-contained: plotly's JavaScript is inlined (no network, opened by
+double-click). plotly is imported only here, when the page is written.
+"""
+
+from __future__ import annotations
+
+from html import escape
+from pathlib import Path
+
+import numpy as np
+
+from ringqa.outdir import atomic_write_text
+from ringqa.pipeline.numbers import (
+    DIST_MM,
+    DOSE_GY,
+    ERROR_MM,
+    OFFSET_MM,
+    SIGNED_PCT,
+    fmt,
+    fmt_verdict_value,
+)
+from ringqa.pipeline.plots import FLAG_NAMES, reference_name
+from ringqa.report.pdf import LONG_NAMES, dose_table
+
+__all__ = ["PATH_STYLES", "html_text", "view_figure", "write_html"]
+
+#: dwell path -> (legend name, colour, marker size) in the 3D view
+PATH_STYLES = {
+    "measured": ("reference as supplied", "#6d4c41", 4),
+    "registered": ("reference, registered", "#000000", 5),
+    "simulated": ("simulated", "#1565c0", 5),
+    "centreline": ("centreline dwells", "#2e7d32", 4),
+}
+STATUS_COLOURS = {"PASS": "#2e7d32", "WARN": "#ef6c00", "FAIL": "#c62828", "ACTION": "#c62828"}
+
+
+def _dwell_hover(res, path: str, rows) -> list[str]:
+    """One hover text per dwell of ``path``."""
+    out = []
+    for r in rows.itertuples():
+        flag = str(getattr(r, "reference_flag", "") or "")
+        flag = "" if flag in ("", "nan") else f"<br>reference: {FLAG_NAMES.get(flag, flag)}"
+        text = (
+            f"<b>{PATH_STYLES[path][0]}</b>, dwell {r.dwell}<br>"
+            f"relative position {r.relative_position_mm:g} mm"
+        )
+        if path in ("simulated", "centreline") and path != res.reference:
+            text += (
+                f"<br>deviation {fmt(r.dist_to_reference_mm, DIST_MM)} mm "
+                f"(along {fmt(r.along_mm, OFFSET_MM)}, radial {fmt(r.radial_mm, OFFSET_MM)}, "
+                f"out of plane {fmt(r.out_of_plane_mm, OFFSET_MM)} mm)"
+            )
+        if path == "simulated" and hasattr(r, "numerical_error_mm"):
+            text += f"<br>numerical error {fmt(r.numerical_error_mm, ERROR_MM)} mm"
+        out.append(text + flag)
+    return out
+
+
+def _point_hover(res, point: str) -> str:
+    d = res.doses[res.doses["point"] == point]
+    lines = [f"<b>{escape(LONG_NAMES.get(point, point))}</b>"]
+    for r in d.itertuples():
+        if r.plan == "rtplan":
+            continue
+        line = f"{r.plan} plan: {fmt(r.dose_gy, DOSE_GY)} Gy"
+        if r.plan not in (res.reference, "registered") and r.kind != "tps":
+            line += f" ({fmt(r.diff_pct, SIGNED_PCT)} / {fmt(r.diff_registered_pct, SIGNED_PCT)} %)"
+        lines.append(line)
+    return "<br>".join(lines)
+
+
+def view_figure(res):
+    """The 3D view of one result (a plotly Figure).
+
+    Parameters
+    ----------
+    res : CommissioningResult
+
+    Returns
+    -------
+    plotly.graph_objects.Figure
+        Traces: one line per channel centre line, one line with markers per dwell path, the
+        dose points.
+    """
+    import plotly.graph_objects as go
+
+    fig = go.Figure()
+    for name, pts in (res.geometry.centrelines_mm or {}).items():
+        pts = np.asarray(pts, dtype=float)
+        fig.add_trace(go.Scatter3d(
+            x=pts[:, 0], y=pts[:, 1], z=pts[:, 2], mode="lines", name=f"channel {name}",
+            line={"color": "#9e9e9e", "width": 3}, hoverinfo="name",
+        ))  # fmt: skip
+    d = res.dwells
+    for path, (label, colour, size) in PATH_STYLES.items():
+        rows = d[d["path"] == path]
+        if rows.empty:
+            continue
+        fig.add_trace(go.Scatter3d(
+            x=rows["x_mm"], y=rows["y_mm"], z=rows["z_mm"], mode="lines+markers", name=label,
+            marker={"size": size, "color": colour}, line={"color": colour, "width": 2},
+            text=_dwell_hover(res, path, rows), hovertemplate="%{text}<extra></extra>",
+        ))  # fmt: skip
+    ref = res.doses[res.doses["plan"] == res.reference]
+    ref = ref[ref["kind"] != "tps"]
+    if not ref.empty:
+        fig.add_trace(go.Scatter3d(
+            x=ref["x_mm"], y=ref["y_mm"], z=ref["z_mm"], mode="markers+text", name="dose points",
+            text=[str(p) for p in ref["point"]], textposition="top center",
+            marker={"size": 4, "color": "#c62828", "symbol": "diamond"},
+            hovertext=[_point_hover(res, str(p)) for p in ref["point"]],
+            hovertemplate="%{hovertext}<extra></extra>",
+        ))  # fmt: skip
+    fig.update_layout(
+        scene={"xaxis_title": "x (mm)", "yaxis_title": "y (mm)", "zaxis_title": "z (mm)",
+               "aspectmode": "data"},
+        margin={"l": 0, "r": 0, "t": 30, "b": 0}, height=640,
+        legend={"itemsizing": "constant"},
+        title=f"{res.applicator}: dwell positions, compared with the {reference_name(res)}",
+    )  # fmt: skip
+    return fig
+
+
+def _table(header, rows) -> str:
+    head = "".join(f"<th>{escape(str(h)).replace(chr(10), '<br>')}</th>" for h in header)
+    body = "".join(
+        "<tr>" + "".join(f"<td>{escape(str(c)).replace(chr(10), '<br>')}</td>" for c in row)
+        + "</tr>"
+        for row in rows
+    )  # fmt: skip
+    return f"<table><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>"
+
+
+def _verdicts_html(res) -> str:
+    rows = []
+    for v in res.verdicts:
+        colour = STATUS_COLOURS.get(v.status, "#000")
+        rows.append(
+            f"<tr><td style='color:{colour};font-weight:bold'>{escape(v.status)}</td>"
+            f"<td>{escape(v.role)}</td><td>{escape(v.check)}</td>"
+            f"<td>{escape(fmt_verdict_value(v.value, v.unit, v.check))}</td>"
+            f"<td>{escape(v.text)}</td></tr>"
+        )
+    head = "<tr><th>status</th><th>kind</th><th>check</th><th>value</th><th>what it says</th></tr>"
+    return f"<table><thead>{head}</thead><tbody>{''.join(rows)}</tbody></table>"
+
+
+CSS = """
+body { font-family: DejaVu Sans, Helvetica, Arial, sans-serif; margin: 1.5em; color: #212121; }
+table { border-collapse: collapse; margin: 0.5em 0 1.5em 0; font-size: 0.85em; }
+th, td { border: 1px solid #bdbdbd; padding: 3px 6px; vertical-align: top; }
+th { background: #eeeeee; }
+.conclusion { border: 2px solid #424242; padding: 0.5em; margin: 1em 0; font-weight: bold; }
+.small { font-size: 0.8em; color: #616161; }
+"""
+
+
+def html_text(res) -> str:
+    """The whole page (one string, plotly's JavaScript inlined)."""
+    fig = view_figure(res)
+    view = fig.to_html(full_html=False, include_plotlyjs=True, config={"displaylogo": False})
+    header, rows = dose_table(res)
+    prov = res.provenance
+    inputs = "".join(
+        f"<li>{escape(name)} (SHA-256 {digest})</li>" for name, digest in prov.inputs.items()
+    )
+    return f"""<!DOCTYPE html>
+<html lang="en"><head><meta charset="utf-8">
+<title>ringqa commissioning: {escape(res.applicator)}</title>
+<style>{CSS}</style></head>
+<body>
+<h1>Commissioning: {escape(res.applicator)}</h1>
+<p class="small">{escape(prov.software)}, {escape(prov.created_utc)} UTC; input
+{escape(res.input_label)} ({escape(res.input_kind)}); reference: {escape(reference_name(res))}.
+The signed report is report.pdf beside this page; its numbers are these.</p>
+<ul class="small">{inputs}</ul>
+<div class="conclusion">{escape(res.conclusion)}</div>
+<h2>Verdicts</h2>
+{_verdicts_html(res)}
+<h2>Dwell positions in 3D</h2>
+<p class="small">Drag to turn, scroll to zoom; hover a dwell for its deviation and numerical
+error, a dose point for its doses and differences (to the reference plan as supplied /
+registered, %). Click a legend entry to hide a path.</p>
+{view}
+<h2>Dose (Gy) of the standard plan on each dwell set</h2>
+<p class="small">In brackets the difference to the standard plan on the reference path as
+supplied / registered, % (as report.pdf).</p>
+{_table(header, rows)}
+</body></html>
+"""
+
+
+def write_html(res, path) -> Path:
+    """Write ``report.html`` of ``res`` to ``path`` (atomically).
+
+    Parameters
+    ----------
+    res : CommissioningResult
+    path : str or pathlib.Path
+
+    Returns
+    -------
+    pathlib.Path
+    """
+    path = Path(path)
+    atomic_write_text(path, html_text(res))
+    return path
