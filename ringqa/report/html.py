@@ -82,8 +82,15 @@ def _point_hover(res, point: str) -> str:
     return "<br>".join(lines)
 
 
-def view_figure(res):
-    """The 3D view of one result (a plotly Figure).
+def _xyz(rows) -> dict:
+    a = np.asarray(rows, dtype=float)
+    return {"x": a[:, 0].tolist(), "y": a[:, 1].tolist(), "z": a[:, 2].tolist()}
+
+
+def view_figure(res) -> dict:
+    """The 3D view of one result, as a plotly figure dict (``data``: traces, ``layout``; written
+    with :func:`plotly.io.to_html` without building graph objects, which costs more than the
+    rest of the page).
 
     Parameters
     ----------
@@ -91,47 +98,48 @@ def view_figure(res):
 
     Returns
     -------
-    plotly.graph_objects.Figure
-        Traces: one line per channel centre line, one line with markers per dwell path, the
-        dose points.
+    dict
+        ``data``: one ``scatter3d`` line per channel centre line (``channel <name>``), one line
+        with markers per dwell path (:data:`PATH_STYLES` names; ``text``: the hover texts, one
+        per dwell), the dose points (``hovertext``: one per point); ``layout``.
     """
-    import plotly.graph_objects as go
-
-    fig = go.Figure()
+    data = []
     for name, pts in (res.geometry.centrelines_mm or {}).items():
-        pts = np.asarray(pts, dtype=float)
-        fig.add_trace(go.Scatter3d(
-            x=pts[:, 0], y=pts[:, 1], z=pts[:, 2], mode="lines", name=f"channel {name}",
-            line={"color": "#9e9e9e", "width": 3}, hoverinfo="name",
-        ))  # fmt: skip
+        data.append({
+            "type": "scatter3d", "mode": "lines", "name": f"channel {name}", **_xyz(pts),
+            "line": {"color": "#9e9e9e", "width": 3}, "hoverinfo": "name",
+        })  # fmt: skip
     d = res.dwells
     for path, (label, colour, size) in PATH_STYLES.items():
         rows = d[d["path"] == path]
         if rows.empty:
             continue
-        fig.add_trace(go.Scatter3d(
-            x=rows["x_mm"], y=rows["y_mm"], z=rows["z_mm"], mode="lines+markers", name=label,
-            marker={"size": size, "color": colour}, line={"color": colour, "width": 2},
-            text=_dwell_hover(res, path, rows), hovertemplate="%{text}<extra></extra>",
-        ))  # fmt: skip
+        data.append({
+            "type": "scatter3d", "mode": "lines+markers", "name": label,
+            **_xyz(rows[["x_mm", "y_mm", "z_mm"]]),
+            "marker": {"size": size, "color": colour}, "line": {"color": colour, "width": 2},
+            "text": _dwell_hover(res, path, rows), "hovertemplate": "%{text}<extra></extra>",
+        })  # fmt: skip
     ref = res.doses[res.doses["plan"] == res.reference]
     ref = ref[ref["kind"] != "tps"]
     if not ref.empty:
-        fig.add_trace(go.Scatter3d(
-            x=ref["x_mm"], y=ref["y_mm"], z=ref["z_mm"], mode="markers+text", name="dose points",
-            text=[str(p) for p in ref["point"]], textposition="top center",
-            marker={"size": 4, "color": "#c62828", "symbol": "diamond"},
-            hovertext=[_point_hover(res, str(p)) for p in ref["point"]],
-            hovertemplate="%{hovertext}<extra></extra>",
-        ))  # fmt: skip
-    fig.update_layout(
-        scene={"xaxis_title": "x (mm)", "yaxis_title": "y (mm)", "zaxis_title": "z (mm)",
-               "aspectmode": "data"},
-        margin={"l": 0, "r": 0, "t": 30, "b": 0}, height=640,
-        legend={"itemsizing": "constant"},
-        title=f"{res.applicator}: dwell positions, compared with the {reference_name(res)}",
-    )  # fmt: skip
-    return fig
+        data.append({
+            "type": "scatter3d", "mode": "markers+text", "name": "dose points",
+            **_xyz(ref[["x_mm", "y_mm", "z_mm"]]),
+            "text": [str(p) for p in ref["point"]], "textposition": "top center",
+            "marker": {"size": 4, "color": "#c62828", "symbol": "diamond"},
+            "hovertext": [_point_hover(res, str(p)) for p in ref["point"]],
+            "hovertemplate": "%{hovertext}<extra></extra>",
+        })  # fmt: skip
+    layout = {
+        "scene": {"xaxis": {"title": {"text": "x (mm)"}}, "yaxis": {"title": {"text": "y (mm)"}},
+                  "zaxis": {"title": {"text": "z (mm)"}}, "aspectmode": "data"},
+        "margin": {"l": 0, "r": 0, "t": 30, "b": 0}, "height": 640,
+        "legend": {"itemsizing": "constant"},
+        "title": {"text": f"{escape(res.applicator)}: dwell positions, compared with the "
+                          f"{reference_name(res)}"},
+    }  # fmt: skip
+    return {"data": data, "layout": layout}
 
 
 def _table(header, rows) -> str:
@@ -170,8 +178,10 @@ th { background: #eeeeee; }
 
 def html_text(res) -> str:
     """The whole page (one string, plotly's JavaScript inlined)."""
-    fig = view_figure(res)
-    view = fig.to_html(full_html=False, include_plotlyjs=True, config={"displaylogo": False})
+    import plotly.io
+
+    view = plotly.io.to_html(view_figure(res), full_html=False, include_plotlyjs=True,
+                             validate=False, config={"displaylogo": False})  # fmt: skip
     header, rows = dose_table(res)
     prov = res.provenance
     inputs = "".join(

@@ -328,3 +328,38 @@ def test_log_file_is_an_audit_trail(fake_world, tmp_path):
         assert f"file written: {p.relative_to(out).as_posix()} (" in text
         assert digest in text, p.name
     assert "exit status 0 (" in text and "wall time" in text
+
+
+@pytest.mark.slow
+def test_example_is_the_readme_quick_start(tmp_path):
+    """``ringqa commission --example`` gives README's quick start (its command read from
+    README.md, the example plan registered with plane-height): the same verdicts, values and
+    summary numbers."""
+    import re
+    import shlex
+    from pathlib import Path
+
+    readme = (Path(__file__).resolve().parents[2] / "README.md").read_text()
+    section = readme.split("## Quick start", 1)[1].split("\n## ", 1)[0]
+    job = next(m.group(1) for m in re.finditer(r"^ {4}(\S.*)$", section, re.M)
+               if "ringqa commission" in m.group(1))  # fmt: skip
+    words = shlex.split(job)[1:]  # without .venv/bin/ringqa
+    words[words.index("--out") + 1] = str(tmp_path / "readme")
+    assert words[0] == "commission" and "--register" in words
+    root = Path(__file__).resolve().parents[2]
+    words = [str(root / w) if w.endswith(".dcm") else w for w in words]
+    assert main([*words, "--no-pdf", "--quiet"]) == 0
+    assert main(["commission", "--example", "--out", str(tmp_path / "ex"), "--no-pdf",
+                 "--quiet"]) == 0  # fmt: skip
+    a = json.loads((tmp_path / "readme" / "results.json").read_text())
+    b = json.loads((tmp_path / "ex" / "results.json").read_text())
+    assert [(v["check"], v["status"]) for v in a["verdicts"]] == [
+        (v["check"], v["status"]) for v in b["verdicts"]
+    ]
+    for va, vb in zip(a["verdicts"], b["verdicts"], strict=True):
+        assert va["value"] == pytest.approx(vb["value"], abs=1e-9), va["check"]
+    assert a["summary"]["registration"] == b["summary"]["registration"] == "plane-height"
+    for key, value in a["summary"].items():
+        if isinstance(value, float) and key != "solve_time_s":
+            assert b["summary"][key] == pytest.approx(value, abs=1e-9, nan_ok=True), key
+    assert a["conclusion"] == b["conclusion"]

@@ -36,17 +36,18 @@ def test_html_is_self_contained_and_carries_the_numbers(fake_result, tmp_path):
             assert cell.replace("\n", "<br>") in page, cell
     sim = fake_result.dwells[fake_result.dwells["path"] == "simulated"]
     fig = view_figure(fake_result)
-    sim_trace = next(t for t in fig.data if t.name == "simulated")
-    for text, row in zip(sim_trace.text, sim.itertuples(), strict=True):
+    traces = fig["data"]
+    sim_trace = next(t for t in traces if t["name"] == "simulated")
+    for text, row in zip(sim_trace["text"], sim.itertuples(), strict=True):
         assert f"deviation {fmt(row.dist_to_reference_mm, DIST_MM)} mm" in text
         assert f"numerical error {fmt(row.numerical_error_mm, ERROR_MM)} mm" in text
-    names = {t.name for t in fig.data}
+    names = {t["name"] for t in traces}
     assert {"simulated", "centreline dwells", "channel ring", "dose points"} <= names
-    assert any(t.name == "reference as supplied" for t in fig.data)
-    points = next(t for t in fig.data if t.name == "dose points")
+    assert "reference as supplied" in names
+    points = next(t for t in traces if t["name"] == "dose points")
     sims = fake_result.doses[(fake_result.doses["plan"] == "simulated")
                              & (fake_result.doses["kind"] != "tps")]  # fmt: skip
-    for text, row in zip(points.hovertext, sims.itertuples(), strict=True):
+    for text, row in zip(points["hovertext"], sims.itertuples(), strict=True):
         assert LONG_NAMES.get(row.point, row.point) in text
         assert fmt(row.diff_registered_pct, SIGNED_PCT) in text
 
