@@ -44,7 +44,7 @@ import sys
 import time
 from pathlib import Path
 
-from ringqa.cli._options import add_set_option
+from ringqa.cli._options import add_set_option, plain_help
 from ringqa.errors import RingQAError
 
 
@@ -52,7 +52,7 @@ def add_parser(subparsers) -> None:
     p = subparsers.add_parser(
         "commission",
         help="measured vs simulated vs centreline dwell positions and doses, with a PDF report",
-        description=__doc__,
+        description=plain_help(__doc__),
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument(

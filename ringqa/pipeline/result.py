@@ -620,7 +620,7 @@ class CommissioningResult:
             Institution, physicist, serial, afterloader, source calibration (blank lines to fill
             by hand when not given).
         notes : str or sequence of str, optional
-            Free notes printed on the first page.
+            Free notes printed above the signature block.
         accuracy : pandas.DataFrame, optional
             ``ringqa accuracy``'s table for an extra page.
         sections : sequence of callables, optional

@@ -1042,7 +1042,7 @@ def write_pdf(
         Institution, physicist, serial, afterloader, source calibration, notes (blank lines to
         fill by hand when not given).
     notes : str or sequence of str
-        Free notes printed on the first page (after ``fields.notes``).
+        Free notes printed above the signature block (after ``fields.notes``).
     accuracy : pandas.DataFrame, optional
         The table of ``ringqa accuracy`` (accuracy.csv: ``time_s, max_err_mm, status,
         pareto``) for an extra page.

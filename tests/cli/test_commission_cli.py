@@ -363,3 +363,26 @@ def test_example_is_the_readme_quick_start(tmp_path):
         if isinstance(value, float) and key != "solve_time_s":
             assert b["summary"][key] == pytest.approx(value, abs=1e-9, nan_ok=True), key
     assert a["conclusion"] == b["conclusion"]
+
+
+@pytest.mark.parametrize(
+    "command",
+    ["tg43-demo", "import", "simulate", "accuracy", "commission", "needle", "config", "sweep",
+     "warmup"],
+)  # fmt: skip
+def test_help_has_no_markup(command, capsys):
+    """Every command's --help reads as text: no reST markup (``x``, :func:, **x**) and no
+    developer history ("contract of issue 3")."""
+    with pytest.raises(SystemExit):
+        main([command, "--help"])
+    text = capsys.readouterr().out
+    for word in ("``", ":func:", ":class:", ":mod:", "**", "contract of issue"):
+        assert word not in text, (command, word)
+
+
+def test_unknown_scene_lists_the_shipped_ones(tmp_path, capsys):
+    """``ringqa simulate ring99``: exit 2, one line naming the shipped scenes."""
+    assert main(["simulate", "ring99", "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1
+    assert "ring26-flexitron" in err and "ring13-push100" in err
