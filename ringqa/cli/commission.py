@@ -544,6 +544,7 @@ def sweep_spec_for(args, item, settings=None):
     sets = {"input": str(Path(item).resolve()) if Path(item).exists() else str(item)}
     if args.uncertainty is not None:
         sets["samples"] = args.uncertainty
+        sets["batch_size"] = 1  # the bar moves per sample (the samples are the same)
     for name in SWEEP_SETTINGS if settings is not None else ():
         value = getattr(settings, name, None)
         if value is not None and (name != "source" or isinstance(value, str)):

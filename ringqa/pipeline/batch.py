@@ -110,7 +110,7 @@ def commission_batch(
     BatchResult
         Write it with ``ringqa.report.write_batch(batch, out_dir)``.
     """
-    from tqdm import tqdm
+    from ringqa.progress import progress_bar as tqdm  # plain lines when not a terminal
 
     items = list(inputs)
     check_labels(labels, len(items))

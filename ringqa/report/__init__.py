@@ -149,9 +149,8 @@ def write_batch(
     applicators' PDFs at once (default :func:`ringqa.pipeline.batch.default_workers`; forked,
     each writes its applicator's ``report.pdf`` into the staging folder while this process
     writes the tables and ``summary.pdf``; the files are those of 1 worker)."""
-    from tqdm import tqdm
-
     from ringqa.pipeline.batch import default_workers
+    from ringqa.progress import progress_bar as tqdm  # plain lines when not a terminal
 
     checked = _checked_exports(batch.results, export)
     n_workers = default_workers() if workers is None else max(1, int(workers))

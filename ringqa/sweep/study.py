@@ -326,7 +326,7 @@ class _AppendGuard:
 
 
 def _bar(total: int, done: int, show: bool):
-    from tqdm import tqdm
+    from ringqa.progress import progress_bar as tqdm  # plain lines when not a terminal
 
     return tqdm(
         total=total,
