@@ -87,6 +87,40 @@ def _xyz(rows) -> dict:
     return {"x": a[:, 0].tolist(), "y": a[:, 1].tolist(), "z": a[:, 2].tolist()}
 
 
+#: mm of margin around the dwells and dose points in the 3D view
+VIEW_MARGIN_MM = 10.0
+
+
+def _scene(res) -> dict:
+    """The 3D scene: axes around the dwells and dose points (the long channel shafts cut off,
+    the ring fills the view), equal scales, the camera looking at the ring from cranial and
+    slightly lateral."""
+    d = res.dwells
+    pts = [d[["x_mm", "y_mm", "z_mm"]].to_numpy(dtype=float)]
+    std = res.doses[res.doses["kind"] != "tps"] if "kind" in res.doses else res.doses
+    if not std.empty:
+        pts.append(std[["x_mm", "y_mm", "z_mm"]].to_numpy(dtype=float))
+    xyz = np.vstack(pts)
+    xyz = xyz[np.all(np.isfinite(xyz), axis=1)]
+    lo, hi = xyz.min(axis=0) - VIEW_MARGIN_MM, xyz.max(axis=0) + VIEW_MARGIN_MM
+    span = hi - lo
+    ratio = span / span.max()
+    normal = np.asarray(res.geometry.ring_normal, dtype=float)
+    lateral = np.asarray(res.geometry.ring_lateral, dtype=float)
+    eye = 1.6 * normal + 0.9 * lateral + 0.6 * np.cross(normal, lateral)
+    axes = {
+        f"{a}axis": {"title": {"text": f"{a} (mm)"}, "range": [float(lo[k]), float(hi[k])]}
+        for k, a in enumerate("xyz")
+    }
+    return {
+        **axes,
+        "aspectmode": "manual",
+        "aspectratio": {a: float(ratio[k]) for k, a in enumerate("xyz")},
+        "camera": {"eye": {a: float(eye[k]) for k, a in enumerate("xyz")},
+                   "up": {a: float(normal[k]) for k, a in enumerate("xyz")}},
+    }  # fmt: skip
+
+
 def view_figure(res) -> dict:
     """The 3D view of one result, as a plotly figure dict (``data``: traces, ``layout``; written
     with :func:`plotly.io.to_html` without building graph objects, which costs more than the
@@ -132,8 +166,7 @@ def view_figure(res) -> dict:
             "hovertemplate": "%{hovertext}<extra></extra>",
         })  # fmt: skip
     layout = {
-        "scene": {"xaxis": {"title": {"text": "x (mm)"}}, "yaxis": {"title": {"text": "y (mm)"}},
-                  "zaxis": {"title": {"text": "z (mm)"}}, "aspectmode": "data"},
+        "scene": _scene(res),
         "margin": {"l": 0, "r": 0, "t": 30, "b": 0}, "height": 640,
         "legend": {"itemsizing": "constant"},
         "title": {"text": f"{escape(res.applicator)}: dwell positions, compared with the "
