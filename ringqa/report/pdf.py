@@ -82,7 +82,11 @@ LONG_NAMES = {
 }
 STATUS_COLOURS = layout.STATUS_COLOURS
 #: The dwell table's column of the flags of the reference path as supplied (when registered).
-SUPPLIED_FLAG_COLUMN = "reference\nas\nsupplied"
+SUPPLIED_FLAG_COLUMN = "ref. as\nsupplied"
+#: the dwell table's column of the flags of the registered reference path
+REGISTERED_FLAG_COLUMN = "ref.\nregistered"
+#: short names of the compared paths in the dwell table's headers (whole words on each line)
+PATH_SHORT = {"simulated": "sim.", "centreline": "cl."}
 #: Verdict roles in page-1 order (:mod:`ringqa.pipeline.verdicts`).
 ROLE_ORDER = ("input check", "TPS model", "simulation check", "numerics")
 #: Point kinds of the comparison table, in the order the issue names them.
@@ -512,27 +516,28 @@ def dwell_table(res) -> pd.DataFrame:
     base = d[d["path"] == ref].reset_index(drop=True)
     flags = reference_flags(res)
     data = {
-        "relative\nposition\n(mm)": base["relative_position_mm"].map("{:g}".format),
-        "in the\nstandard\nplan": base["in_plan"].map({True: "yes", False: ""}),
+        "rel.\npos.\n(mm)": base["relative_position_mm"].map("{:g}".format),
+        "in\nplan": base["in_plan"].map({True: "yes", False: ""}),
     }
     if ref == "measured":
         names = flags[["flag_supplied", "flag"]].map(lambda f: FLAG_NAMES.get(f, f))
         if res.summary.registration != "none":
             data[SUPPLIED_FLAG_COLUMN] = names["flag_supplied"]
-            data["reference\nregistered"] = names["flag"]
+            data[REGISTERED_FLAG_COLUMN] = names["flag"]
         else:
-            data["reference\nposition"] = names["flag"]
+            data["ref.\nposition"] = names["flag"]
     for p in others:
         sub = d[d["path"] == p].reset_index(drop=True)
+        q = PATH_SHORT.get(p, p)
         columns = [
-            ("dist_to_reference_mm", f"{p}\n3D (mm)", DIST_MM),
-            ("along_mm", f"{p}\nalong\n(mm)", OFFSET_MM),
-            ("radial_mm", f"{p}\nradial\n(mm)", OFFSET_MM),
-            ("out_of_plane_mm", f"{p}\nout of\nplane (mm)", OFFSET_MM),
-            ("angle_deg", f"{p}\nangle\n(deg)", ANGLE_DEG),
+            ("dist_to_reference_mm", f"{q}\n3D\n(mm)", DIST_MM),
+            ("along_mm", f"{q}\nalong\n(mm)", OFFSET_MM),
+            ("radial_mm", f"{q}\nradial\n(mm)", OFFSET_MM),
+            ("out_of_plane_mm", f"{q}\nout of\nplane\n(mm)", OFFSET_MM),
+            ("angle_deg", f"{q}\nangle\n(deg)", ANGLE_DEG),
         ]
         if p == "simulated" and "numerical_error_mm" in sub:
-            columns.append(("numerical_error_mm", "simulated\nnumerical\nerror (mm)", ERROR_MM))
+            columns.append(("numerical_error_mm", f"{q}\nnum.\nerror\n(mm)", ERROR_MM))
         for key, col, form in columns:
             data[col] = sub[key].map(lambda x, form=form: fmt_value(x, form))
     return pd.DataFrame(data)
@@ -832,6 +837,18 @@ def doses_flowables(res) -> list:
     return [*out, *_references(PAPER_REFERENCE + " (dose points, Table 2)", tg43)]
 
 
+#: width of the dwell table's flag columns, points (whole words: "infeasible", "registered")
+FLAG_COLUMN_PT = 50.0
+
+
+def dwell_column_widths(columns: Sequence[str]) -> list[float]:
+    """The dwell table's column widths (points): the flag columns wide enough for their words,
+    the number columns sharing the rest."""
+    flag = [c.startswith("ref.") for c in columns]
+    rest = (layout.FRAME_WIDTH - FLAG_COLUMN_PT * sum(flag)) / max(1, len(columns) - sum(flag))
+    return [FLAG_COLUMN_PT if f else rest for f in flag]
+
+
 def dwell_table_flowables(res) -> list:
     """The dwell-by-dwell table (its header repeats on every page it runs over)."""
     table = dwell_table(res)
@@ -848,13 +865,21 @@ def dwell_table_flowables(res) -> list:
     return [
         heading(f"Dwell by dwell: deviations from the {reference_name(res)}", 1),
         para(
+            "sim. = simulated, cl. = centreline, ref. = reference position (as supplied / "
+            "registered), num. error = the simulation's numerical error. "
             "along = distal positive, radial = outward in the ring plane, out of plane = cranial "
             "positive; angle between source orientations. Shaded rows: reference position "
             "infeasible (cannot lie in the lumen, red) or outside the channel (left out of the "
             "verdicts, grey).",
             "small",
         ),
-        grid_table(rows, row_colours=row_colours, cell_colours=cell_colours, first_left=False),
+        grid_table(
+            rows,
+            dwell_column_widths(columns),
+            row_colours=row_colours,
+            cell_colours=cell_colours,
+            first_left=False,
+        ),
     ]
 
 
