@@ -378,22 +378,6 @@ class Summary:
             row[f"median_height_{tag}_mm"] = value
         return row
 
-    def judged(self) -> tuple[PathNumbers, PathNumbers | None, dict[str, dict[str, float]]]:
-        """The numbers the verdicts judge: against the registered reference where the run
-        registered (else as supplied), reference positions outside the channel left out.
-
-        Returns
-        -------
-        (PathNumbers, PathNumbers or None, dict)
-            Simulated and centreline path numbers, and the largest |dose difference| per plan
-            and point kind (%). Every page and summary row that shows one number per path reads
-            these (the "as supplied" column of page 1 is the only other).
-        """
-        sim = self.simulated_registered or self.simulated
-        cl = self.centreline_registered or self.centreline
-        diffs = self.max_abs_diff_registered_pct or self.max_abs_diff_pct
-        return sim, cl, diffs
-
 
 @dataclass(frozen=True)
 class Timings:

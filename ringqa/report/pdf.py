@@ -1108,8 +1108,7 @@ BATCH_WIDTHS = (0.17, 0.25, 0.09, 0.11, 0.075, 0.075, 0.075, 0.075, 0.08)
 def batch_summary_rows(batch) -> tuple[list[str], list[list[str]]]:
     """summary.pdf's table (header, rows), one row per input as in summary.csv: applicator,
     input, reference, registration, then the numbers the verdicts judge (the ``_registered``
-    columns of a registered run, :meth:`~ringqa.pipeline.result.Summary.judged`) and the
-    verdict."""
+    columns of a registered run, as the verdicts judge them) and the verdict."""
     header = ["applicator", "input", "ref.", "reg.", *(c[1] for c in BATCH_COLUMNS), "verdict"]
     rows = []
     for row in batch.summary.to_dict("records"):
