@@ -18,11 +18,12 @@ plane-height: a flat path moved into the ring's plane; rigid: best fit to the ch
 line). Numbers as supplied and as aligned are reported side by side. Every simulation is run
 twice (commissioning settings and a finer run) and each dwell's numerical error is reported.
 
-Writes DIR/dwells.csv, doses.csv, plan_dwells.csv, summary.csv, results.json and report.pdf (one
-subfolder per applicator for several inputs, plus summary.csv, batch.json and summary.pdf for
-all of them). Nothing is half-written: DIR is replaced as a whole at the end (an earlier ringqa
-output in DIR completely; a DIR holding other files is refused before any work). Site settings:
---config (docs/config.md). See docs/validation.md.
+Writes DIR/dwells.csv, doses.csv, plan_dwells.csv, summary.csv, results.json, report.pdf and
+report.html (a 3D view to open in a browser; one subfolder per applicator for several inputs,
+plus summary.csv, batch.json and summary.pdf for all of them). Nothing is half-written: DIR
+is replaced as a whole at the end (an earlier ringqa output in DIR completely; a DIR holding
+other files is refused before any work). Site settings: --config (docs/config.md). See
+docs/validation.md.
 
 Exit status (for scripts, cron jobs and QA databases):
   0    every verdict PASS or WARN (or a FAIL / ACTION without --strict); files written
