@@ -622,3 +622,19 @@ class CommissioningResult:
         return writer(
             self, path, fields=fields, notes=notes or (), accuracy=accuracy, sections=sections
         )
+
+    def publish_html(self, path):
+        """Write ``report.html`` of this result (the 3D view, verdicts and dose table; as
+        ``ringqa commission`` does beside report.pdf; :mod:`ringqa.report.html`).
+
+        Parameters
+        ----------
+        path : str or pathlib.Path
+
+        Returns
+        -------
+        pathlib.Path
+        """
+        import importlib
+
+        return importlib.import_module("ringqa.report.html").write_html(self, path)

@@ -59,3 +59,10 @@ def test_html_text_has_no_install_path(fake_result):
     import ringqa
 
     assert str(Path(ringqa.__file__).resolve().parent.parent) not in html_text(fake_result)
+
+
+def test_notebook_publish_html(fake_result, tmp_path):
+    """``result.publish_html(path)`` writes the same page as the command line."""
+    path = fake_result.publish_html(tmp_path / "r.html")
+    page = path.read_text(encoding="utf-8")
+    assert fake_result.conclusion in page and "<h2>Verdicts</h2>" in page
