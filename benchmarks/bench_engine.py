@@ -83,11 +83,66 @@ def row(name, res, t, err=None, t_base=None) -> dict:
     return r
 
 
+#: one fresh process of --per-process: the solve time and the wall of simulate() (median of 7
+#: after one warm run) of ring13-push100 and ring26-flexitron, and what the process looked like
+_PROCESS = r"""
+import json, os, statistics, sys, time
+sys.path.insert(0, sys.argv[1])
+t0 = time.perf_counter()
+from ringqa.simulation import simulate
+from ringqa.simulation.scenefile import load_scene
+import numba
+t_import = time.perf_counter() - t0
+out = {"pid": os.getpid(), "import_s": t_import, "numba_threads": numba.config.NUMBA_NUM_THREADS,
+       "cpus": len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else None}
+for name in ("ring13-push100", "ring26-flexitron"):
+    scene = load_scene(os.path.join(sys.argv[1], "data", "scenes", name + ".toml"))
+    t1 = time.perf_counter(); simulate(scene); first = time.perf_counter() - t1
+    solve, wall, iters = [], [], 0
+    for _ in range(7):
+        t1 = time.perf_counter(); r = simulate(scene); wall.append(time.perf_counter() - t1)
+        solve.append(r.solve_time_s); iters = int(r.stats.n_newton_iters)
+    out[name] = {"first_s": first, "solve_ms": 1e3 * statistics.median(solve),
+                 "wall_ms": 1e3 * statistics.median(wall), "outside_ms": 1e3 * (
+                 statistics.median(wall) - statistics.median(solve)), "iters": iters,
+                 "steps": int(r.stats.n_steps)}
+print(json.dumps(out))
+"""
+
+
+def per_process(n: int) -> int:
+    """``n`` fresh processes one after the other: is the solve time bimodal per process?"""
+    import subprocess
+
+    print("| process | import s | ring13 solve ms | wall ms | outside ms | ring26-flexitron "
+          "solve ms | wall ms | outside ms | iters | steps |")  # fmt: skip
+    print("|---|---|---|---|---|---|---|---|---|---|")
+    for k in range(n):
+        done = subprocess.run(
+            [sys.executable, "-c", _PROCESS, str(ROOT)], capture_output=True, text=True, check=True
+        )
+        d = json.loads(done.stdout.strip().splitlines()[-1])
+        a, b = d["ring13-push100"], d["ring26-flexitron"]
+        print(
+            f"| {k} | {d['import_s']:.2f} | {a['solve_ms']:.1f} | {a['wall_ms']:.1f} | "
+            f"{a['outside_ms']:.1f} | {b['solve_ms']:.1f} | {b['wall_ms']:.1f} | "
+            f"{b['outside_ms']:.1f} | {b['iters']} | {b['steps']} |",
+            flush=True,
+        )
+    return 0
+
+
 def main() -> int:
     ap = argparse.ArgumentParser()
     ap.add_argument("--quick", action="store_true", help="1 repeat, fewer cases")
     ap.add_argument("--json", type=Path, help="write the results as JSON here")
+    ap.add_argument(
+        "--per-process", type=int, default=0, metavar="N",
+        help="only: N fresh processes, each timing ring13 and ring26-flexitron (bimodal?)",
+    )  # fmt: skip
     args = ap.parse_args()
+    if args.per_process:
+        return per_process(args.per_process)
     reps = 1 if args.quick else 5
     base = load_scene(SCENE)
     t0 = time.perf_counter()

@@ -30,7 +30,6 @@ import difflib
 import logging
 import math
 import os
-import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -44,6 +43,7 @@ from ringqa.pipeline.verdicts import DOSE_ACTION_PCT, POSITION_RECOMMENDED_MM, P
 from ringqa.plan import PLAN_STEP_MM, PRESCRIPTION_GY, DosePointSpec
 from ringqa.report.fields import ReportFields
 from ringqa.simulation.scene_keys import KEYS as SCENE_KEYS
+from ringqa.textio import read_toml
 
 log = logging.getLogger(__name__)
 
@@ -267,6 +267,14 @@ KEYS: tuple[ConfigKey, ...] = (
         "simulate the whole channel (ignores stem_mm)",
         option="--whole-channel",
     ),
+    ConfigKey(
+        "simulation.cross_check",
+        "",
+        False,
+        "flag",
+        "also run the flexible-element engine and compare its dwells (the cross-check)",
+        option="--cross-check",
+    ),
     ConfigKey("report.institution", "", "", "text", "hospital / department"),
     ConfigKey("report.physicist", "", "", "text", "the physicist who signs"),
     ConfigKey("report.afterloader", "", "", "text", "afterloader model and serial number"),
@@ -314,6 +322,10 @@ def _nearest(name: str, known) -> str:
     return f"did you mean {match[0]}?" if match else "known keys: see docs/config.md"
 
 
+def _config_error(path: Path, problem: str, fix: str) -> ConfigError:
+    return ConfigError(f"{path}: {problem} ({fix})")
+
+
 def read_config_file(path: str | Path) -> dict[str, Any]:
     """Read and check one configuration file: ``{dotted key: value}`` (scene keys as
     ``scene.<dotted scene key>``).
@@ -327,23 +339,35 @@ def read_config_file(path: str | Path) -> dict[str, Any]:
     p = Path(path)
     if not p.is_file():
         raise ConfigError(f"{p}: configuration file not found (give the path of a .toml file)")
-    try:
-        with open(p, "rb") as fh:
-            data = tomllib.load(fh)
-    except tomllib.TOMLDecodeError as exc:
-        raise ConfigError(f"{p}: not valid TOML: {exc} (fix the syntax there)") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ConfigError(f"{p}: cannot read the configuration file ({exc})") from None
+    data = read_toml(p, error=_config_error)  # ringqa.textio: encodings, errors named
     if _is_scene_file(data):
-        log.info("%s: a scene file (ringqa accuracy's recommended.toml): numerical settings", p)
-        return {f"scene.{k}": v for k, v in recommended_overrides(data).items()}
+        taken = recommended_overrides(data)
+        log.warning(
+            "%s: a scene file (ringqa accuracy's recommended.toml): only its numerical settings "
+            "are taken (%s); not taken: %s (the applicator, cable and physics come from the "
+            "input and the settings; site scene settings go under [scene] in a configuration)",
+            p,
+            ", ".join(taken) or "none",
+            ", ".join(_not_taken(data)) or "nothing",
+        )
+        return {f"scene.{k}": v for k, v in taken.items()}
+    scene_like = [t for t in data if t not in TABLES and t in _SCENE_TABLES]
+    if scene_like and not set(TABLES) & set(data):
+        tables = ", ".join(f"[{t}]" for t in scene_like)
+        raise ConfigError(
+            f"{p}: {tables}: scene settings in a configuration file that is not a complete scene "
+            f"file (no [channel] and [instrument]); they would not be used (put them under "
+            f"[scene], e.g. [scene.{scene_like[0]}], or give ringqa accuracy's recommended.toml)"
+        )
     out: dict[str, Any] = {}
     for table, body in data.items():
         if table not in TABLES:
-            raise ConfigError(
-                f"{p}: unknown key '{table}' ({_nearest(table, TABLES)}; tables: "
-                f"{', '.join(TABLES)})"
+            hint = (
+                f"scene settings go under [scene]: [scene.{table}]"
+                if table in _SCENE_TABLES
+                else _nearest(table, TABLES)
             )
+            raise ConfigError(f"{p}: unknown key '{table}' ({hint}; tables: {', '.join(TABLES)})")
         if not isinstance(body, dict):
             raise ConfigError(f"{p}: '{table}' must be a table ([{table}])")
         if table == "scene":
@@ -362,11 +386,31 @@ def read_config_file(path: str | Path) -> dict[str, Any]:
     return out
 
 
+#: the top-level tables of a scene file
+_SCENE_TABLES = frozenset(k.dotted.split(".")[0] for k in SCENE_KEYS)
+
+
 def _is_scene_file(data: Mapping) -> bool:
-    """A scene file (``recommended.toml``) rather than a configuration: scene tables, no
-    configuration tables."""
-    scene_tables = {"channel", "instrument", "solver", "discretisation", "motion", "effects"}
-    return bool(scene_tables & set(data)) and not (set(TABLES) & set(data))
+    """A complete scene file (``recommended.toml``) rather than a configuration: it has the
+    ``[channel]`` and ``[instrument]`` tables a scene needs, and no configuration table. (A
+    file with only some scene tables, ``[solver]`` and ``[contact]``, is not one: refused, so
+    that its friction values are never dropped without a word.)"""
+    return {"channel", "instrument"} <= set(data) and not (set(TABLES) & set(data))
+
+
+def _not_taken(data: Mapping) -> list[str]:
+    """The tables and keys of a scene file that :func:`recommended_overrides` does not take."""
+    left = []
+    for table, body in data.items():
+        if table == "solver" and isinstance(body, Mapping):
+            left += [f"solver.{k}" for k in body if k not in RECOMMENDED_SOLVER_KEYS]
+        elif table == "discretisation" and isinstance(body, Mapping):
+            left += [f"discretisation.{k}" for k in body if k != "element_length_mm"]
+        elif table == "instrument":
+            left.append("instrument (but its sections' element lengths)")
+        else:
+            left.append(str(table))
+    return left
 
 
 def recommended_overrides(data: Mapping) -> dict[str, Any]:
@@ -469,6 +513,7 @@ class EffectiveConfig:
                 dose_action_pct=v["tolerances.dose_action_pct"],
                 register=v["simulation.register"],
                 stem_mm=None if v["simulation.whole_channel"] else v["simulation.stem_mm"],
+                cross_check=bool(v["simulation.cross_check"]),
                 settings_origin=dict(self.origins),
                 **self.extra,
             )
@@ -551,8 +596,9 @@ def effective_config(
     extra : mapping, optional
         Settings without a configuration key (see :attr:`EffectiveConfig.extra`).
     user_file : path, bool or None
-        True: :func:`user_config_path` (used when the file exists); a path: that file; None or
-        False: no user configuration.
+        True: :func:`user_config_path` (the platform's default file is used when it exists;
+        a file named by ``RINGQA_CONFIG`` must exist); a path: that file (must exist); None
+        or False: no user configuration.
 
     Returns
     -------
@@ -562,6 +608,14 @@ def effective_config(
     origins = {k.key: DEFAULT for k in KEYS}
     layers: list[tuple[str, Mapping[str, Any]]] = []
     user = user_config_path() if user_file is True else (user_file or None)
+    named = user_file is not True or os.environ.get(ENV_VAR) is not None
+    if user is not None and named and not Path(user).is_file():
+        why = f"{ENV_VAR}={user}" if user_file is True else f"user configuration {user}"
+        raise ConfigError(
+            f"{why}: configuration file not found (a share not mounted?); defaults would be "
+            f"used without the site's settings (mount or create it, or set {ENV_VAR}= (empty) "
+            "to run without a user configuration)"
+        )
     if user is not None and Path(user).is_file():
         layers.append((f"user config {user}", read_config_file(user)))
     if config_file is not None:

@@ -5,16 +5,26 @@ Every command writes its files into a hidden staging folder beside the target
 target's place as a whole (:func:`staged_output`):
 
 - a missing or empty target: the staging folder is renamed into place;
-- a target an earlier ringqa run wrote (it holds the marker file :data:`MARKER_NAME`): the old
-  folder is renamed aside (``.NAME.old-PID-XXXX``), the staging folder renamed into place and the
-  old folder deleted, so no file of the earlier run survives next to the new ones;
-- a non-empty target without the marker: refused before any work starts (:func:`check_writable`),
-  since ringqa would otherwise delete files it did not write.
+- a target an earlier ringqa run wrote: its marker file :data:`MARKER_NAME` lists every file
+  and folder that run wrote (relative path, size, SHA-256). If the folder holds nothing else
+  and none of those files was changed, the old folder is renamed aside
+  (``.NAME.old-PID-XXXX``), the staging folder renamed into place and the listed files of the
+  old folder deleted (and nothing else: a file that reached the old folder in between is kept);
+- anything else - a file not in the list, a listed file changed since (a report signed in
+  place), a marker without a list (an older ringqa), a folder without a marker: refused,
+  naming the files, before any work starts (:func:`check_writable`) and again at the commit
+  (a file saved into the folder while the command ran), since ringqa never deletes a file it
+  did not write.
 
-While the staging folder exists SIGTERM and SIGINT raise :class:`OutputInterrupted`, so the
-staging folder is removed and the target stays as it was. Staging folders left by a process that
-no longer runs (SIGKILL, power loss) are removed at the start of the next run into the same
-target (:func:`remove_leftovers`).
+``--out`` itself is checked before any work (:func:`check_out_path`): not a symbolic link,
+not the current folder or one above it, not a file, under a writable folder.
+
+While the staging folder exists SIGTERM, SIGINT and SIGHUP raise :class:`OutputInterrupted`,
+so the staging folder is removed and the target stays as it was. Staging folders left by a
+process that no longer runs (SIGKILL, power loss) are removed at the start of the next run into
+the same target (:func:`remove_leftovers`).
+
+Folders and files follow the process's umask (``umask 022``: folders 0755, files 0644).
 
 A single file written on its own (an applicator file, a points file) goes through
 :func:`atomic_write_text` / :func:`atomic_write_bytes`: a temporary file in the same folder,
@@ -27,32 +37,39 @@ from __future__ import annotations
 import contextlib
 import contextvars
 import datetime as _dt
+import errno
+import hashlib
 import json
 import os
 import re
 import shutil
 import signal
+import stat
 import sys
 import tempfile
 import threading
 from collections.abc import Callable, Iterable, Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Literal
 
 from ringqa.errors import RingQAError
 
-#: the file that marks a folder as written by ringqa (replaced as a whole by the next run)
+#: the file that marks a folder as written by ringqa (and lists the files it wrote)
 MARKER_NAME = ".ringqa-output.json"
 
 #: the signals that, while a staging folder exists, end the run cleanly
-HANDLED_SIGNALS: tuple[signal.Signals, ...] = (signal.SIGINT, signal.SIGTERM)
+HANDLED_SIGNALS: tuple[signal.Signals, ...] = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+
+#: how many foreign files a refusal names (then "and N more")
+NAMED_FILES = 5
 
 _COMMAND: contextvars.ContextVar[str] = contextvars.ContextVar("ringqa_command", default="")
+_UMASK_LOCK = threading.Lock()
 
 
 class OutputInterrupted(KeyboardInterrupt):
-    """A signal (SIGTERM, SIGINT) arrived while an output folder was being written.
+    """A signal (SIGTERM, SIGINT, SIGHUP) arrived while an output folder was being written.
 
     A :class:`KeyboardInterrupt` (not an ``Exception``), so that code catching ``Exception``
     (a batch recording one applicator's failure) does not swallow it; the staging folder is
@@ -84,14 +101,25 @@ class FolderState:
     Attributes
     ----------
     kind : {"missing", "empty", "ringqa", "foreign"}
-        ``ringqa``: it holds the marker of an earlier run (or only files of ``ours``);
-        ``foreign``: it holds other files.
+        ``ringqa``: every entry is listed in the marker of the earlier run (unchanged) or is
+        one of ``ours``; ``foreign``: it holds something else.
     example : str or None
-        For ``foreign``: the name of one file ringqa did not write (for the message).
+        For ``foreign``: the first entry ringqa did not write (for the message).
+    foreign : tuple of str
+        For ``foreign``: every such entry (relative POSIX paths; a changed listed file is
+        followed by `` (changed since ringqa wrote it)``).
+    owned : tuple of str
+        For ``ringqa``: the entries ringqa may delete when it replaces the folder (files and
+        folders relative to it, the marker included), deepest first.
+    legacy : bool
+        The marker has no file list (written by an older ringqa).
     """
 
     kind: Literal["missing", "empty", "ringqa", "foreign"]
     example: str | None = None
+    foreign: tuple[str, ...] = ()
+    owned: tuple[str, ...] = field(default=(), repr=False)
+    legacy: bool = False
 
 
 @dataclass(frozen=True)
@@ -124,7 +152,9 @@ def running_command(name: str) -> Iterator[None]:
 
 
 def marker_record() -> dict:
-    """The content of :data:`MARKER_NAME`: software, version, command, date, process id."""
+    """The content of :data:`MARKER_NAME` without its file list: software, version, command,
+    date, process id (the list - ``files``, ``folders`` - is added when the folder is committed,
+    :func:`list_files`)."""
     from ringqa import __version__
 
     return {
@@ -136,14 +166,119 @@ def marker_record() -> dict:
     }
 
 
-def has_marker(folder: Path) -> bool:
-    """True if ``folder`` holds a readable ringqa marker file."""
+def current_umask() -> int:
+    """The process's file-mode creation mask (read without changing it for long)."""
+    with _UMASK_LOCK:
+        mask = os.umask(0o022)
+        os.umask(mask)
+    return mask
+
+
+def sha256_file(path: Path) -> str:
+    """The SHA-256 of a file's bytes (hex)."""
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def _walk(folder: Path) -> tuple[list[str], list[str]]:
+    """Files (and links, and anything not a folder) and folders under ``folder``, as relative
+    POSIX paths; symbolic links are not followed."""
+    files: list[str] = []
+    folders: list[str] = []
+    for root, dirs, names in os.walk(folder, followlinks=False):
+        rel = Path(root).relative_to(folder)
+        for d in list(dirs):
+            p = Path(root) / d
+            if p.is_symlink():
+                files.append((rel / d).as_posix())
+                dirs.remove(d)
+            else:
+                folders.append((rel / d).as_posix())
+        files.extend((rel / n).as_posix() for n in names)
+    return sorted(files), sorted(folders)
+
+
+def list_files(folder: Path, unhashed: Iterable[str] = ()) -> dict:
+    """The file list a marker records for ``folder``: ``files`` (path, size in bytes, SHA-256)
+    and ``folders`` (paths), the marker itself left out.
+
+    Parameters
+    ----------
+    folder : Path
+        The finished (staging) folder.
+    unhashed : iterable of str
+        Paths recorded without a checksum (the command's own caches, which it changes in place
+        on the next run).
+    """
+    skip = set(unhashed)
+    files, folders = _walk(folder)
+    entries = []
+    for rel in files:
+        if rel == MARKER_NAME:
+            continue
+        p = folder / rel
+        entries.append(
+            {
+                "path": rel,
+                "size": p.lstat().st_size,
+                "sha256": None if rel in skip else sha256_file(p),
+            }
+        )
+    return {"files": entries, "folders": folders}
+
+
+def read_marker(folder: Path) -> dict | None:
+    """The marker record of ``folder`` (None when there is none, or it is not ringqa's)."""
     path = folder / MARKER_NAME
     try:
+        if path.is_symlink() or not path.is_file():
+            return None
         data = json.loads(path.read_text(encoding="utf-8"))
     except (OSError, ValueError):
+        return None
+    if not isinstance(data, dict) or data.get("software") != "ringqa":
+        return None
+    return data
+
+
+def has_marker(folder: Path) -> bool:
+    """True if ``folder`` holds a readable ringqa marker file."""
+    return read_marker(folder) is not None
+
+
+def _listed(data: dict) -> tuple[dict[str, dict], set[str]] | None:
+    """The marker's files (path -> entry) and folders, or None if it has no valid list."""
+    files, folders = data.get("files"), data.get("folders")
+    if not isinstance(files, list) or not isinstance(folders, list):
+        return None
+    out: dict[str, dict] = {}
+    for e in files:
+        if not (isinstance(e, dict) and isinstance(e.get("path"), str)):
+            return None
+        out[e["path"]] = e
+    return out, {f for f in folders if isinstance(f, str)}
+
+
+def _unchanged(path: Path, entry: dict) -> bool:
+    """True if ``path`` is a plain file with the recorded size and checksum."""
+    try:
+        st = path.lstat()
+    except OSError:
         return False
-    return isinstance(data, dict) and data.get("software") == "ringqa"
+    if not stat.S_ISREG(st.st_mode):
+        return False
+    if entry.get("size") is not None and st.st_size != entry.get("size"):
+        return False
+    digest = entry.get("sha256")
+    if digest is None:
+        return True
+    try:
+        return sha256_file(path) == digest
+    except OSError:
+        return False
 
 
 def folder_state(out: Path, ours: Iterable[str] = ()) -> FolderState:
@@ -155,26 +290,74 @@ def folder_state(out: Path, ours: Iterable[str] = ()) -> FolderState:
         The target folder (a missing one is ``missing``).
     ours : iterable of str
         Names the running command itself keeps in the folder while it works (the accuracy
-        study's run cache): a folder holding only these counts as ringqa's.
+        study's run cache): never foreign.
     """
-    if not out.exists():
+    out = Path(out)
+    if not out.exists() and not out.is_symlink():
         return FolderState("missing")
-    names = sorted(p.name for p in out.iterdir())
-    if not names:
+    files, folders = _walk(out)
+    if not files and not folders:
         return FolderState("empty")
-    if has_marker(out):
-        return FolderState("ringqa")
-    other = [n for n in names if n not in set(ours)]
-    if not other:
-        return FolderState("ringqa")
-    return FolderState("foreign", other[0])
+    ours = set(ours)
+    data = read_marker(out)
+    listed = None if data is None else _listed(data)
+    recorded, recorded_dirs = listed if listed is not None else ({}, set())
+    foreign: list[str] = []
+    for rel in files:
+        if rel in ours or (rel == MARKER_NAME and data is not None):
+            continue
+        if rel in recorded:
+            if not _unchanged(out / rel, recorded[rel]):
+                foreign.append(f"{rel} (changed since ringqa wrote it)")
+            continue
+        foreign.append(rel)
+    foreign_dirs = [d for d in folders if d not in recorded_dirs]
+    # a folder counts once, as itself, only when nothing foreign lies inside it already
+    for d in foreign_dirs:
+        if not any(f.startswith(d + "/") for f in foreign):
+            foreign.append(d + "/")
+    if foreign:
+        foreign.sort()
+        return FolderState("foreign", foreign[0], tuple(foreign), legacy=listed is None)
+    owned = list(files) + sorted(folders, key=lambda d: -d.count("/"))
+    return FolderState("ringqa", owned=tuple(owned))
 
 
-def foreign_message(out: Path, example: str | None) -> str:
-    """The one-line refusal for a non-empty folder ringqa did not write."""
+def _name_files(names: tuple[str, ...]) -> str:
+    shown = ", ".join(names[:NAMED_FILES])
+    more = len(names) - NAMED_FILES
+    return shown + (f" and {more} more" if more > 0 else "")
+
+
+def foreign_message(out: Path, state: FolderState | str | None, *, at_commit: bool = False) -> str:
+    """The one-line refusal for a folder holding files ringqa did not write (or changed).
+
+    Parameters
+    ----------
+    out : Path
+        The folder.
+    state : FolderState or str or None
+        Its state (a bare file name: the older form, one example).
+    at_commit : bool
+        The files were found when the finished output was about to be put in place.
+    """
+    if not isinstance(state, FolderState):
+        state = FolderState("foreign", state, (state,) if state else ())
+    names = _name_files(state.foreign)
+    why = (
+        " (its marker comes from an older ringqa that did not list its files)"
+        if state.legacy and has_marker(out)
+        else ""
+    )
+    if at_commit:
+        return (
+            f"--out {out}: files ringqa did not write appeared in it while the command ran: "
+            f"{names}; nothing was replaced and they are kept (move them out of the folder, "
+            "or choose another --out, and run again)"
+        )
     return (
-        f"--out {out}: holds files ringqa did not write (e.g. {example}); choose an empty or new "
-        "folder, or a folder an earlier ringqa run wrote"
+        f"--out {out}: holds files ringqa did not write{why}: {names}; ringqa never deletes "
+        "them (move them out of the folder, or choose an empty or new folder)"
     )
 
 
@@ -217,8 +400,10 @@ def remove_leftovers(out: Path, say: Callable[[str], None] | None = None) -> lis
     """Remove staging folders beside ``out`` left by processes that no longer run.
 
     A set-aside earlier output (``.NAME.old-PID-XXXX``, left when a run died between its two
-    renames) is put back in place if ``out`` is missing, else removed. Each action is reported in
-    one line through ``say`` (default: standard error).
+    renames) is put back in place if ``out`` is missing; else the files its marker lists are
+    removed, and anything else in it is kept (the folder renamed to a visible
+    ``NAME.kept-PID``). Each action is reported in one line through ``say`` (default: standard
+    error).
 
     Returns
     -------
@@ -228,28 +413,122 @@ def remove_leftovers(out: Path, say: Callable[[str], None] | None = None) -> lis
     say = say or _say
     found = find_leftovers(out)
     for item in found:
-        if item.role == "old" and not out.exists():
+        if item.role == "old" and not out.exists() and not out.is_symlink():
             os.rename(item.path, out)
             say(f"restored {out} from {item.path.name}, set aside by an interrupted run")
             continue
-        shutil.rmtree(item.path, ignore_errors=True)
-        what = "staging folder" if item.role == "staging" else "earlier output"
-        say(f"removed left-over {what} {item.path} from an interrupted run (process {item.pid})")
+        if item.role == "staging":
+            shutil.rmtree(item.path, ignore_errors=True)
+            say(
+                f"removed left-over staging folder {item.path} from an interrupted run "
+                f"(process {item.pid})"
+            )
+            continue
+        kept = _delete_owned(item.path, folder_state(item.path))
+        if kept is None:
+            say(
+                f"removed left-over earlier output {item.path} from an interrupted run "
+                f"(process {item.pid})"
+            )
+        else:
+            say(
+                f"kept files ringqa did not write from an interrupted run's earlier output "
+                f"in {kept}"
+            )
     return found
 
 
+def _delete_owned(folder: Path, state: FolderState) -> Path | None:
+    """Delete the entries of ``folder`` that ringqa wrote (``state.owned``; a foreign or legacy
+    folder: nothing), then the folder if empty. Anything else is kept: the folder is renamed to
+    a visible ``NAME.kept-PID-XXXX`` beside it, which is returned (None if all was removed)."""
+    if state.kind == "ringqa":
+        for rel in state.owned:
+            p = folder / rel
+            with contextlib.suppress(OSError):
+                if p.is_dir() and not p.is_symlink():
+                    p.rmdir()  # only when empty: a file that arrived since stays
+                else:
+                    p.unlink()
+    with contextlib.suppress(OSError):
+        folder.rmdir()
+        return None
+    if not folder.exists():
+        return None
+    base = folder.name.lstrip(".").split(".old-")[0]
+    kept = folder.parent / f"{base}.kept-{os.getpid()}-{_dt.datetime.now():%Y%m%d%H%M%S}"
+    try:
+        os.rename(folder, kept)
+    except OSError:
+        return folder
+    return kept
+
+
 def _say(line: str) -> None:
-    print(f"ringqa: {line}", file=sys.stderr)
+    with contextlib.suppress(OSError, ValueError):
+        print(f"ringqa: {line}", file=sys.stderr)
 
 
 def _parent(out: Path) -> Path:
     return out.parent if str(out.parent) not in ("", ".") else Path(".")
 
 
+def check_out_path(out_dir: str | Path) -> Path:
+    """Check the ``--out`` path itself, before any work (its content: :func:`check_writable`).
+
+    Refused: an empty path, a symbolic link (the folder is replaced as a whole, which would
+    replace the link, not the folder it points to), ``.``/``..``/``/`` or any folder that holds
+    the current folder (renamed away under the running command), an existing file, a path
+    below a file, and a path whose nearest existing folder is not writable.
+
+    Raises
+    ------
+    RingQAError
+        Naming ``--out``, the reason and the fix.
+    """
+    if str(out_dir).strip() == "":
+        raise RingQAError("--out: empty path (give an output folder, e.g. --out results)")
+    out = Path(out_dir)
+    if out.is_symlink():
+        target = os.readlink(out)
+        raise RingQAError(
+            f"--out {out}: is a symbolic link (to {target}); ringqa replaces its output folder "
+            "as a whole, which would replace the link (give the folder itself or a new folder)"
+        )
+    absolute = Path(os.path.abspath(out))
+    try:
+        here = Path.cwd().resolve()
+        holds_cwd = here == out.resolve() or out.resolve() in here.parents
+    except OSError:
+        holds_cwd = False
+    if out.name in ("", ".", "..") or absolute == Path(absolute.anchor) or holds_cwd:
+        raise RingQAError(
+            f"--out {out}: is the current folder or a folder above it; ringqa replaces its "
+            "output folder as a whole (name a new subfolder, e.g. --out results)"
+        )
+    if out.exists() and not out.is_dir():
+        raise RingQAError(f"--out {out}: exists and is not a folder (choose a folder path)")
+    probe = absolute
+    while not probe.exists() and not probe.is_symlink():
+        probe = probe.parent
+    if not probe.is_dir():
+        raise RingQAError(
+            f"--out {out}: {probe} is a file, not a folder (choose a path under a folder)"
+        )
+    if probe == absolute:
+        probe = absolute.parent
+    if not os.access(probe, os.W_OK | os.X_OK):
+        raise RingQAError(
+            f"--out {out}: folder {probe} is not writable (choose a folder you can write to)"
+        )
+    return out
+
+
 def check_writable(out_dir: str | Path, *, ours: Iterable[str] = ()) -> Path:
     """Return ``out_dir`` as a Path after checking ringqa may write it (before any work).
 
-    Also removes left-over staging folders of interrupted runs beside it
+    The path is checked (:func:`check_out_path`), then its content (:func:`folder_state`);
+    left-over staging folders of interrupted runs beside it are removed
     (:func:`remove_leftovers`).
 
     Parameters
@@ -262,22 +541,16 @@ def check_writable(out_dir: str | Path, *, ours: Iterable[str] = ()) -> Path:
     Raises
     ------
     RingQAError
-        If the folder is a file, not writable (nor its nearest existing parent), or holds files
-        ringqa did not write.
+        If the path is refused, or the folder holds files ringqa did not write (named).
     """
-    out = Path(out_dir)
-    if out.exists() and not out.is_dir():
-        raise RingQAError(f"--out {out}: exists and is not a folder (choose a folder path)")
-    probe = out
-    while not probe.exists():
-        probe = probe.parent
-    if not os.access(probe, os.W_OK | os.X_OK):
+    out = check_out_path(out_dir)
+    if out.is_dir() and not os.access(out, os.R_OK | os.X_OK):
         raise RingQAError(
-            f"--out {out}: folder {probe} is not writable (choose a folder you can write to)"
+            f"--out {out}: folder cannot be read (choose a folder you can read and write)"
         )
     state = folder_state(out, ours)
     if state.kind == "foreign":
-        raise RingQAError(foreign_message(out, state.example))
+        raise RingQAError(foreign_message(out, state))
     remove_leftovers(out)
     return out
 
@@ -287,10 +560,12 @@ def staged_output(out_dir: str | Path, *, ours: Iterable[str] = ()) -> Iterator[
     """Yield a staging folder; on success it replaces ``out_dir`` as a whole.
 
     The folder is refused at entry if it holds files ringqa did not write
-    (:func:`check_writable`). On success the marker file is added, the files named in ``ours``
-    are carried over from the old folder (unless the block wrote them), and the staging folder
-    takes the target's place (:func:`commit_folder`). On any exception, SIGTERM or SIGINT
-    (:class:`OutputInterrupted`) the staging folder is removed and ``out_dir`` is untouched.
+    (:func:`check_writable`). On success the files named in ``ours`` are carried over from the
+    old folder (unless the block wrote them), the marker file with the list of every file
+    written is added (also in each subfolder that has its own marker) and the staging folder
+    takes the target's place (:func:`commit_folder`, which checks the target again). On any
+    exception, SIGTERM, SIGINT or SIGHUP (:class:`OutputInterrupted`) the staging folder is
+    removed and ``out_dir`` is untouched.
 
     Parameters
     ----------
@@ -298,7 +573,7 @@ def staged_output(out_dir: str | Path, *, ours: Iterable[str] = ()) -> Iterator[
         The output folder.
     ours : iterable of str
         Files the command keeps in ``out_dir`` while it works (the accuracy study's run cache):
-        not counted as foreign, and carried into the new folder.
+        not counted as foreign, carried into the new folder, listed without a checksum.
     """
     ours = tuple(ours)
     out = check_writable(out_dir, ours=ours)
@@ -309,9 +584,10 @@ def staged_output(out_dir: str | Path, *, ours: Iterable[str] = ()) -> Iterator[
         try:
             with _signals_blocked():
                 stage = Path(tempfile.mkdtemp(prefix=staging_prefix(out), dir=parent))
+                os.chmod(stage, 0o777 & ~current_umask())
             yield stage
-            (stage / MARKER_NAME).write_text(json.dumps(marker_record(), indent=2) + "\n")
             carry_over(out, stage, ours)
+            write_markers(stage, unhashed=ours)
             with _signals_blocked():
                 commit_folder(stage, out, ours)
         except OutputInterrupted as exc:
@@ -324,6 +600,22 @@ def staged_output(out_dir: str | Path, *, ours: Iterable[str] = ()) -> Iterator[
                     shutil.rmtree(stage, ignore_errors=True)
 
 
+def write_markers(stage: Path, *, unhashed: Iterable[str] = ()) -> None:
+    """Write the marker of ``stage`` with the list of its files, and complete the marker of
+    every subfolder that has one (a batch's applicator folders) with the list of its own."""
+    unhashed = tuple(unhashed)
+    for sub in sorted(stage.rglob(MARKER_NAME)):
+        folder = sub.parent
+        if folder == stage or sub.is_symlink():
+            continue
+        record = read_marker(folder) or marker_record()
+        record.update(list_files(folder))
+        sub.write_text(json.dumps(record, indent=2) + "\n", encoding="utf-8")
+    record = marker_record()
+    record.update(list_files(stage, unhashed))
+    (stage / MARKER_NAME).write_text(json.dumps(record, indent=2) + "\n", encoding="utf-8")
+
+
 def staging_prefix(out: Path) -> str:
     """Name prefix of this process's staging folders for ``out`` (``.NAME.staging-PID-``)."""
     return f".{out.name}.staging-{os.getpid()}-"
@@ -333,29 +625,42 @@ def carry_over(out: Path, stage: Path, names: Iterable[str]) -> None:
     """Copy the files ``names`` from ``out`` into ``stage`` unless the stage already has them."""
     for name in names:
         src, dst = out / name, stage / name
-        if src.is_file() and not dst.exists():
+        if src.is_file() and not src.is_symlink() and not dst.exists():
             shutil.copy2(src, dst)
 
 
 def commit_folder(stage: Path, out: Path, ours: Iterable[str] = ()) -> None:
     """Put the finished staging folder ``stage`` in the place of ``out``.
 
-    A missing or empty ``out`` is replaced by one rename. An earlier ringqa output is renamed
-    aside, ``stage`` renamed into place (the old folder is put back if that fails) and the old
-    folder deleted.
+    A missing or empty ``out`` is replaced by one rename. An earlier ringqa output (every
+    entry listed in its marker and unchanged) is renamed aside, checked again there (a file
+    that arrived between the check and the rename: the old folder is put back and the commit
+    refused), ``stage`` renamed into place (the old folder is put back if that fails) and the
+    listed files of the old folder deleted; anything else found there is kept
+    (:func:`_delete_owned`).
 
     Raises
     ------
     RingQAError
-        If ``out`` came to hold files ringqa did not write while the command ran.
+        If ``out`` holds files ringqa did not write (named), e.g. saved there while the command
+        ran; nothing is replaced then.
     OSError
         If a rename fails (``out`` is then as it was).
     """
+    ours = tuple(ours)
     state = folder_state(out, ours)
     if state.kind == "foreign":
-        raise RingQAError(foreign_message(out, state.example))
+        raise RingQAError(foreign_message(out, state, at_commit=True))
     if state.kind in ("missing", "empty"):
-        os.replace(stage, out)  # POSIX: replaces an empty folder in one step
+        try:
+            os.replace(stage, out)  # POSIX: replaces an empty folder in one step
+        except OSError as exc:
+            if exc.errno not in (errno.ENOTEMPTY, errno.EEXIST):
+                raise
+            # a file arrived in the empty folder just now
+            raise RingQAError(
+                foreign_message(out, folder_state(out, ours), at_commit=True)
+            ) from None
         return
     aside = Path(tempfile.mkdtemp(prefix=f".{out.name}.old-{os.getpid()}-", dir=_parent(out)))
     try:
@@ -363,12 +668,29 @@ def commit_folder(stage: Path, out: Path, ours: Iterable[str] = ()) -> None:
     except BaseException:
         aside.rmdir()
         raise
+    again = folder_state(aside, ours)
+    if again.kind == "foreign":  # arrived between the check and the rename: put it all back
+        _put_back(aside, out)
+        raise RingQAError(foreign_message(out, again, at_commit=True))
     try:
         os.replace(stage, out)
     except BaseException:
-        os.replace(aside, out)
+        _put_back(aside, out)
         raise
-    shutil.rmtree(aside, ignore_errors=True)
+    kept = _delete_owned(aside, again)
+    if kept is not None:
+        _say(f"kept files that reached the earlier output of {out} during the run in {kept}")
+
+
+def _put_back(aside: Path, out: Path) -> None:
+    """Rename the set-aside earlier output back to ``out`` (or say where it is)."""
+    try:
+        os.replace(aside, out)
+    except OSError as exc:
+        raise RingQAError(
+            f"--out {out}: the earlier output could not be put back ({exc.strerror or exc}); "
+            f"it is complete in {aside} (rename it back by hand)"
+        ) from None
 
 
 def _in_main_thread() -> bool:
@@ -388,8 +710,8 @@ def _raise_interrupted(signum: int, frame) -> None:
 
 @contextlib.contextmanager
 def _signals_raise() -> Iterator[None]:
-    """Make SIGTERM and SIGINT raise :class:`OutputInterrupted` (main thread only; a signal the
-    process ignores stays ignored; the previous handlers are restored after)."""
+    """Make SIGTERM, SIGINT and SIGHUP raise :class:`OutputInterrupted` (main thread only; a
+    signal the process ignores stays ignored; the previous handlers are restored after)."""
     previous = {}
     if _in_main_thread():
         for sig in HANDLED_SIGNALS:
@@ -407,7 +729,7 @@ def _signals_raise() -> Iterator[None]:
 
 @contextlib.contextmanager
 def _signals_blocked() -> Iterator[None]:
-    """Hold SIGTERM and SIGINT back while folders are renamed or removed, so a signal cannot
+    """Hold SIGTERM, SIGINT and SIGHUP back while folders are renamed or removed, so a signal cannot
     stop those steps half-way; one that arrived meanwhile is raised at the end of the block.
 
     The handler (which Python always runs in the main thread, whichever thread the operating
@@ -425,7 +747,7 @@ def _signals_blocked() -> Iterator[None]:
             raise OutputInterrupted(pending[0])  # type: ignore[index]
 
 
-def atomic_write_bytes(path: str | os.PathLike, data: bytes, *, mode: int = 0o644) -> Path:
+def atomic_write_bytes(path: str | os.PathLike, data: bytes, *, mode: int | None = None) -> Path:
     """Write ``data`` to ``path`` atomically: all of it or (on any error) nothing.
 
     The bytes go to a temporary file in the target's folder, which is flushed and fsync'ed and
@@ -438,9 +760,9 @@ def atomic_write_bytes(path: str | os.PathLike, data: bytes, *, mode: int = 0o64
         The file to write (replaced if it exists).
     data : bytes
         The whole content.
-    mode : int
-        Permission bits of the new file (``0o644``: readable by all, as files written with
-        ``open()`` under the usual umask; the temporary file itself starts as ``0o600``).
+    mode : int or None
+        Permission bits of the new file (None: ``0o666`` less the umask, as a file written with
+        ``open()``; the temporary file itself starts as ``0o600``).
 
     Returns
     -------
@@ -455,7 +777,7 @@ def atomic_write_bytes(path: str | os.PathLike, data: bytes, *, mode: int = 0o64
             fh.write(data)
             fh.flush()
             os.fsync(fh.fileno())
-        os.chmod(tmp, mode)
+        os.chmod(tmp, (0o666 & ~current_umask()) if mode is None else mode)
         os.replace(tmp, target)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
@@ -464,7 +786,7 @@ def atomic_write_bytes(path: str | os.PathLike, data: bytes, *, mode: int = 0o64
 
 
 def atomic_write_text(
-    path: str | os.PathLike, text: str, *, encoding: str = "utf-8", mode: int = 0o644
+    path: str | os.PathLike, text: str, *, encoding: str = "utf-8", mode: int | None = None
 ) -> Path:
     """Write ``text`` to ``path`` atomically (see :func:`atomic_write_bytes`).
 
@@ -476,8 +798,8 @@ def atomic_write_text(
         The whole content, written as is (no newline translation).
     encoding : str
         Text encoding (UTF-8).
-    mode : int
-        Permission bits of the new file.
+    mode : int or None
+        Permission bits of the new file (None: follow the umask).
 
     Returns
     -------

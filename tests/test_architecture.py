@@ -43,7 +43,7 @@ NEEDLE_USES = {"foundations", "geometry", "simulation", "report", "needle"}
 #: (source file or folder, imported name) -> why it is still allowed. Delete entries as they go.
 PRIVATE_IMPORT_EXCEPTIONS: dict[tuple[str, str], str] = {}
 
-FOUNDATIONS = {"units", "errors", "paths", "provenance", "outdir", "jsonio", "datasets",
+FOUNDATIONS = {"units", "errors", "paths", "provenance", "outdir", "jsonio", "textio", "datasets",
                "progress", "__init__", "__main__"}  # fmt: skip
 
 

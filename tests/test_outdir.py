@@ -43,8 +43,9 @@ def _dead_pid():
 
 
 def test_atomic_write_replaces_the_file_whole(tmp_path):
-    """A new file is created (with its folder), an existing one replaced; the mode is 0o644 and
-    no temporary file is left beside it."""
+    """A new file is created (with its folder), an existing one replaced; the mode is 0o644
+    (the umask 022 in force) and no temporary file is left beside it."""
+    os.umask(0o022)
     target = tmp_path / "sub" / "f.txt"
     atomic_write_text(target, "first\n")
     atomic_write_text(target, "second\n")
@@ -112,7 +113,7 @@ def test_foreign_folder_is_refused_before_the_block_and_left_untouched(tmp_path)
     out.mkdir()
     (out / "thesis.docx").write_text("precious")
     ran = []
-    with pytest.raises(RingQAError, match=r"holds files ringqa did not write \(e.g. thesis.docx\)"):
+    with pytest.raises(RingQAError, match=r"holds files ringqa did not write: thesis.docx; "):
         with staged_output(out):
             ran.append(1)
     assert not ran
@@ -216,3 +217,205 @@ def test_a_signal_during_the_renames_waits_until_they_are_done(tmp_path, monkeyp
     assert info.value.output_complete
     assert sorted(p.name for p in out.iterdir()) == [MARKER_NAME, "new.csv"]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
+
+
+def _files(folder):
+    return {str(p.relative_to(folder)): p.read_bytes() for p in folder.rglob("*") if p.is_file()}
+
+
+def test_marker_lists_every_file_with_size_and_checksum(tmp_path):
+    """The marker lists each file (relative path, size, SHA-256) and folder the run wrote; a
+    subfolder's own marker lists the subfolder's files. sha256(b"new") is
+    11507a0e2f5e69d5dfa40a62a1bd7b6ee57e6bcd85c67c9b8431b36fff21c437 (hashlib, by hand)."""
+    out = tmp_path / "out"
+    with staged_output(out) as stage:
+        (stage / "sub").mkdir()
+        (stage / "sub" / "b.csv").write_text("new")
+        (stage / "sub" / MARKER_NAME).write_text('{"software": "ringqa"}')
+        (stage / "a.csv").write_text("abcd")
+    top = json.loads((out / MARKER_NAME).read_text())
+    paths = {e["path"]: e for e in top["files"]}
+    assert set(paths) == {"a.csv", "sub/b.csv", f"sub/{MARKER_NAME}"}
+    assert paths["a.csv"]["size"] == 4
+    assert paths["sub/b.csv"]["sha256"] == (
+        "11507a0e2f5e69d5dfa40a62a1bd7b6ee57e6bcd85c67c9b8431b36fff21c437"
+    )
+    assert top["folders"] == ["sub"]
+    sub = json.loads((out / "sub" / MARKER_NAME).read_text())
+    assert [e["path"] for e in sub["files"]] == ["b.csv"]
+
+
+@pytest.mark.parametrize("where", ["top", "nested"])
+def test_rerun_refuses_a_file_saved_in_an_earlier_output_and_keeps_it(tmp_path, where):
+    """A file the physicist saved into an earlier output (a film scan, a notes file): refused at
+    the start naming it; the folder is byte-for-byte unchanged."""
+    out = _earlier_output(tmp_path / "out", ("report.pdf",))
+    if where == "nested":
+        (out / "scans").mkdir()
+    saved = out / ("notes.txt" if where == "top" else "scans/film.tif")
+    saved.write_text("mine")
+    before = _files(out)
+    with pytest.raises(RingQAError, match=r"did not write: (notes.txt|scans/film.tif);"):
+        with staged_output(out) as stage:
+            (stage / "new.csv").write_text("new")
+    assert _files(out) == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
+
+
+def test_rerun_refuses_a_report_changed_since_ringqa_wrote_it(tmp_path):
+    """A listed file changed in place (a report signed and saved over itself) counts as the
+    user's: refused, named with '(changed since ringqa wrote it)', kept."""
+    out = _earlier_output(tmp_path / "out", ("report.pdf",))
+    (out / "report.pdf").write_text("old + signature")
+    with pytest.raises(RingQAError, match=r"report.pdf \(changed since ringqa wrote it\)"):
+        with staged_output(out):
+            pass
+    assert (out / "report.pdf").read_text() == "old + signature"
+
+
+def test_a_marker_without_a_file_list_protects_every_file(tmp_path):
+    """A marker of an older ringqa (no file list): its files cannot be told from the user's, so
+    the folder is refused, naming them and why."""
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / MARKER_NAME).write_text(json.dumps({"software": "ringqa", "version": "0.1"}))
+    (out / "report.pdf").write_text("x")
+    with pytest.raises(RingQAError, match=r"older ringqa that did not list its files\): report"):
+        check_writable(out)
+    assert (out / "report.pdf").exists()
+
+
+def test_a_file_saved_while_the_command_runs_is_kept_and_the_commit_refused(tmp_path):
+    """A file saved into the earlier output while the command works: the commit refuses
+    (naming it), the earlier output and the file stay, no staging folder is left."""
+    out = _earlier_output(tmp_path / "out", ("report.pdf",))
+    with pytest.raises(RingQAError, match=r"appeared in it while the command ran: scan.tif"):
+        with staged_output(out) as stage:
+            (stage / "report.pdf").write_text("new")
+            (out / "scan.tif").write_text("film")
+    assert (out / "scan.tif").read_text() == "film"
+    assert (out / "report.pdf").read_text() == "old"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
+
+
+def test_a_file_arriving_between_the_check_and_the_rename_is_kept(tmp_path, monkeypatch):
+    """The race the second check closes: a file lands after the commit's first check, before
+    the old folder is renamed aside. The set-aside folder is checked again: everything is put
+    back, the commit refused, the file kept."""
+    import ringqa.outdir as od
+
+    out = _earlier_output(tmp_path / "out", ("report.pdf",))
+    real = od.folder_state
+    calls = []
+
+    def racing(folder, ours=()):
+        state = real(folder, ours)
+        calls.append(folder)
+        if len(calls) == 2:  # the commit's first check: the file arrives right after it
+            (out / "late.txt").write_text("late")
+        return state
+
+    monkeypatch.setattr(od, "folder_state", racing)
+    with pytest.raises(RingQAError, match=r"late\.txt"), staged_output(out) as stage:
+        (stage / "report.pdf").write_text("new")
+    assert (out / "late.txt").read_text() == "late"
+    assert (out / "report.pdf").read_text() == "old"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
+
+
+def test_a_file_arriving_in_the_set_aside_folder_is_kept_visibly(tmp_path, monkeypatch):
+    """A file that reaches the set-aside earlier output after its second check (through an
+    open folder handle): the new output is committed, the listed old files deleted, and the
+    late file kept in a visible ``out.kept-...`` folder beside it."""
+    import ringqa.outdir as od
+
+    out = _earlier_output(tmp_path / "out", ("report.pdf",))
+    real = od._delete_owned
+
+    def late(folder, state):
+        (folder / "late.txt").write_text("late")
+        return real(folder, state)
+
+    monkeypatch.setattr(od, "_delete_owned", late)
+    with staged_output(out) as stage:
+        (stage / "report.pdf").write_text("new")
+    assert (out / "report.pdf").read_text() == "new"
+    kept = [p for p in tmp_path.iterdir() if p.name.startswith("out.kept-")]
+    assert len(kept) == 1 and _files(kept[0]) == {"late.txt": b"late"}
+
+
+def test_an_earlier_output_with_a_user_file_is_not_removed_as_a_leftover(tmp_path):
+    """A set-aside earlier output of a killed run holding a file ringqa did not write, while
+    --out exists again: only the listed files go; the user's file is kept visibly."""
+    aside = tmp_path / f".out.old-{_dead_pid()}-zz"
+    _earlier_output(aside, ("a.csv",))
+    (aside / "mine.txt").write_text("mine")
+    (tmp_path / "out").mkdir()
+    lines = []
+    remove_leftovers(tmp_path / "out", say=lines.append)
+    kept = [p for p in tmp_path.iterdir() if ".kept-" in p.name]
+    assert len(kept) == 1 and (kept[0] / "mine.txt").read_text() == "mine"
+    assert "kept files ringqa did not write" in lines[0]
+
+
+def test_folders_and_files_follow_the_umask(tmp_path):
+    """umask 022 -> folder 0755, files 0644 (also the marker and a JSON written atomically);
+    umask 077 -> 0700 / 0600."""
+    from ringqa.jsonio import write_json
+
+    old = os.umask(0o022)
+    try:
+        for mask, dmode, fmode in ((0o022, 0o755, 0o644), (0o077, 0o700, 0o600)):
+            os.umask(mask)
+            out = tmp_path / f"out{mask:o}"
+            with staged_output(out) as stage:
+                (stage / "a.csv").write_text("a")
+                write_json(stage / "r.json", {"a": 1})
+                (stage / "sub").mkdir()
+            assert stat.S_IMODE(out.stat().st_mode) == dmode
+            assert stat.S_IMODE((out / "sub").stat().st_mode) == dmode
+            for name in ("a.csv", "r.json", MARKER_NAME):
+                assert stat.S_IMODE((out / name).stat().st_mode) == fmode, name
+    finally:
+        os.umask(old)
+
+
+@pytest.mark.parametrize("kind", ["symlink", "dot", "parent_of_cwd", "file", "below_a_file"])
+def test_bad_out_paths_are_refused_at_once(tmp_path, monkeypatch, kind):
+    """--out as a symbolic link, '.', a folder holding the current folder, a file, or a path
+    below a file: refused by check_writable with the reason; nothing created."""
+    real = tmp_path / "real"
+    real.mkdir()
+    monkeypatch.chdir(real)
+    paths = {
+        "symlink": tmp_path / "link",
+        "dot": ".",
+        "parent_of_cwd": str(tmp_path),
+        "file": tmp_path / "f.txt",
+        "below_a_file": tmp_path / "f.txt" / "out",
+    }
+    (tmp_path / "link").symlink_to(real)
+    (tmp_path / "f.txt").write_text("x")
+    words = {
+        "symlink": "is a symbolic link",
+        "dot": "current folder",
+        "parent_of_cwd": "current folder",
+        "file": "not a folder",
+        "below_a_file": "is a file",
+    }
+    before = sorted(p.name for p in tmp_path.iterdir())
+    with pytest.raises(RingQAError, match=words[kind]):
+        check_writable(paths[kind])
+    assert sorted(p.name for p in tmp_path.iterdir()) == before
+
+
+def test_sighup_is_handled_like_sigterm(tmp_path):
+    """SIGHUP (the terminal closed) while staging: OutputInterrupted, exit status 129, no staging
+    folder left."""
+    out = tmp_path / "out"
+    with pytest.raises(OutputInterrupted) as info, staged_output(out) as stage:
+        (stage / "a.csv").write_text("a")
+        os.kill(os.getpid(), signal.SIGHUP)
+        time.sleep(5)
+    assert info.value.exit_status == 129
+    assert list(tmp_path.iterdir()) == []

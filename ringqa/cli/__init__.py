@@ -4,9 +4,18 @@ Each sub-command lives in its own module in this package and exposes ``add_parse
 (which registers its arguments and sets ``func``). ``main(argv=None)`` is testable in-process
 (after pydicom's cli/main.py). Errors the user can fix are printed on one line, exit status 2;
 so are operating-system errors (a full disk, a read-only or missing folder: :func:`os_error_line`).
-SIGTERM / SIGINT while an output folder is being written end the command with status 143 / 130
-and leave no staging folder (:mod:`ringqa.outdir`). Anything else is a bug and keeps its
-traceback (exit status 1).
+SIGTERM / SIGINT / SIGHUP while an output folder is being written end the command with status
+143 / 130 / 129 and leave no staging folder (:mod:`ringqa.outdir`). Anything else is a bug and
+keeps its traceback (exit status 1).
+
+Before any work ``--out`` is checked (:func:`ringqa.outdir.check_out_path`: not a symbolic
+link, not ``.``, under a writable folder) and ``--log-file`` opened and written once (a full
+device or an unwritable file: refused at once; a log file inside ``--out``: refused, since the
+folder is replaced whole). While the command runs, standard output and standard error pass
+through :class:`TerminalStream`: text from files is shown with its control characters escaped
+(:func:`ringqa.textio.terminal_text`), and a closed or full stream (``| head``, ``>&-``,
+``>/dev/full``) never turns a finished run into a failure: the exit status stays the run's, and
+a log file that stops accepting lines gives one warning line and is left alone.
 """
 
 from __future__ import annotations
@@ -19,11 +28,13 @@ import logging
 import os
 import signal
 import sys
+import time
 from pathlib import Path
 
 from ringqa import __version__
 from ringqa.errors import RingQAError
-from ringqa.outdir import OutputInterrupted, running_command
+from ringqa.outdir import OutputInterrupted, check_out_path, running_command
+from ringqa.textio import terminal_text
 
 # command name -> module (imported lazily so that `ringqa --help` stays fast)
 COMMANDS: dict[str, str] = {
@@ -108,17 +119,97 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     logger = logging.getLogger("ringqa")
     saved = (logger.level, logger.propagate)
-    handlers = configure_logging(args.verbose, args.log_file)
-    words = sys.argv[1:] if argv is None else argv
-    logging.getLogger(__name__).debug("ringqa %s: ringqa %s", __version__, " ".join(words))
+    with terminal_streams() as (out, _err):
+        try:
+            check_paths(args)
+            handlers = configure_logging(args.verbose, args.log_file)
+        except RingQAError as exc:
+            print(f"ringqa {args.command}: error: {exc}", file=sys.stderr)
+            return 2
+        words = sys.argv[1:] if argv is None else argv
+        logging.getLogger(__name__).debug("ringqa %s: ringqa %s", __version__, " ".join(words))
+        try:
+            code = _run(args)
+        finally:
+            for handler in handlers:
+                logger.removeHandler(handler)
+                with contextlib.suppress(OSError, ValueError):
+                    handler.close()
+            logger.setLevel(saved[0])
+            logger.propagate = saved[1]
+        if out.failed is not None:
+            print(
+                f"ringqa {args.command}: note: standard output could not be written "
+                f"({_reason(out.failed)}); the exit status is the command's ({code})",
+                file=sys.stderr,
+            )
+        return code
+
+
+def _reason(exc: BaseException) -> str:
+    return getattr(exc, "strerror", None) or str(exc) or type(exc).__name__
+
+
+class TerminalStream:
+    """Standard output or error while a command runs: escapes control characters of what is
+    written (:func:`ringqa.textio.terminal_text`) and never raises on a closed or full stream.
+
+    Parameters
+    ----------
+    stream : file-like
+        The stream wrapped (``sys.stdout``).
+    progress : bool
+        Standard error: keep what progress bars need (a leading carriage return, cursor up).
+
+    Attributes
+    ----------
+    failed : Exception or None
+        The first error writing to the stream (then nothing more is written to it).
+    """
+
+    def __init__(self, stream, *, progress: bool = False) -> None:
+        self._stream = stream
+        self._progress = progress
+        self.failed: BaseException | None = None
+
+    def write(self, text: str) -> int:
+        if self.failed is None:
+            try:
+                self._stream.write(terminal_text(text, keep_cr=self._progress))
+            except (OSError, ValueError) as exc:  # EPIPE, ENOSPC, a closed file
+                self.failed = exc
+        return len(text)
+
+    def writelines(self, lines) -> None:
+        for line in lines:
+            self.write(line)
+
+    def flush(self) -> None:
+        if self.failed is None:
+            try:
+                self._stream.flush()
+            except (OSError, ValueError) as exc:
+                self.failed = exc
+
+    def __getattr__(self, name: str):
+        return getattr(self._stream, name)
+
+
+@contextlib.contextmanager
+def terminal_streams():
+    """Put :class:`TerminalStream` in place of ``sys.stdout`` and ``sys.stderr`` (a stream that
+    is None, closed at start, stays None); yield the two wrappers; restore the streams after."""
+    saved = sys.stdout, sys.stderr
+    out = TerminalStream(saved[0])
+    err = TerminalStream(saved[1], progress=True)
+    if saved[0] is not None:
+        sys.stdout = out
+    if saved[1] is not None:
+        sys.stderr = err
     try:
-        return _run(args)
+        yield out, err
     finally:
-        for handler in handlers:
-            logger.removeHandler(handler)
-            handler.close()
-        logger.setLevel(saved[0])
-        logger.propagate = saved[1]
+        sys.stdout, sys.stderr = saved
 
 
 #: the cyclic garbage collector's generation-0 threshold while the ``ringqa`` script runs
@@ -148,6 +239,37 @@ def console_main() -> None:
     os._exit(code)
 
 
+class LogFileHandler(logging.FileHandler):
+    """The ``--log-file`` handler: when the file stops accepting lines (a full disk, a
+    device like /dev/full) it says so once on standard error and writes nothing more, instead of
+    a traceback per record and an exit status 1 after a finished run."""
+
+    failed: BaseException | None = None
+
+    def emit(self, record: logging.LogRecord) -> None:
+        if self.failed is None:
+            super().emit(record)
+
+    def handleError(self, record: logging.LogRecord) -> None:
+        exc = sys.exc_info()[1]
+        if self.failed is None and exc is not None:
+            self.failed = exc
+            with contextlib.suppress(OSError, ValueError):
+                print(
+                    f"ringqa: warning: --log-file {self.baseFilename}: cannot be written "
+                    f"({_reason(exc)}); the log stops here, the run goes on",
+                    file=sys.stderr,
+                )
+
+    def flush(self) -> None:
+        with contextlib.suppress(OSError, ValueError):
+            super().flush()
+
+    def close(self) -> None:
+        with contextlib.suppress(OSError, ValueError):
+            super().close()
+
+
 def configure_logging(verbose: int, log_file: Path | None) -> list[logging.Handler]:
     """Attach the command line's log handlers to the ``ringqa`` logger (library modules only
     call ``logging.getLogger(__name__)``; only the command line configures handlers).
@@ -157,12 +279,18 @@ def configure_logging(verbose: int, log_file: Path | None) -> list[logging.Handl
     verbose : int
         0: warnings only on stderr; 1 (``-v``): INFO; 2 or more (``-vv``): DEBUG.
     log_file : Path or None
-        Also append DEBUG-level records with time stamps to this file.
+        Also append DEBUG-level records with time stamps to this file (:class:`LogFileHandler`;
+        opened and written once here, so a file that cannot be written is refused at once).
 
     Returns
     -------
     list of logging.Handler
         The handlers added (removed again when the command ends).
+
+    Raises
+    ------
+    RingQAError
+        ``--log-file`` cannot be opened or written (a folder, no permission, a full device).
     """
     logger = logging.getLogger("ringqa")
     level = logging.WARNING if verbose <= 0 else logging.INFO if verbose == 1 else logging.DEBUG
@@ -171,14 +299,7 @@ def configure_logging(verbose: int, log_file: Path | None) -> list[logging.Handl
     console.setFormatter(logging.Formatter("ringqa: %(message)s"))
     handlers: list[logging.Handler] = [console]
     if log_file is not None:
-        try:
-            fh = logging.FileHandler(log_file, encoding="utf-8")
-        except OSError as exc:
-            console.close()
-            raise SystemExit(
-                f"ringqa: error: --log-file {log_file}: {exc.strerror or exc} (choose a "
-                "writable file)"
-            ) from None
+        fh = _open_log_file(Path(log_file))
         fh.setLevel(logging.DEBUG)
         fh.setFormatter(logging.Formatter("%(asctime)s %(levelname)s %(name)s: %(message)s"))
         handlers.append(fh)
@@ -187,6 +308,27 @@ def configure_logging(verbose: int, log_file: Path | None) -> list[logging.Handl
         logger.addHandler(handler)
     logger.propagate = False
     return handlers
+
+
+def _open_log_file(log_file: Path) -> LogFileHandler:
+    """Open ``--log-file`` for appending and write its first line (refused if either fails)."""
+    fix = "choose a writable file on a disk with free space"
+    if log_file.is_dir():
+        raise RingQAError(f"--log-file {log_file}: is a folder ({fix})")
+    try:
+        fh = LogFileHandler(log_file, encoding="utf-8")
+    except OSError as exc:
+        raise RingQAError(f"--log-file {log_file}: {_reason(exc)} ({fix})") from None
+    try:
+        stamp = time.strftime("%Y-%m-%d %H:%M:%S")
+        fh.stream.write(f"{stamp} INFO ringqa.cli: log opened by process {os.getpid()}\n")
+        fh.stream.flush()
+    except (OSError, ValueError) as exc:
+        fh.close()
+        raise RingQAError(
+            f"--log-file {log_file}: cannot be written: {_reason(exc)} ({fix})"
+        ) from None
+    return fh
 
 
 def _run(args: argparse.Namespace) -> int:
@@ -215,6 +357,29 @@ def _run(args: argparse.Namespace) -> int:
     except KeyboardInterrupt:
         print(f"ringqa {args.command}: interrupted", file=sys.stderr)
         return 130
+
+
+def check_paths(args: argparse.Namespace) -> None:
+    """Check ``--out`` (:func:`ringqa.outdir.check_out_path`) and that ``--log-file`` does not
+    lie inside it, before any work.
+
+    Raises
+    ------
+    RingQAError
+        Naming the option, the reason and the fix.
+    """
+    out = getattr(args, "out", None)
+    if out is None:
+        return
+    check_out_path(out)
+    log = getattr(args, "log_file", None)
+    if log is not None:
+        out_abs, log_abs = Path(out).resolve(), Path(log).resolve()
+        if out_abs in log_abs.parents:
+            raise RingQAError(
+                f"--log-file {log}: lies inside --out {out}, which ringqa replaces as a whole "
+                "(put the log file beside the output folder)"
+            )
 
 
 #: what to do about an operating-system error, by errno

@@ -48,6 +48,13 @@ def add_parser(subparsers) -> None:
         default=120.0,
         help="do not start a reference level predicted to take longer (s; 120)",
     )
+    p.add_argument(
+        "--formulations",
+        action="store_true",
+        help="instead of the settings grid: run the rigid and the flexible engine "
+        "(model.formulation) over --factors, print each one's order of convergence and cost per "
+        "accuracy and write DIR/formulations.csv",
+    )
     p.add_argument("--fresh", action="store_true", help="ignore runs cached in DIR")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
@@ -74,6 +81,8 @@ def run(args: argparse.Namespace) -> int:
     if args.max_levels < 2:
         raise RingQAError(f"--max-levels {args.max_levels}: at least 2 (two levels must agree)")
     scene = load_scene(args.scene, parse_set_args(args.overrides))
+    if getattr(args, "formulations", False):
+        return _formulations(scene, factors, args)
     study = run_study(
         scene,
         target_mm=args.target_mm,
@@ -113,4 +122,23 @@ def run(args: argparse.Namespace) -> int:
         f"ringqa accuracy: cheapest meeting {args.target_mm:g} mm: {r['label']} "
         f"({r['max_err_mm']:.3g} mm, {r['time_s']:.3g} s) -> {args.out}/recommended.toml"
     )
+    return 0
+
+
+def _formulations(scene, factors, args) -> int:
+    """``--formulations``: both engines over the factors (ringqa.accuracy.compare_formulations)."""
+    from dataclasses import asdict
+
+    import pandas as pd
+
+    from ringqa.accuracy import compare_formulations
+
+    study = compare_formulations(scene, factors, target_mm=args.target_mm)
+    print(f"ringqa accuracy: {scene.name}: rigid vs flexible engine")
+    print(study.text())
+    args.out.mkdir(parents=True, exist_ok=True)
+    pd.DataFrame([asdict(lv) for lv in study.levels]).to_csv(
+        args.out / "formulations.csv", index=False
+    )
+    print(f"ringqa accuracy: -> {args.out}/formulations.csv")
     return 0

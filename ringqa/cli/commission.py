@@ -155,6 +155,14 @@ def add_parser(subparsers) -> None:
         help="simulate the whole channel (however long its straight shaft)",
     )
     p.add_argument(
+        "--cross-check",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help="also run the flexible-element engine (model.formulation = flexible) and compare its "
+        "dwells; a disagreement above max(0.2 mm, 2 x the numerical errors) fails the numerics "
+        "(off by default: it adds ~1-2 s)",
+    )
+    p.add_argument(
         "--centreline-correction",
         type=Path,
         default=None,
@@ -213,7 +221,36 @@ def add_parser(subparsers) -> None:
     )
     p.add_argument("--no-pdf", action="store_true", help="write the CSV/JSON files only")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_channel_options(p)
     p.set_defaults(func=run)
+
+
+def add_channel_options(p) -> None:
+    """``--channel`` (repeatable), ``--structures`` and ``--lumen-mm`` (issue 30)."""
+    p.add_argument(
+        "--channel",
+        action="append",
+        default=None,
+        metavar="N",
+        help="commission this channel (the plan's channel number or the channel's name; "
+        "repeatable); default: every channel with a centreline (a ring applicator: its ring)",
+    )
+    p.add_argument(
+        "--structures",
+        type=Path,
+        default=None,
+        metavar="RS.dcm",
+        help="an RT Structure Set whose open contours are the RT Plan's channels (matched by "
+        "the dwells lying on them)",
+    )
+    p.add_argument(
+        "--lumen-mm",
+        type=float,
+        default=None,
+        metavar="D",
+        help="lumen diameter (mm) of the channels read from --structures (default: the "
+        "per-applicator table data/applicators/lumen_table.csv)",
+    )
 
 
 def _is_applicator_folder(path: Path) -> bool:
@@ -272,6 +309,7 @@ OPTION_KEYS = {
     "stem_mm": "simulation.stem_mm",
     "whole_channel": "simulation.whole_channel",
     "strict": "report.strict",
+    "cross_check": "simulation.cross_check",
 }
 
 
@@ -445,6 +483,13 @@ def _run(args: argparse.Namespace) -> int:
             f"--workers {args.workers}: must be a whole number >= 1 (1: one applicator after "
             "the other)"
         )
+    settings = _with_channel_settings(settings, args)
+    if single and sweep_spec is None:
+        from ringqa.cli.channels import channels_wanted, run_channels
+
+        wanted = channels_wanted(items[0], settings, args.channel)
+        if wanted is not None:
+            return run_channels(items[0], settings, wanted, args, fields)
     if single:
         if labels:
             fields = dataclasses.replace(fields, label=labels[0])
@@ -489,6 +534,18 @@ def _run(args: argparse.Namespace) -> int:
         return EXIT_INPUT
     failed = [r for r in batch.results if not r.passed]
     return EXIT_FAIL if strict and failed else EXIT_OK
+
+
+def _with_channel_settings(settings, args):
+    """``settings`` with ``--structures``, ``--lumen-mm`` and a single ``--channel``."""
+    extra = {}
+    if getattr(args, "structures", None) is not None:
+        extra["structures"] = args.structures
+    if getattr(args, "lumen_mm", None) is not None:
+        extra["lumen_mm"] = args.lumen_mm
+    if getattr(args, "channel", None) and len(args.channel) == 1:
+        extra["channel"] = str(args.channel[0])
+    return dataclasses.replace(settings, **extra) if extra else settings
 
 
 def _real_std_streams() -> bool:
@@ -545,7 +602,6 @@ def sweep_spec_for(args, item, settings=None):
     sets = {"input": str(Path(item).resolve()) if Path(item).exists() else str(item)}
     if args.uncertainty is not None:
         sets["samples"] = args.uncertainty
-        sets["batch_size"] = 1  # the bar moves per sample (the samples are the same)
     for name in SWEEP_SETTINGS if settings is not None else ():
         value = getattr(settings, name, None)
         if value is not None and (name != "source" or isinstance(value, str)):

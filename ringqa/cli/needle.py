@@ -2,7 +2,9 @@
 
 One channel (the paper's S channel with --radius-mm/--torsion-rad/--diameter-mm, default
 r = 35 mm, tau = 0, 2.6 mm; or, with a SCENE and none of those options, the scene's own channel,
-e.g. a centreline file), pushed 120 mm at 5 mm/s; writes
+e.g. a centreline file; or, with --applicator, an applicator's channel, e.g. a free-form
+3-D printed channel folder: "will this needle pass, at what force?"), pushed 120 mm at 5 mm/s;
+writes
 
   DIR/force_depth.csv   depth_mm, force_n (filtered like the measurements), force_raw_n
   DIR/force_depth.png   the curve, the bends shaded, the 1st peak, plateau and 2nd peak marked
@@ -58,6 +60,17 @@ def add_parser(subparsers) -> None:
     p.add_argument(
         "--workers", type=int, default=None, help="processes for --sweep (default 2; 1 = serial)"
     )
+    p.add_argument(
+        "--applicator",
+        type=Path,
+        default=None,
+        metavar="PATH",
+        help="push the catheter through this applicator's channel (a free-form folder with "
+        "centreline.csv + applicator.json, an applicator JSON or a shipped name)",
+    )
+    p.add_argument(
+        "--channel", default=None, help="the --applicator's channel (default: its first)"
+    )
     add_set_option(p)
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
@@ -96,6 +109,14 @@ def run(args: argparse.Namespace) -> int:
         "--diameter-mm": args.diameter_mm,
     }
     given = [k for k, v in geometry.items() if v is not None]
+    if getattr(args, "applicator", None) is not None:
+        if given or args.sweep is not None:
+            raise NeedleError(
+                "--applicator: not with --radius-mm/--torsion-rad/--diameter-mm or --sweep (the "
+                "applicator's channel is the channel)"
+            )
+    elif getattr(args, "channel", None) is not None:
+        raise NeedleError("--channel: only with --applicator")
     if args.sweep is not None:
         from ringqa.needle.sweep import parse_families
 
@@ -120,7 +141,9 @@ def _single(args, settings, given) -> int:
     from ringqa.needle.scene import ChannelSpec, paper_channel
 
     spec = None
-    if args.scene is None or given:
+    if getattr(args, "applicator", None) is not None:
+        channel = applicator_channel(args.applicator, args.channel, settings)
+    elif args.scene is None or given:
         d = ChannelSpec()
         spec = ChannelSpec(
             d.radius_mm if args.radius_mm is None else args.radius_mm,
@@ -155,3 +178,15 @@ def _sweep(args, settings, families) -> int:
         f"process(es) -> {args.out}/peaks.csv"
     )
     return _exit_code(r.status for r in runs)
+
+
+def applicator_channel(path, name, settings):
+    """The channel ``name`` (default the first) of the applicator at ``path``, checked against
+    the catheter (:func:`ringqa.needle.scene.check_channel`)."""
+    from ringqa.io.applicator_file import load_applicator
+    from ringqa.needle.scene import check_channel
+
+    app = load_applicator(path)
+    channel = app.channels[0] if name is None else app.channel(name)
+    check_channel(channel, settings)
+    return channel

@@ -96,4 +96,16 @@ def run(args: argparse.Namespace) -> int:
         f"ringqa sweep: {r['n_ok']} of {r['n_runs']} samples ok ({r['n_failed']} failed, "
         f"{r['computed_now']} computed now) -> {args.out}"
     )
+    if r["n_failed"]:
+        print(f"ringqa sweep: {r['failure_report']['text']}")
+    if r.get("sensitivity_note"):
+        print(f"ringqa sweep: sensitivity.csv: {r['sensitivity_note']}")
+    check = r.get("numerical_check", {})
+    if check.get("mode") == "calibrated" and check.get("max_error_mm") is not None:
+        print(
+            f"ringqa sweep: numerical error of each sample (one engine run at the commissioning "
+            f"settings) <= {check['max_error_mm']:.3f} mm, measured on "
+            f"{len(check['calibration_samples'])} samples run both ways (sweep.json "
+            "numerical_check)"
+        )
     return 0

@@ -548,3 +548,48 @@ def wall_distance(seg_s, seg_rb, seg_flat, s, offset, nor):
         b1 = w1 / dd
         b2 = w2 / dd
     return -best, b0, b1, b2
+
+
+@njit(cache=True)
+def banded_eliminate(band, kl, ku, b):
+    """Forward elimination of ``A x = b`` for a banded ``A`` without pivoting (in place).
+
+    Parameters
+    ----------
+    band : (n, kl + ku + 1) ndarray
+        The band of ``A`` row by row: ``band[i, kl + j - i] = A[i, j]`` for
+        ``i - kl <= j <= i + ku``; on return the upper triangle ``U`` of the elimination
+        (``band[i, kl:]``; the columns left of ``kl`` are left as they were).
+    kl, ku : int
+        Number of sub- and super-diagonals.
+    b : (n, d) ndarray
+        Right-hand sides; on return ``L^-1 b``.
+
+    Returns
+    -------
+    bool
+        False when a pivot is zero (``band`` and ``b`` then undefined).
+
+    Notes
+    -----
+    Row ``i`` minus ``A[i, j] / A[j, j]`` times row ``j`` for the ``kl`` rows below each pivot,
+    element by element the dense elimination's operations (the same IEEE results): without
+    pivoting nothing fills in outside the band, so memory is O(n (kl + ku)) and time
+    O(n kl ku). Stable for totally positive matrices such as B-spline collocation matrices
+    (de Boor and Pinkus, 1977). The back substitution is left to the caller.
+    """
+    n = band.shape[0]
+    d = b.shape[1]
+    for j in range(n - 1):
+        piv = band[j, kl]
+        if piv == 0.0:
+            return False
+        r1 = min(j + kl + 1, n)
+        c1 = min(j + ku + 1, n)
+        for i in range(j + 1, r1):
+            f = band[i, kl + j - i] / piv
+            for c in range(j + 1, c1):
+                band[i, kl + c - i] -= f * band[j, kl + c - j]
+            for m in range(d):
+                b[i, m] -= f * b[j, m]
+    return band[n - 1, kl] != 0.0

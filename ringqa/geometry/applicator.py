@@ -2,8 +2,17 @@
 
 A :class:`Channel` is a centreline, a lumen and the dwell convention: ``s_ref_m`` is the arc length
 at which the SOURCE CENTRE sits at relative position 0 (the most distal dwell); relative position
-``p`` (m) is at arc length ``s_ref_m - p``. An :class:`Applicator` groups channels with the ring
-frame used for dose points and plots.
+``p`` (m) is at arc length ``s_ref_m - p``. An :class:`Applicator` groups channels with the
+applicator's frame used for dose points and plots.
+
+Families: an applicator and each of its channels belong to a family (``"ring"``, ``"tandem"``,
+``"ovoid"``, ``"free-form"``, ...; :mod:`ringqa.geometry.families` holds each family's rules). A
+channel's ``family`` may be left empty: then its name says it (a channel called ``"tandem"`` is a
+tandem) or else the applicator's family does. The frame fields keep the ring's names
+(``ring_centre_m``, ``ring_normal``, ``ring_lateral``, ``ring_radius_m``) for every family: for a
+ring they are the fitted ring; for another family they are its frame (given, or fitted by
+:func:`ringqa.geometry.frame.fit_frame` when left out), and :attr:`Applicator.frame` reads them
+under family-neutral names.
 """
 
 from __future__ import annotations
@@ -14,7 +23,11 @@ from typing import Any
 import numpy as np
 
 from ringqa.geometry.centreline import Centreline, GeometryError
+from ringqa.geometry.frame import Frame, fit_frame
 from ringqa.geometry.lumen import Lumen
+
+#: The family of an applicator that does not name one.
+DEFAULT_FAMILY = "ring"
 
 
 def _unit_vector(name: str, v) -> np.ndarray:
@@ -51,6 +64,13 @@ class Channel:
     measured_source : str
         Where the measured path comes from (a library path's name, version and date, or the
         user's file); ``""`` when unknown.
+    family : str
+        The channel's family (``"ring"``, ``"tandem"``, ``"ovoid"``, ``"free-form"``, ...);
+        ``""``: said by its name, else the applicator's (:func:`ringqa.geometry.families
+        .family_of`).
+    label : str
+        How the plan and the report number the channel (an RT Plan's channel number, ``"1"``);
+        ``""``: the channel's name.
     """
 
     name: str
@@ -61,6 +81,8 @@ class Channel:
     measured_step_m: float | None = None
     measured_relative_m: np.ndarray | None = None
     measured_source: str = ""
+    family: str = ""
+    label: str = ""
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not self.name.strip():
@@ -112,6 +134,9 @@ class Channel:
             object.__setattr__(self, "measured_relative_m", rel)
         if not isinstance(self.measured_source, str):
             raise GeometryError(f"channel {self.name!r}: measured_source must be a string")
+        for key in ("family", "label"):
+            if not isinstance(getattr(self, key), str):
+                raise GeometryError(f"channel {self.name!r}: {key} must be a string")
 
     @property
     def measured_relative_positions_m(self) -> np.ndarray | None:
@@ -137,31 +162,35 @@ class Channel:
 
 @dataclass(frozen=True, eq=False)
 class Applicator:
-    """An applicator: channels plus the ring frame.
+    """An applicator: channels plus its frame (see the module docstring for the families).
 
     Attributes
     ----------
     name : str
     channels : tuple of Channel
     ring_centre_m : (3,) ndarray
-        Centre of the ring channel's circle (m).
+        The frame's origin (m): a ring's centre (of the ring channel's circle).
     ring_normal : (3,) ndarray
-        Unit normal of the ring plane, pointing cranially (towards the tandem tip / Point A).
+        Unit cranial axis (towards the tandem tip / Point A): a ring's plane normal.
     ring_lateral : (3,) ndarray
-        Unit vector in the ring plane towards the patient's left.
+        Unit axis towards the patient's left, perpendicular to ``ring_normal``.
     ring_radius_m : float
-        Radius of the ring channel centreline (m).
+        The frame's length scale (m): the radius of a ring's channel centreline.
     metadata : dict
         ``diameter_mm``, ``angle_deg``, sources/citations and assumptions.
+    family : str
+        The applicator's family (default ``"ring"``, which needs the four frame fields; the
+        others are fitted to the channels when left out).
     """
 
     name: str
     channels: tuple[Channel, ...]
-    ring_centre_m: np.ndarray
-    ring_normal: np.ndarray
-    ring_lateral: np.ndarray
-    ring_radius_m: float
+    ring_centre_m: np.ndarray | None = None
+    ring_normal: np.ndarray | None = None
+    ring_lateral: np.ndarray | None = None
+    ring_radius_m: float | None = None
     metadata: dict[str, Any] = field(default_factory=dict)
+    family: str = DEFAULT_FAMILY
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not self.name.strip():
@@ -173,6 +202,20 @@ class Applicator:
         if len(set(names)) != len(names):
             raise GeometryError(f"applicator {self.name!r}: duplicated channel names {names}")
         object.__setattr__(self, "channels", chans)
+        if not isinstance(self.family, str) or not self.family.strip():
+            raise GeometryError(f"applicator {self.name!r}: family must be a non-empty string")
+        frame_keys = ("ring_centre_m", "ring_normal", "ring_lateral", "ring_radius_m")
+        missing = [k for k in frame_keys if getattr(self, k) is None]
+        if missing and self.family == DEFAULT_FAMILY:
+            raise GeometryError(
+                f"applicator {self.name!r}: a ring needs its frame; give {', '.join(missing)}"
+            )
+        if missing:
+            fit = fit_frame(c.centreline for c in chans)
+            for key, val in zip(frame_keys, (fit.centre_m, fit.normal, fit.lateral, fit.scale_m),
+                                strict=True):  # fmt: skip
+                if getattr(self, key) is None:
+                    object.__setattr__(self, key, val)
         centre = np.asarray(self.ring_centre_m, dtype=float)
         if centre.shape != (3,) or not np.isfinite(centre).all():
             raise GeometryError(
@@ -198,6 +241,12 @@ class Applicator:
             object.__setattr__(self, key, val)
         object.__setattr__(self, "ring_radius_m", radius)
         object.__setattr__(self, "metadata", dict(self.metadata))
+
+    @property
+    def frame(self) -> Frame:
+        """The applicator's frame under family-neutral names (:class:`ringqa.geometry.frame
+        .Frame`)."""
+        return Frame(self.ring_centre_m, self.ring_normal, self.ring_lateral, self.ring_radius_m)
 
     @property
     def channel_names(self) -> tuple[str, ...]:

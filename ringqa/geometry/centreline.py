@@ -26,6 +26,32 @@ TABLE_SPACING_M = 0.25e-3
 
 _GL_X, _GL_W = np.polynomial.legendre.leggauss(10)
 
+#: Most points a centreline (or a measured path) may have (issue 25). A channel needs one point
+#: every 0.1-1 mm (150-1500 for a 150 mm ring); the spline's memory and time grow linearly
+#: (benchmarks/bench_memory.py: 40 000 points ~0.9 s and < 100 MB above the imports), and
+#: 100 000 points are 1 um apart on a 100 mm channel, below any measurement's resolution.
+MAX_POINTS = 100_000
+
+
+def point_count_problem(n: int, what: str = "centreline") -> tuple[str, str] | None:
+    """(problem, fix) when ``n`` points are more than :data:`MAX_POINTS`, else None.
+
+    Parameters
+    ----------
+    n : int
+        Number of points given.
+    what : str
+        What the points are ("centreline", "measured path"), for the message.
+    """
+    if n <= MAX_POINTS:
+        return None
+    return (
+        f"{n:,} points, more than the {MAX_POINTS:,} a {what} may have (a channel needs one "
+        "point every 0.1-1 mm: 150-1500 for a 150 mm ring)",
+        "resample the points along the channel, e.g. every 0.25 mm by interpolating each "
+        "coordinate over the cumulative distance between points (numpy.interp)",
+    )
+
 
 class GeometryError(RingQAError):
     """Invalid geometry input (names the argument and the fix)."""
@@ -85,6 +111,9 @@ def _validate_points(points_m) -> np.ndarray:
         raise GeometryError(
             f"points_m: expected an (n, 3) array of x, y, z in metres, got shape {pts.shape}"
         )
+    too_many = point_count_problem(pts.shape[0])
+    if too_many is not None:
+        raise GeometryError(f"points_m: {too_many[0]}; {too_many[1]}")
     if pts.shape[0] < 4:
         raise GeometryError(
             f"points_m: a centreline needs at least 4 points, got {pts.shape[0]}; "
@@ -254,8 +283,8 @@ class Centreline:
         Raises
         ------
         GeometryError
-            Fewer than 4 points, non-finite or duplicated points, points not in metres, or a
-            parametrisation that does not converge.
+            Fewer than 4 or more than :data:`MAX_POINTS` points, non-finite or duplicated
+            points, points not in metres, or a parametrisation that does not converge.
         """
         pts = _validate_points(points_m)
         if degree is None:

@@ -55,6 +55,7 @@ import numpy as np
 from ringqa.geometry.applicator import Channel
 from ringqa.geometry.centreline import GeometryError
 from ringqa.geometry.ring_frame import RingFrame, fit_ring_frame
+from ringqa.geometry.shape_checks import close_pairs
 from ringqa.units import m_to_mm, rad_to_deg
 
 __all__ = [
@@ -1257,14 +1258,11 @@ def reference_positions(
             raise RegistrationError(f"step_m: must be a positive step in metres, got {step_m!r}")
         rel = np.arange(n) * step
     # duplicated positions (any two, not only neighbours)
-    diff = p[:, None, :] - p[None, :, :]
-    dist = np.sqrt(np.sum(diff * diff, axis=2))
-    dist[np.tril_indices(n)] = np.inf
-    close = np.argwhere(dist < DUPLICATE_TOL_M)
-    if close.size:
-        i, j = (int(v) for v in close[np.lexsort((close[:, 1], close[:, 0]))][0])
+    ci, cj, cd = close_pairs(p, DUPLICATE_TOL_M, strict=True)  # O(n) memory (issue 25)
+    if ci.size:
+        i, j = int(ci[0]), int(cj[0])
         raise RegistrationError(
-            f"points_m: positions {i} and {j} coincide ({mm(dist[i, j]) * 1e3:.3f} um apart, "
+            f"points_m: positions {i} and {j} coincide ({mm(cd[0]) * 1e3:.3f} um apart, "
             f"closer than {DUPLICATE_TOL_M * 1e6:g} um); remove the duplicated position"
         )
     s_nom = ch.s_ref_m - rel

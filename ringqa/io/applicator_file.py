@@ -49,7 +49,6 @@ encoding than UTF-8 leave a note in ``metadata["notes"]``. Table: ``docs/validat
 from __future__ import annotations
 
 import difflib
-import json
 import math
 import os
 from pathlib import Path
@@ -74,6 +73,7 @@ from ringqa.io.points import PointSet, PointsFileError, check_points, read_point
 from ringqa.jsonio import json_text, to_jsonable
 from ringqa.outdir import atomic_write_text
 from ringqa.paths import data_dir
+from ringqa.textio import read_json
 from ringqa.units import m_to_mm, mm_to_m
 
 FORMAT = "ringqa-applicator"
@@ -87,17 +87,21 @@ FOLDER_FILE = "applicator.json"
 CHANNEL_KEYS = ("name", "centreline_mm", "centreline_file", "lumen", "s_ref_mm",
                 "tip_to_first_dwell_mm", "measured_path_mm", "measured_path_file",
                 "measured_relative_mm", "measured_step_mm", "measured_path_source",
-                "length_mm")  # fmt: skip
+                "length_mm", "family")  # fmt: skip
 #: keys of ``ring_frame``
 RING_FRAME_KEYS = ("centre_mm", "normal", "lateral", "radius_mm")
 #: top-level keys of an applicator file
 TOP_KEYS = ("format", "format_version", "name", "units", "conventions", "metadata",
-            "ring_frame", "channels")  # fmt: skip
+            "ring_frame", "channels", "family", "dose_points", "simulate_mm")  # fmt: skip
+#: top-level keys of a family other than the ring (:mod:`ringqa.geometry.families`) kept in the
+#: applicator's metadata: its own dose points ``[{"name", "position_mm"}]`` and the span
+#: simulated without a measured path (mm)
+FAMILY_METADATA_KEYS = ("dose_points", "simulate_mm")
 #: channel keys a folder's applicator.json gives at the top level (one channel beside
 #: centreline.csv), and the key naming that channel
 FOLDER_CHANNEL_KEYS = ("lumen", "s_ref_mm", "tip_to_first_dwell_mm", "measured_step_mm",
                        "measured_path_source")  # fmt: skip
-FOLDER_KEYS = (*TOP_KEYS, "channel", *FOLDER_CHANNEL_KEYS)
+FOLDER_KEYS = (*TOP_KEYS, "channel", *FOLDER_CHANNEL_KEYS, "lumen_diameter_mm")
 #: A ring applicator's radius (mm; the shipped rings are 13-17 mm): outside, another unit.
 RING_RADIUS_MM = (5.0, 50.0)
 #: The measured positions' median spacing may differ from the declared spacing by this factor
@@ -189,11 +193,18 @@ def applicator_to_dict(app: Applicator, decimals: int | None = None) -> dict[str
             entry["measured_relative_mm"] = [num(v) for v in m_to_mm(ch.measured_relative_m)]
         if ch.measured_source:
             entry["measured_path_source"] = ch.measured_source
+        if ch.family:
+            entry["family"] = ch.family
         channels.append(entry)
+    family = {} if app.family == "ring" else {"family": app.family}
+    meta = dict(app.metadata)
+    family_meta = {k: meta.pop(k) for k in FAMILY_METADATA_KEYS if k in meta and family}
     return {
         "format": FORMAT,
         "format_version": FORMAT_VERSION,
         "name": app.name,
+        **family,
+        **to_jsonable(family_meta),
         "units": "mm",
         "conventions": {
             "centreline": "points in mm, ordered proximal (channel entry) -> distal (lumen tip)",
@@ -207,7 +218,7 @@ def applicator_to_dict(app: Applicator, decimals: int | None = None) -> dict[str
             "circle; source = where the dimensions come from, or 'assumed'",
             "frame": "ring plane normal points cranially, lateral to the patient's left",
         },
-        "metadata": to_jsonable(app.metadata),
+        "metadata": to_jsonable(meta),
         "ring_frame": {
             "centre_mm": [float(v) for v in m_to_mm(app.ring_centre_m)],
             "normal": [float(v) for v in app.ring_normal],
@@ -334,18 +345,7 @@ class _Reader:
 
 
 def _load_json_file(path: Path) -> Applicator:
-    try:
-        doc = json.loads(path.read_text(encoding="utf-8-sig"))
-    except UnicodeDecodeError:
-        raise ApplicatorFileError(
-            path, "not a text (JSON) file", "give an applicator .json"
-        ) from None
-    except json.JSONDecodeError as exc:
-        raise ApplicatorFileError(
-            path, f"invalid JSON at line {exc.lineno} column {exc.colno}: {exc.msg}", "fix the file"
-        ) from None
-    except OSError as exc:
-        raise ApplicatorFileError(path, f"cannot be read ({exc.strerror})") from None
+    doc = read_json(path, error=ApplicatorFileError)  # strict: duplicate keys, depth, encoding
     return _from_dict(doc, _Reader(path))
 
 
@@ -358,10 +358,7 @@ def _load_folder(folder: Path) -> Applicator:
             f"add {FOLDER_FILE} with the lumen, s_ref_mm and ring frame beside centreline.csv "
             "(see data/applicators/README.md)",
         )
-    try:
-        doc = json.loads(spec.read_text(encoding="utf-8-sig"))
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise ApplicatorFileError(spec, f"invalid JSON ({exc})", "fix the file") from None
+    doc = read_json(spec, error=ApplicatorFileError)
     rd = _Reader(spec, folder)
     if isinstance(doc, dict) and "channels" not in doc:
         rd.known_keys(doc, FOLDER_KEYS, "")
@@ -371,13 +368,24 @@ def _load_folder(folder: Path) -> Applicator:
                 folder, "no centreline.csv and no 'channels' in applicator.json",
                 "add centreline.csv (x_mm,y_mm,z_mm, proximal -> distal)",
             )  # fmt: skip
+        family = doc.get("family", "ring")
         ch: dict[str, Any] = {
-            "name": doc.get("channel", "ring"),
+            "name": doc.get("channel", "ring" if family == "ring" else "channel"),
             "centreline_file": "centreline.csv",
         }
         for key in FOLDER_CHANNEL_KEYS:
             if key in doc:
                 ch[key] = doc[key]
+        if "lumen_diameter_mm" in doc:
+            if "lumen" in doc:
+                raise rd.fail(
+                    "lumen_diameter_mm",
+                    "given beside lumen",
+                    "give one of them (lumen_diameter_mm: a circular lumen)",
+                )
+            dia = rd.number(doc, "lumen_diameter_mm", "", positive=True)
+            ch["lumen"] = {"kind": "circular", "r_b_mm": dia / 2.0,
+                           "source": f"{FOLDER_FILE} lumen_diameter_mm"}  # fmt: skip
         if (folder / "measured_path.csv").is_file():
             ch["measured_path_file"] = "measured_path.csv"
         doc = {k: v for k, v in doc.items() if k in TOP_KEYS} | {"channels": [ch]}
@@ -413,7 +421,11 @@ def _from_dict(doc, rd: _Reader) -> Applicator:
     metadata = doc.get("metadata", {})
     if not isinstance(metadata, dict):
         raise rd.fail("metadata", "expected a JSON object")
+    family = _family(doc, rd)
+    metadata = {**metadata, **{k: doc[k] for k in FAMILY_METADATA_KEYS if k in doc}}
     frame = doc.get("ring_frame")
+    if family != "ring":
+        return _family_applicator(doc, rd, name, family, raw_channels, metadata)
     if frame is None:
         # a lumen fixed in the ring frame is read once the frame is fitted to the channels
         plain = [_without_fixed_flat(c) for c in raw_channels]
@@ -456,6 +468,69 @@ def _from_dict(doc, rd: _Reader) -> Applicator:
         )
     except GeometryError as exc:
         raise rd.fail("ring_frame/channels", str(exc)) from None
+
+
+def _family(doc: dict, rd: _Reader) -> str:
+    """The applicator's family (``"family"``, default ``"ring"``), checked against the
+    registered families."""
+    from ringqa.geometry.families import FAMILIES
+
+    family = doc.get("family", "ring")
+    if family not in FAMILIES:
+        raise rd.fail("family", f"{family!r} is not an applicator family",
+                      "choose one of: " + ", ".join(sorted(FAMILIES)))  # fmt: skip
+    for k in FAMILY_METADATA_KEYS:
+        if k in doc and family == "ring":
+            raise rd.fail(
+                k,
+                "is for applicators of another family than the ring",
+                'declare the family (e.g. "family": "free-form") or leave it out',
+            )
+    return family
+
+
+def _family_applicator(doc, rd: _Reader, name: str, family: str, raw_channels, metadata):
+    """An applicator of a family other than the ring: its channels (each of the applicator's
+    family unless it names its own), its frame as given in ``ring_frame`` or fitted by
+    :func:`ringqa.geometry.frame.fit_frame`, its own dose points checked."""
+    from ringqa.geometry.families import family_named
+    from ringqa.geometry.families.free_form import user_points
+
+    frame = doc.get("ring_frame")
+    given: dict[str, Any] = {}
+    if frame is not None:
+        rd.known_keys(frame, RING_FRAME_KEYS, "ring_frame")
+        given = {
+            "ring_centre_m": mm_to_m(rd.vector(frame, "centre_mm", "ring_frame")),
+            "ring_normal": _unit_or_fail(rd, rd.vector(frame, "normal", "ring_frame"), "normal"),
+            "ring_lateral": _unit_or_fail(rd, rd.vector(frame, "lateral", "ring_frame"),
+                                          "lateral"),
+            "ring_radius_m": mm_to_m(rd.number(frame, "radius_mm", "ring_frame", positive=True)),
+        }  # fmt: skip
+    centre_normal = (given["ring_centre_m"], given["ring_normal"]) if given else None
+    channels = []
+    for i, c in enumerate(raw_channels):
+        if isinstance(c, dict) and "family" in c:
+            try:
+                family_named(c["family"])
+            except GeometryError as exc:
+                raise rd.fail(f"channels[{i}].family", str(exc)) from None
+        c = c if not isinstance(c, dict) or "family" in c else {**c, "family": family}
+        channels.append(_channel(c, f"channels[{i}]", rd, centre_normal, family=family))
+    try:
+        app = Applicator(name=name, channels=tuple(channels), metadata=metadata, family=family,
+                         **given)  # fmt: skip
+        user_points(app)
+    except GeometryError as exc:
+        raise rd.fail("ring_frame/channels/dose_points", str(exc)) from None
+    return app
+
+
+def _unit_or_fail(rd: _Reader, v: np.ndarray, key: str) -> np.ndarray:
+    n = float(np.linalg.norm(v))
+    if n == 0:
+        raise rd.fail(f"ring_frame.{key}", "zero vector", "give a unit vector")
+    return v / n
 
 
 def _without_fixed_flat(c):
@@ -545,7 +620,7 @@ def _read_csv_point_set(rd: _Reader, field: str, name, kind: str) -> PointSet:
     return pset
 
 
-def _channel(c, where: str, rd: _Reader, ring_frame=None) -> Channel:
+def _channel(c, where: str, rd: _Reader, ring_frame=None, family: str = "ring") -> Channel:
     if not isinstance(c, dict):
         raise rd.fail(where, "expected a channel object")
     name = rd.get(c, "name", where)
@@ -565,7 +640,7 @@ def _channel(c, where: str, rd: _Reader, ring_frame=None) -> Channel:
         cl = Centreline.from_points(pts_m)
     except GeometryError as exc:
         raise rd.fail(f"{where}.centreline_mm", str(exc)) from None
-    if _is_circle(cl, proximal=True) and not _is_circle(cl, proximal=False):
+    if family == "ring" and _is_circle(cl, proximal=True) and not _is_circle(cl, proximal=False):
         raise _tip_first_error(rd, where)
     lumen = _lumen(rd.get(c, "lumen", where), f"{where}.lumen", rd, ring_frame)
     path_m, rel_m, origin = _measured_path(c, where, rd)
@@ -584,6 +659,7 @@ def _channel(c, where: str, rd: _Reader, ring_frame=None) -> Channel:
             measured_step_m=step_m,
             measured_relative_m=rel_m,
             measured_source=origin,
+            family=str(c.get("family", "")),
         )
     except GeometryError as exc:
         raise rd.fail(where, str(exc)) from None

@@ -14,9 +14,17 @@
   are moved to the simulated ones; dwell times (cumulative weights, ``ChannelTotalTime``) are
   unchanged; new SOP Instance and Series Instance UIDs; ``RTPlanLabel``, ``RTPlanName``,
   ``RTPlanDescription`` and ``SeriesDescription`` say it is simulated for commissioning
-  verification; ``ApprovalStatus`` UNAPPROVED. Every plan dwell must have been simulated (its
-  relative position among the simulated ones, within :data:`MATCH_TOL_MM`); a plan whose ring
-  channel was not simulated is refused (:class:`ExportError`).
+  verification; ``ApprovalStatus`` UNAPPROVED; ``Manufacturer``, ``ManufacturerModelName`` and
+  ``SoftwareVersions`` name ringqa and its version (the plan's maker is no longer the TPS).
+
+Each plan dwell is matched to the commissioned dwell at its **3D position**
+(``ControlPoint3DPosition`` against the reference path's dwells, the library path of an RT Plan:
+nearest within :data:`MATCH_DISTANCE_MM`), and its relative position must agree with that
+dwell's within :data:`RELATIVE_TOL_MM`: a plan whose relative positions disagree with its 3D
+positions is refused naming the channel and control point (matching by relative position alone
+put dwells 26.8 mm from where they belong, without a word). A plan dwell that was not simulated,
+or a plan whose ring channel was not simulated, is refused too (:class:`ExportError`).
+:func:`export_listing` lists the written files with their SHA-256 for ``results.json``.
 
 The functions take the commissioning result duck-typed (``result.dwells``, ``result.settings``,
 ``result.geometry``, ``result.input``, ``result.input_kind``) so that this module stays in the io
@@ -39,8 +47,15 @@ log = logging.getLogger(__name__)
 #: the columns of source_path_<channel>.csv, exactly
 SOURCE_PATH_COLUMNS = ("relative_position_mm", "x_mm", "y_mm", "z_mm", "dir_x", "dir_y", "dir_z")
 #: a plan dwell and a simulated dwell are the same when their relative positions differ by less
-#: than this, mm (relative positions are stored to 1e-6 mm or better)
+#: than this, mm (relative positions are stored to 1e-6 mm or better; used when no reference
+#: positions are known)
 MATCH_TOL_MM = 1e-3
+#: a plan dwell farther than this from every commissioned (reference) dwell position was not
+#: commissioned, mm (the required position tolerance)
+MATCH_DISTANCE_MM = 2.0
+#: the largest difference accepted between a plan dwell's relative position and that of the
+#: commissioned dwell at its 3D position, mm (Oncentra's agree to 1e-6 mm)
+RELATIVE_TOL_MM = 0.1
 EXPORT_FOLDER = "export"
 RTPLAN_NAME = "RP_simulated.dcm"
 #: RTPlanLabel is a DICOM SH (at most 16 characters)
@@ -65,12 +80,16 @@ class SimulatedPath:
         Source-centre positions.
     directions : (n, 3) ndarray
         Unit source directions (cable -> tip).
+    reference_mm : (n, 3) ndarray or None
+        The reference path's positions of the same dwells (the supplied path, input frame):
+        what a plan's ``ControlPoint3DPosition`` is matched against.
     """
 
     channel: str
     relative_position_mm: np.ndarray
     positions_mm: np.ndarray
     directions: np.ndarray
+    reference_mm: np.ndarray | None = None
 
 
 def simulated_paths(result) -> dict[str, SimulatedPath]:
@@ -90,11 +109,19 @@ def simulated_paths(result) -> dict[str, SimulatedPath]:
         )
     sim = sim.sort_values("relative_position_mm")
     channel = str(result.settings.channel)
+    reference = None
+    kinds = set(dw["path"])
+    ref_kind = next((k for k in ("measured", "centreline") if k in kinds), None)
+    if ref_kind is not None and "dwell" in dw:
+        ref = dw[dw["path"] == ref_kind].set_index("dwell")
+        if set(sim["dwell"]) <= set(ref.index):
+            reference = ref.loc[sim["dwell"], ["x_mm", "y_mm", "z_mm"]].to_numpy(dtype=float)
     path = SimulatedPath(
         channel,
         sim["relative_position_mm"].to_numpy(dtype=float),
         sim[["x_mm", "y_mm", "z_mm"]].to_numpy(dtype=float),
         sim[["dir_x", "dir_y", "dir_z"]].to_numpy(dtype=float),
+        reference,
     )
     return {channel: path}
 
@@ -129,21 +156,57 @@ def _plan_channel_item(ds, number: int):
 
 
 def _matches(plan_path, number: int, item, sim: SimulatedPath) -> list[int]:
-    """For every control point of ``item``, the index of the simulated dwell at its relative
-    position (refuses a control point that was not simulated)."""
+    """For every control point of ``item``, the index of the simulated dwell at its 3D position
+    (the nearest reference dwell within :data:`MATCH_DISTANCE_MM`, whose relative position must
+    agree within :data:`RELATIVE_TOL_MM`); by relative position alone when no reference
+    positions are known. Refuses a control point that was not simulated, and one whose relative
+    and 3D positions disagree."""
     out = []
+    rel = sim.relative_position_mm
+    span = f"simulated: {rel[0]:g} to {rel[-1]:g} mm"
     for j, cp in enumerate(item.get("BrachyControlPointSequence", None) or []):
         r = float(cp.ControlPointRelativePosition)
-        k = int(np.argmin(np.abs(sim.relative_position_mm - r)))
-        if abs(sim.relative_position_mm[k] - r) > MATCH_TOL_MM:
+        where = f"{plan_path}: channel {number}, control point {j}"
+        xyz = _position(cp)
+        if sim.reference_mm is None or xyz is None:
+            k = int(np.argmin(np.abs(rel - r)))
+            if abs(rel[k] - r) > MATCH_TOL_MM:
+                raise ExportError(
+                    f"{where} at relative position {r:g} mm was not simulated ({span}); cannot "
+                    "export this plan (give the plan that was commissioned)"
+                )
+            out.append(k)
+            continue
+        dist = np.linalg.norm(sim.reference_mm - xyz, axis=1)
+        k = int(np.argmin(dist))
+        shown = ", ".join(f"{v:.2f}" for v in xyz)
+        if dist[k] > MATCH_DISTANCE_MM:
             raise ExportError(
-                f"{plan_path}: channel {number}, control point {j} at relative position "
-                f"{r:g} mm was not simulated (simulated: {sim.relative_position_mm[0]:g} to "
-                f"{sim.relative_position_mm[-1]:g} mm); cannot export this plan (give the plan "
-                "that was commissioned)"
+                f"{where} at relative position {r:g} mm was not simulated: its 3D position "
+                f"({shown}) mm lies {dist[k]:.2f} mm from the nearest commissioned dwell "
+                f"(at most {MATCH_DISTANCE_MM:g} mm; {span}); cannot export this plan (give the "
+                "plan that was commissioned)"
+            )
+        if abs(rel[k] - r) > RELATIVE_TOL_MM:
+            raise ExportError(
+                f"{where}: its relative position {r:g} mm disagrees with its 3D position "
+                f"({shown}) mm, which is the commissioned dwell at relative position "
+                f"{rel[k]:g} mm ({dist[k]:.3f} mm away): {abs(rel[k] - r):.2f} mm apart, beyond "
+                f"{RELATIVE_TOL_MM:g} mm; cannot export this plan (export it again from the TPS "
+                "so that relative and 3D positions agree)"
             )
         out.append(k)
     return out
+
+
+def _position(cp) -> np.ndarray | None:
+    """A control point's ``ControlPoint3DPosition`` (mm), None when absent or not 3 numbers."""
+    value = cp.get("ControlPoint3DPosition", None)
+    try:
+        xyz = np.asarray([float(v) for v in value], dtype=float)
+    except (TypeError, ValueError):
+        return None
+    return xyz if xyz.shape == (3,) and np.isfinite(xyz).all() else None
 
 
 def _ds(v: float) -> str:
@@ -192,6 +255,9 @@ def simulated_rtplan(plan_path: str | Path, channel_number: int, sim: SimulatedP
     ds.RTPlanName = "ringqa simulated - verification only"
     ds.SeriesDescription = "ringqa simulated dwells - commissioning verification only"
     ds.ApprovalStatus = "UNAPPROVED"
+    ds.Manufacturer = "ringqa"
+    ds.ManufacturerModelName = "ringqa"
+    ds.SoftwareVersions = f"ringqa {__version__}"
     for kw in ("ReviewDate", "ReviewTime", "ReviewerName"):
         if kw in ds:
             delattr(ds, kw)
@@ -253,3 +319,63 @@ def write_exports(result, folder: str | Path, checked=None) -> list[str]:
         written.append(f"{EXPORT_FOLDER}/{RTPLAN_NAME}")
     log.info("export: %s", ", ".join(written))
     return written
+
+
+def export_listing(folder: str | Path, written: list[str]) -> list[dict]:
+    """The files of an export with their size and SHA-256, for ``results.json`` ``export``.
+
+    Parameters
+    ----------
+    folder : path
+        The output folder the names are relative to.
+    written : list of str
+        What :func:`write_exports` returned.
+
+    Returns
+    -------
+    list of dict
+        ``{"path": "export/RP_simulated.dcm", "size": bytes, "sha256": hex}`` per file.
+    """
+    import hashlib
+
+    out = []
+    for name in written:
+        data = (Path(folder) / name).read_bytes()
+        out.append({"path": name, "size": len(data), "sha256": hashlib.sha256(data).hexdigest()})
+    return out
+
+
+def add_export_listing(folder: str | Path, written: list[str]) -> list[dict]:
+    """Add the export's files (:func:`export_listing`) to ``folder/results.json``: ``export``
+    (path, size, SHA-256 each) and their names appended to ``files``. Returns the listing."""
+    import json
+
+    from ringqa.jsonio import write_json
+
+    listing = export_listing(folder, written)
+    path = Path(folder) / "results.json"
+    if path.is_file():
+        record = json.loads(path.read_text(encoding="utf-8"))
+        record["export"] = listing
+        record["files"] = [*record.get("files", []), *written]
+        write_json(path, record, indent=2)
+    return listing
+
+
+def export_note(checked) -> list[str]:
+    """The report's one line naming the export's files (empty without an export).
+
+    Parameters
+    ----------
+    checked : tuple or None
+        What :func:`check_export` returned.
+    """
+    if checked is None:
+        return []
+    paths, plan = checked
+    names = [f"{EXPORT_FOLDER}/source_path_{name}.csv" for name in paths]
+    names += [f"{EXPORT_FOLDER}/{RTPLAN_NAME}"] if plan is not None else []
+    return [
+        f"Exported for the planning system: {', '.join(names)} (SHA-256 of each in results.json "
+        "'export'; the RT Plan is for commissioning verification only, not for treatment)."
+    ]

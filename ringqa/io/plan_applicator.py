@@ -264,6 +264,7 @@ def applicator_from_rtplan(plan):
             measured_path_m=path_m,
             measured_step_m=step_m,
             measured_source=lc.measured_path_origin if path_m is not None else "",
+            label=str(number),
         )
         try:
             check_channel_shape(channel, f"library part {lc.part_id} (channel {number})")

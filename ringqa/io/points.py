@@ -28,7 +28,6 @@ from __future__ import annotations
 
 import csv
 import io
-import json
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -36,8 +35,10 @@ from pathlib import Path
 import numpy as np
 
 from ringqa.errors import InputFileError
+from ringqa.geometry.centreline import MAX_POINTS, point_count_problem
 from ringqa.jsonio import json_text
 from ringqa.outdir import atomic_write_text
+from ringqa.textio import check_columns, read_json, read_text
 from ringqa.units import m_to_mm, mm_to_m
 
 KINDS = ("centreline", "path", "correction")
@@ -136,6 +137,7 @@ def read_point_set(path: str | Path, kind: str = "centreline") -> PointSet:
     encoding = "UTF-8"
     if suffix == ".csv":
         text, encoding = read_text_any(p)
+        _check_line_count(p, text, kind)
         pts, rel, labels = _read_csv(p, text)
     elif suffix == ".json":
         pts, rel, labels = _read_json(p)
@@ -161,30 +163,23 @@ def read_point_set(path: str | Path, kind: str = "centreline") -> PointSet:
     )
 
 
+def _check_line_count(p: Path, text: str, kind: str) -> None:
+    """Refuse a CSV with more data rows than a centreline or path may have before parsing it
+    (issue 25: a 10^6-row file took 10 s and 800 MB to parse before any check)."""
+    if text.count("\n") <= MAX_POINTS:
+        return
+    rows = sum(1 for line in text.splitlines() if line.strip() and not line.lstrip()[:1] == "#")
+    too_many = point_count_problem(rows - 1, KIND_NAMES[kind])
+    if too_many is not None:
+        raise PointsFileError(p, *too_many)
+
+
 def read_text_any(p: Path) -> tuple[str, str]:
     """The text of ``p`` and the encoding used: UTF-8 (with or without BOM), UTF-16 (with its
     BOM, as Excel's "Unicode text" writes it), else Latin-1 (which decodes any bytes: the
     fallback for files from a non-UTF-8 Excel or editor)."""
-    try:
-        raw = p.read_bytes()
-    except OSError as exc:
-        raise PointsFileError(p, f"cannot be read ({exc.strerror})", "check the path") from None
-    if raw.startswith(b"\xef\xbb\xbf"):
-        try:
-            return raw[3:].decode("utf-8"), "UTF-8 with BOM"
-        except UnicodeDecodeError:
-            pass
-    if raw.startswith((b"\xff\xfe", b"\xfe\xff")):
-        try:
-            return raw.decode("utf-16"), "UTF-16"
-        except UnicodeDecodeError:
-            pass
-    for name, codec in CSV_ENCODINGS:
-        try:
-            return raw.decode(codec), name
-        except UnicodeDecodeError:
-            continue
-    raise PointsFileError(p, "not a text file", "save it as a CSV")  # unreachable: Latin-1
+    tf = read_text(p, what="CSV", latin1=True, error=PointsFileError)  # ringqa.textio
+    return tf.text, tf.encoding
 
 
 def write_points(
@@ -270,6 +265,7 @@ def _read_csv(p: Path, text: str) -> tuple[np.ndarray, np.ndarray | None, list[s
     delimiter = next((d for d in (",", ";", "\t") if d in head), ",")
     rows = list(csv.reader([line for _, line in lines], delimiter=delimiter))
     header = [h.strip() for h in rows[0]]
+    check_columns(header, p, error=PointsFileError)  # a repeated column: refused, named
     err = _metre_columns_error(p, header)
     if err:
         raise err
@@ -311,10 +307,7 @@ def _read_csv(p: Path, text: str) -> tuple[np.ndarray, np.ndarray | None, list[s
 
 
 def _read_json(p: Path) -> tuple[np.ndarray, np.ndarray | None, list[str]]:
-    try:
-        doc = json.loads(p.read_text(encoding="utf-8-sig"))
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise PointsFileError(p, f"not valid JSON ({exc})", "check the file's syntax") from None
+    doc = read_json(p, error=PointsFileError)  # strict: duplicate keys, depth, encoding
     if not isinstance(doc, dict):
         raise PointsFileError(
             p, "top level is not an object", 'write {"units": "mm", "points": [[x, y, z], ...]}'
@@ -397,6 +390,9 @@ def check_points(p, pts: np.ndarray, rel: np.ndarray | None, labels, kind: str) 
     """
     n = len(pts)
     name = KIND_NAMES[kind]
+    too_many = point_count_problem(n, name)
+    if too_many is not None:
+        raise PointsFileError(p, *too_many)
     if n < MIN_POINTS[kind]:
         raise PointsFileError(
             p,

@@ -60,6 +60,13 @@ _SOP_NAMES = {
 }
 #: Control points closer than this (mm) are at the same position.
 SAME_POSITION_MM = 1.0e-3
+#: plan dwells farther than this (mm) from the library's source path (its measured path, else
+#: its centreline, on which Oncentra then puts the dwells): the library is not this plan's
+#: (Oncentra puts its dwells on the path within 1e-6 mm: the example's 5e-7 mm; the check it
+#: protects is the 1-2 mm position tolerance; ``plan.library_match``)
+LIBRARY_PATH_TOL_MM = 0.1
+#: the treatment types ringqa commissions (a stepping source on a cable)
+AFTERLOADER_TYPES = ("HDR", "PDR")
 #: TPS dose tags, in order of preference.
 DOSE_TAGS = (
     "TargetPrescriptionDose",
@@ -508,8 +515,10 @@ def _parse(p: Path, ds) -> RTPlan:
     if len(set(numbers)) != len(numbers):
         raise RTPlanError(p, f"ChannelNumber repeats ({numbers})", "export a consistent plan")
     _check_continued(p, ranges, warnings)
+    _check_treatment_type(treatment_type, warnings)
+    _check_source_references(channels, sources, warnings)
     source = _pick_source(p, sources, used_sources, warnings)
-    points = _read_points(p, ds)
+    points = _read_points(p, ds, warnings)
     library, app_name = _read_library(p, setups, channels, warnings)
     if library:
         channels = [
@@ -810,7 +819,41 @@ def _pick_source(p: Path, sources: list, used: set, warnings: list) -> PlanSourc
     return chosen[0]
 
 
-def _read_points(p: Path, ds) -> list[DosePoint]:
+def _check_treatment_type(treatment_type: str, warnings: list) -> None:
+    """Warn (``plan.treatment_type``) for a plan that is not an afterloader's (LDR, MDR,
+    MANUAL): ringqa's cable, step and dwell-time model do not describe it."""
+    kind = treatment_type.strip().upper()
+    if kind and kind not in AFTERLOADER_TYPES:
+        warnings.append(named_warning(
+            "plan.treatment_type",
+            f"BrachyTreatmentType is {kind}: ringqa commissions HDR/PDR afterloader applicators "
+            "(a stepping source on a cable); the cable simulation, the dwell times and the "
+            f"Ir-192 dose data do not describe an {kind} plan, so its results do not apply "
+            "(give the applicator's HDR plan)",
+        ))  # fmt: skip
+
+
+def _check_source_references(channels: list, sources: list, warnings: list) -> None:
+    """Warn (``plan.source_reference``) for a channel whose ``ReferencedSourceNumber`` names a
+    source the plan's ``SourceSequence`` does not have."""
+    numbers = {s.number for s in sources if s.number is not None}
+    for ch in channels:
+        if ch.source_number is not None and numbers and ch.source_number not in numbers:
+            have = ", ".join(str(n) for n in sorted(numbers))
+            warnings.append(named_warning(
+                "plan.source_reference",
+                f"channel {ch.number}: ReferencedSourceNumber {ch.source_number} names a source "
+                f"the plan does not have (SourceSequence: {have}); the plan's source "
+                f"{sorted(numbers)[0]} is used for its doses (export the plan again, or check "
+                "which source the afterloader uses)",
+            ))  # fmt: skip
+
+
+#: dose references that are not points (no coordinates expected)
+_NOT_POINTS = ("VOLUME", "SITE")
+
+
+def _read_points(p: Path, ds, warnings: list | None = None) -> list[DosePoint]:
     out = []
     for k, item in enumerate(_get(ds, "DoseReferenceSequence") or []):
         num = _get(item, "DoseReferenceNumber")
@@ -818,6 +861,15 @@ def _read_points(p: Path, ds) -> list[DosePoint]:
         where = f"dose reference {name or k}"
         xyz = _vector(p, item, "DoseReferencePointCoordinates", where)
         if xyz is None:
+            kind = str(_get(item, "DoseReferenceStructureType") or "").strip().upper()
+            if kind not in _NOT_POINTS and warnings is not None:
+                label = name or f"number {num if num is not None else k + 1}"
+                warnings.append(named_warning(
+                    "plan.dose_point",
+                    f"dose reference {label!r} ({kind or 'no DoseReferenceStructureType'}) has "
+                    "no DoseReferencePointCoordinates: it is left out of the plan-vs-TPS dose "
+                    "check (export the plan with the point's coordinates)",
+                ))  # fmt: skip
             continue  # a volume or site reference, not a point
         dose = tag = None
         for t in DOSE_TAGS:
@@ -888,19 +940,52 @@ def _read_library(p: Path, setups, channels: list, warnings: list):
 
 
 def _check_library(channels: list, library: dict, warnings: list) -> None:
-    """Warn when the library does not line up with the plan's dwells (> 2 mm)."""
+    """Warn (``plan.library_match``) when the plan's dwells do not lie on the library's source
+    path (its measured path, else its centreline): farther than :data:`LIBRARY_PATH_TOL_MM`
+    from its polyline."""
     for ch in channels:
         lc = library.get(ch.number)
         if lc is None or ch.n_dwells == 0:
             continue
-        ref = lc.measured_path_mm if lc.measured_path_mm is not None else lc.centreline_mm
-        d = np.linalg.norm(ch.positions_mm[:, None, :] - ref[None, :, :], axis=2).min(axis=1)
-        if d.max() > 2.0:
-            warnings.append(
+        on_path = lc.measured_path_mm is not None
+        ref = lc.measured_path_mm if on_path else lc.centreline_mm
+        tol = LIBRARY_PATH_TOL_MM
+        d = polyline_distance_mm(np.asarray(ch.positions_mm, float), np.asarray(ref, float))
+        if d.max() > tol:
+            warnings.append(named_warning(
+                "plan.library_match",
                 f"channel {ch.number}: dwells lie up to {d.max():.2f} mm from the library's "
-                f"{'measured path' if lc.measured_path_mm is not None else 'centreline'}; the "
-                "library may not belong to this plan"
-            )
+                f"{'source path' if on_path else 'centreline'} (more than {tol:g} mm; Oncentra "
+                "puts its dwells on the path within 1e-6 mm): the library may not belong to "
+                "this plan (export the plan and its applicator together again)",
+            ))  # fmt: skip
+
+
+def polyline_distance_mm(points: np.ndarray, line: np.ndarray) -> np.ndarray:
+    """Distance of each point to a polyline (its segments, not only its vertices).
+
+    Parameters
+    ----------
+    points : (n, 3) ndarray
+        Points, mm.
+    line : (m, 3) ndarray
+        Polyline vertices, mm (m >= 1).
+
+    Returns
+    -------
+    (n,) ndarray
+        Distances, mm. Memory O(m) per point (one point at a time).
+    """
+    if len(line) == 1:
+        return np.linalg.norm(points - line[0], axis=1)
+    a, b = line[:-1], line[1:]
+    ab = b - a
+    den = np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-300)
+    out = np.empty(len(points))
+    for i, q in enumerate(points):
+        t = np.clip(np.einsum("ij,ij->i", q - a, ab) / den, 0.0, 1.0)
+        out[i] = np.sqrt(np.min(np.sum((a + t[:, None] * ab - q) ** 2, axis=1)))
+    return out
 
 
 def applicator_from_rtplan(plan: RTPlan):

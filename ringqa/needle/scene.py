@@ -174,6 +174,25 @@ def check_spec(spec: ChannelSpec, settings: Scene) -> None:
         )
 
 
+def check_channel(channel: Channel, settings: Scene) -> None:
+    """Refuse a given channel (a free-form applicator's, ``--applicator``) whose lumen is no
+    wider than the catheter, before anything runs.
+
+    Raises
+    ------
+    NeedleError
+        The narrowest lumen diameter is at most the catheter's outer diameter.
+    """
+    r_o, _ = _catheter(settings)
+    rb = np.asarray(channel.lumen.kernel_arrays()[1], dtype=float)
+    if rb.size and float(rb.min()) <= r_o:
+        raise NeedleError(
+            f"channel {channel.name}: its lumen ({2 * m_to_mm(float(rb.min())):.2f} mm) is no "
+            f"wider than the catheter ({2 * m_to_mm(r_o):.2f} mm): it cannot pass; widen the "
+            "channel or choose a thinner catheter (--set instrument.preset=...)"
+        )
+
+
 def paper_channel(spec: ChannelSpec, settings: Scene) -> Channel:
     """The paper's S channel for ``spec`` after :func:`check_spec`."""
     check_spec(spec, settings)

@@ -33,11 +33,13 @@ from __future__ import annotations
 
 import logging
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from ringqa.errors import named_warning, split_warning
+from ringqa.geometry.frame import frame_of
 from ringqa.pipeline.deviations import (
     DwellColumns,
     centreline_offsets,
@@ -85,9 +87,136 @@ from ringqa.pipeline.verdicts import (
 from ringqa.provenance import Provenance, tg43_data_files
 from ringqa.units import m_to_mm
 
-__all__ = ["commission"]
+__all__ = ["ChannelRuns", "channel_label", "commission", "commission_channels", "default_channels"]
 
 log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True, eq=False)
+class ChannelRuns:
+    """Every channel of one input commissioned (:func:`commission_channels`).
+
+    Attributes
+    ----------
+    results : tuple of CommissioningResult
+        One per channel simulated, in the applicator's channel order.
+    not_simulated : tuple of str
+        One sentence per channel that has dwells in the plan but no centreline (never silently
+        dropped: the report and the command line say it).
+    """
+
+    results: tuple[CommissioningResult, ...]
+    not_simulated: tuple[str, ...] = ()
+
+    @property
+    def passed(self) -> bool:
+        """Every channel passed (and none was left unsimulated)."""
+        return not self.not_simulated and all(r.passed for r in self.results)
+
+
+def default_channels(app) -> tuple[str, ...]:
+    """The channels commissioned when none is named: a ring applicator's ring channel (its
+    tandem is the ring set's straight tandem: its dwells are the same in every plan, as
+    before); any other applicator's every channel."""
+    names = tuple(c.name for c in app.channels)
+    if getattr(app, "family", "ring") == "ring" and "ring" in names:
+        return ("ring",)
+    return names
+
+
+def channel_label(channel) -> str:
+    """The ``channel`` column's value: the plan's channel number (``Channel.label``), else the
+    channel's name."""
+    return str(getattr(channel, "label", "") or channel.name)
+
+
+def _channel_name(app, wanted: str) -> str:
+    """``wanted`` when the applicator has it (or when it is a ring applicator: the error names
+    its channels), else a channel label naming one, else the first default channel when
+    ``wanted`` is the default ``"ring"``."""
+    names = [c.name for c in app.channels]
+    if wanted in names:
+        return wanted
+    for c in app.channels:
+        if getattr(c, "label", "") == wanted:
+            return c.name
+    if wanted == "ring" and getattr(app, "family", "ring") != "ring":
+        return default_channels(app)[0]
+    return wanted
+
+
+def commission_channels(
+    input,
+    settings: CommissionSettings | None = None,
+    *,
+    channels=None,
+    engine: Engine | None = None,
+    progress: bool = False,
+) -> ChannelRuns:
+    """Commission every channel of ``input`` (or those named), each with its own simulation,
+    comparison and numerical error.
+
+    Parameters
+    ----------
+    input : str, pathlib.Path or Applicator
+        As :func:`commission`.
+    settings : CommissionSettings, optional
+        ``settings.channel`` is ignored: ``channels`` names them.
+    channels : sequence of str, optional
+        Channel names or plan channel numbers (default :func:`default_channels`).
+    engine, progress
+        As :func:`commission`.
+
+    Returns
+    -------
+    ChannelRuns
+
+    Raises
+    ------
+    RingQAError
+        A named channel the applicator does not have; the errors of :func:`commission`.
+    """
+    import dataclasses
+
+    cfg = CommissionSettings() if settings is None else settings
+    t_start = time.perf_counter()
+    loaded = _load(input, cfg)
+    load_s = time.perf_counter() - t_start
+    app = loaded.applicator
+    wanted = default_channels(app) if not channels else tuple(str(c) for c in channels)
+    names = tuple(dict.fromkeys(_channel_name(app, w) for w in wanted))
+    for n in names:
+        channel_of(app, n)  # refuses an unknown channel, naming those there are
+    results = tuple(
+        _commission_loaded(input, loaded, dataclasses.replace(cfg, channel=n), engine=engine,
+                           progress=progress, t_start=time.perf_counter(), load_s=load_s)
+        for n in names
+    )  # fmt: skip
+    return ChannelRuns(results, unsimulated_channels(loaded))
+
+
+def _load(input, cfg):
+    """:func:`load_input` of ``input`` (with the settings' structure set and lumen)."""
+    if cfg.structures is None and cfg.lumen_mm is None:
+        return load_input(input)
+    return load_input(input, cfg.structures, cfg.lumen_mm)
+
+
+def unsimulated_channels(loaded) -> tuple[str, ...]:
+    """One sentence per RT Plan channel with dwells but no centreline in the applicator."""
+    plan = getattr(loaded, "rtplan", None)
+    if plan is None or not hasattr(plan, "channels"):
+        return ()
+    labels = {getattr(c, "label", "") for c in loaded.applicator.channels}
+    out = []
+    for ch in getattr(plan, "channels", ()) or ():
+        n = len(np.asarray(ch.positions_mm).reshape(-1, 3))
+        if n and str(ch.number) not in labels:
+            out.append(
+                f"Channel {ch.number} ({ch.name or 'unnamed'}) has {n} dwells but no centreline "
+                "(not in the applicator library or the structure set): NOT SIMULATED."
+            )
+    return tuple(out)
 
 
 def commission(
@@ -97,7 +226,9 @@ def commission(
     engine: Engine | None = None,
     progress: bool = False,
 ) -> CommissioningResult:
-    """Commission one ring applicator (see the module docstring for the steps).
+    """Commission one channel of an applicator (see the module docstring for the steps):
+    ``settings.channel`` (a name or a plan channel number; the default ``"ring"`` means the
+    first of :func:`default_channels` for an applicator of another family).
 
     Parameters
     ----------
@@ -122,10 +253,21 @@ def commission(
         Unreadable input, missing ring frame or channel, lumen narrower than the cable, a jammed
         simulation (:class:`~ringqa.pipeline.simulate.SimulationJammedError`).
     """
+    import dataclasses
+
     cfg = CommissionSettings() if settings is None else settings
     t_start = time.perf_counter()
-    loaded = load_input(input)
+    loaded = _load(input, cfg)
     load_s = time.perf_counter() - t_start
+    name = _channel_name(loaded.applicator, cfg.channel)
+    if name != cfg.channel:
+        cfg = dataclasses.replace(cfg, channel=name)
+    return _commission_loaded(input, loaded, cfg, engine=engine, progress=progress,
+                              t_start=t_start, load_s=load_s)  # fmt: skip
+
+
+def _commission_loaded(input, loaded, cfg, *, engine, progress, t_start, load_s):
+    """:func:`commission` of an input already loaded, for the channel ``cfg.channel``."""
     app = loaded.applicator
     log.info("%s: loaded %s (%s) in %.2f s", input, app.name, loaded.kind, load_s)
     files = loaded.files
@@ -160,6 +302,7 @@ def commission(
         app, ring, reference.relative_position_mm, cable=cable.preset,
         scene_overrides=cfg.scene_overrides, engine=engine, progress=progress,
         stem_mm=cfg.stem_mm,
+        cross_check=cfg.cross_check,
     )  # fmt: skip
     simulation_s = time.perf_counter() - t0
     log.info("%s: simulated in %.2f s", app.name, simulation_s)
@@ -176,7 +319,7 @@ def commission(
     if registered is not None:
         supplied = deviation_components(
             registered.positions_mm, registered.directions, reference.dwells.positions_mm,
-            m_to_mm(np.asarray(app.ring_centre_m, dtype=float)), app.ring_normal,
+            m_to_mm(np.asarray(frame_of(app).centre_m, dtype=float)), frame_of(app).normal,
         )  # fmt: skip
     columns = DwellColumns(review.flags, simulated.numerics.error_mm, offsets, supplied)
     dwells = dwell_table(app.name, reference, registered and compared_ref, selection,
@@ -184,7 +327,9 @@ def commission(
 
     t0 = time.perf_counter()
     points = dose_points(app, loaded.rtplan, cfg.point_spec)
-    tandem = tandem_dwells(app, cfg.tandem_dwells, cfg.plan_step_mm)
+    tandem = (
+        None if ring.name == "tandem" else tandem_dwells(app, cfg.tandem_dwells, cfg.plan_step_mm)
+    )
     plans = standard_plans(
         reference, registered, selection, simulated.dwells, centreline, tandem, points,
         src.source, prescription_gy=cfg.prescription_gy, sk_U=src.sk_U,
@@ -197,9 +342,11 @@ def commission(
         reference.kind, dev, tables.doses, plans, cfg.position_limits_mm, cfg.dose_action_pct,
         relative_position_mm=rel, flags=review.flags, numerical_error_mm=numerics.max_mm,
         numerical_warn_mm=NUMERICAL_ERROR_WARN_MM,
+        cross_check=numerics.cross_check,
     )  # fmt: skip
     n_tandem = 0 if tandem is None else len(tandem.relative_position_mm)
     on_ring = rel <= ring_arc_mm(app, ring, 0.5) + 1e-9
+    label = channel_label(ring)
     summary = summarise(
         app.name, src.source.name, reference, selection, n_tandem, dev, dev_raw, tables.doses,
         plans, simulated.info, verdicts, review=review, numerical_error_mm=numerics.error_mm,
@@ -214,6 +361,7 @@ def commission(
         *(f"Warning [{n}]: {m}" for n, m in map(split_warning, warnings)),
         *(n for n in src.notes if split_warning(n, "")[0] == ""),
         loaded_text(app, ring, loaded.kind),
+        *getattr(loaded, "notes", ()),
         *correction_notes,
         *kink_notes(app, ring),
         reference_note(reference),
@@ -259,6 +407,7 @@ def commission(
         conclusion=conclusion(verdicts),
         settings_origin=dict(cfg.settings_origin),
         warnings=warnings,
+        channel=label,
     )
 
 
@@ -266,8 +415,9 @@ def collect_warnings(loaded, app, cfg, src, preset: str, verdicts) -> tuple[str,
     """Every named warning of the input stages (:func:`ringqa.errors.named_warning` strings):
     the RT Plan reader's (``plan.*``; unnamed ones ``plan.reader``), the input files' notes
     (``csv.encoding``, ``input.note``), the source choice (``plan.source_model``), bends the
-    source capsule cannot pass (``channel.tight_bend``) and a plan whose own dwells miss the
-    TPS doses (``plan.tps_dose``)."""
+    source capsule cannot pass (``channel.tight_bend``), plan channels with dwells but no
+    centreline (``plan.channel_not_simulated``) and a plan whose own dwells miss the TPS doses
+    (``plan.tps_dose``)."""
     from ringqa.geometry.shape_checks import tight_bend_warning
     from ringqa.simulation.instruments import CABLE_PRESETS
 
@@ -288,6 +438,8 @@ def collect_warnings(loaded, app, cfg, src, preset: str, verdicts) -> tuple[str,
                                       f"applicator {app.name}, channel {ch.name}")  # fmt: skip
             if text:
                 out.append(named_warning("channel.tight_bend", text))
+    for text in unsimulated_channels(loaded):
+        out.append(named_warning("plan.channel_not_simulated", text))
     for v in verdicts:
         if v.check == CHECK_TPS and v.status == "ACTION":
             out.append(named_warning("plan.tps_dose", v.text))

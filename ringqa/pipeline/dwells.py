@@ -1,8 +1,9 @@
 """Where the dwells are: the reference dwells, their centreline twins, the tandem's dwells.
 
-The reference is the ring channel's measured source path, or (none shipped) the centreline on the
-circular part of the ring; the centreline dwell of relative position ``p`` sits at arc length
-``s_ref - p``. Also the ring geometry the report's plots draw.
+The reference is the channel's measured source path, or (none shipped) the centreline on the part
+its family simulates (the circular part of a ring; :mod:`ringqa.geometry.families`); the
+centreline dwell of relative position ``p`` sits at arc length ``s_ref - p``. Also the ring geometry
+the report's plots draw.
 """
 
 from __future__ import annotations
@@ -12,6 +13,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ringqa.errors import RingQAError
+from ringqa.geometry.families import family_of
+from ringqa.geometry.frame import frame_of
 from ringqa.geometry.registration import RegistrationError, reference_positions
 from ringqa.pipeline.result import RingGeometry
 from ringqa.plan import PLAN_STEP_MM, DwellSet, path_directions
@@ -104,24 +107,10 @@ def centreline_dwells(channel, relative_position_mm: np.ndarray) -> PathDwells:
 
 
 def ring_arc_mm(app, channel, step_mm: float) -> float:
-    """Largest relative position still on the ring's circle (within 1 mm of it), mm.
-
-    Walks proximally from s_ref in ``step_mm`` steps while the centreline stays within 1 mm of
-    the circle of radius ``ring_radius`` around ``ring_centre`` in the ring plane.
-    """
-    c = m_to_mm(np.asarray(app.ring_centre_m, dtype=float))
-    n = np.asarray(app.ring_normal, dtype=float)
-    r = m_to_mm(float(app.ring_radius_m))
-    s_ref_mm = m_to_mm(channel.s_ref_m)
-    rel = np.arange(0.0, s_ref_mm + 1e-9, step_mm)
-    d = centreline_dwells(channel, rel).positions_mm - c
-    h = d @ n
-    rho = np.linalg.norm(d - np.outer(h, n), axis=1)
-    on = (np.abs(rho - r) < 1.0) & (np.abs(h) < 1.0)
-    if not on[0]:
-        return 0.0
-    k = int(np.argmin(on)) if not on.all() else on.size
-    return float(rel[k - 1])
+    """Largest relative position of the part of ``channel`` its family simulates without a
+    measured path, mm (the ring's: still on the ring's circle; :meth:`ringqa.geometry.families
+    .base.ApplicatorFamily.span_mm`)."""
+    return float(family_of(app, channel).span_mm(app, channel, step_mm))
 
 
 def reference_dwells(app, channel, step_mm: float | None) -> ReferenceDwells:
@@ -165,10 +154,12 @@ def reference_dwells(app, channel, step_mm: float | None) -> ReferenceDwells:
             "measured", rel, PathDwells(pos, path_directions(pos)), step_mm_path, source
         )
     step = PLAN_STEP_MM if step_mm is None else float(step_mm)
-    arc = ring_arc_mm(app, channel, step)
+    family = family_of(app, channel)
+    arc = float(family.span_mm(app, channel, step))
     if arc < step:
+        part = "circular ring part" if family.name == "ring" else f"{family.words.span}"
         raise RingQAError(
-            f"applicator {app.name}: no measured source path and no circular ring part found "
+            f"applicator {app.name}: no measured source path and no {part} found "
             "near s_ref to place reference dwells (add the measured path, e.g. a path CSV in the "
             "applicator folder)"
         )
@@ -288,11 +279,12 @@ def ring_geometry(app, s_ref_mm: float) -> RingGeometry:
     -------
     RingGeometry
     """
+    frame = frame_of(app)
     return RingGeometry(
-        ring_centre_mm=m_to_mm(np.asarray(app.ring_centre_m, dtype=float)),
-        ring_normal=np.asarray(app.ring_normal, dtype=float),
-        ring_lateral=np.asarray(app.ring_lateral, dtype=float),
-        ring_radius_mm=m_to_mm(float(app.ring_radius_m)),
+        ring_centre_mm=m_to_mm(np.asarray(frame.centre_m, dtype=float)),
+        ring_normal=np.asarray(frame.normal, dtype=float),
+        ring_lateral=np.asarray(frame.lateral, dtype=float),
+        ring_radius_mm=m_to_mm(float(frame.scale_m)),
         s_ref_mm=float(s_ref_mm),
         centrelines_mm={c.name: _dense_centreline_mm(c) for c in app.channels},
         metadata=dict(getattr(app, "metadata", {}) or {}),

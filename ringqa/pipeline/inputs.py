@@ -35,12 +35,15 @@ class LoadedInput:
         ``"shipped"``, ``"file"``, ``"folder"``, ``"rtplan"`` or ``"object"``.
     files : tuple of Path
         The input files (checksummed into the provenance).
+    notes : tuple of str
+        For the report (an RT Structure Set's channel matches and lumen sources).
     """
 
     applicator: Any
     rtplan: Any
     kind: str
     files: tuple[Path, ...]
+    notes: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -66,8 +69,11 @@ class SourceChoice:
     sk_given: bool = True
 
 
-def load_input(item) -> LoadedInput:
-    """The applicator of a shipped name, folder, applicator JSON, RT Plan or Applicator object.
+def load_input(item, structures=None, lumen_mm: float | None = None) -> LoadedInput:
+    """The applicator of a shipped name, folder, applicator JSON, RT Plan or Applicator object;
+    with ``structures`` (an RT Structure Set) the RT Plan's channels are its open contours
+    (:func:`ringqa.io.rtstruct.applicator_from_structures`, lumens ``lumen_mm`` or the lumen
+    table).
 
     Raises
     ------
@@ -81,6 +87,11 @@ def load_input(item) -> LoadedInput:
             f"input {item!r}: give a shipped applicator name, a folder, an applicator JSON file "
             "or an RT Plan (.dcm)"
         )
+    if structures is not None and not str(item).lower().endswith(".dcm"):
+        raise RingQAError(
+            f"--structures {structures}: an RT Structure Set goes with an RT Plan (.dcm), not "
+            f"with {item}"
+        )
     path = Path(item).expanduser()
     if path.suffix.lower() == ".dcm" or (path.is_file() and _is_dicom(path)):
         if not path.is_file():
@@ -88,6 +99,12 @@ def load_input(item) -> LoadedInput:
         from ringqa.io.rtplan import applicator_from_rtplan, read_rtplan
 
         rtplan = read_rtplan(path)
+        if structures is not None:
+            from ringqa.io.rtstruct import applicator_from_structures, read_rtstruct
+
+            built = applicator_from_structures(rtplan, read_rtstruct(structures), lumen_mm=lumen_mm)
+            return LoadedInput(built.applicator, rtplan, "rtplan+rtstruct",
+                               (path, Path(structures)), built.notes)  # fmt: skip
         return LoadedInput(applicator_from_rtplan(rtplan), rtplan, "rtplan", (path,))
     from ringqa.io.applicator_file import load_applicator
 
@@ -142,7 +159,7 @@ def check_measured_path(input, ring, channel: str, kind: str, require_measured) 
     shipped applicators and Applicator objects.
     """
     if require_measured is None:
-        require_measured = kind in ("folder", "file", "rtplan")
+        require_measured = kind in ("folder", "file", "rtplan", "rtplan+rtstruct")
     if require_measured and getattr(ring, "measured_path_m", None) is None:
         raise RingQAError(
             f"{input}: no measured source path for channel {channel!r} (add the measured path, "
@@ -202,12 +219,14 @@ def choose_source(source, sk_U: float | None, rtplan) -> SourceChoice:
 def kink_notes(app, channel) -> tuple[str, ...]:
     """One sentence per kink of ``channel``'s centreline (:mod:`ringqa.geometry.kinks`)."""
     from ringqa.geometry import Channel
+    from ringqa.geometry.families import family_of
     from ringqa.geometry.kinks import find_kinks
 
     if not isinstance(channel, Channel):
         return ()
-    out = []
-    for k in find_kinks(channel, float(app.ring_radius_m)):
+    family = family_of(app, channel)
+    out = list(family.checks(app, channel))
+    for k in find_kinks(channel, float(family.curvature_scale_m(app, channel))):
         rel = m_to_mm(channel.s_ref_m - k.s_m)
         out.append(
             f"The {channel.name} channel's centreline bends sharply at arc length "
@@ -245,9 +264,18 @@ def loaded_text(app, ring, kind: str) -> str:
         else:
             text += ", no measured path"
         parts.append(text)
-    radius = m_to_mm(float(app.ring_radius_m))
+    from ringqa.geometry.families import family_of
+
     s_ref = m_to_mm(ring.s_ref_m)
+    family = family_of(app, ring)
+    if family.name == "ring":
+        from ringqa.geometry.frame import frame_of
+
+        radius = m_to_mm(float(frame_of(app).scale_m))
+        frame = f"; ring centreline radius {radius:.2f} mm"
+    else:
+        frame = f"; {ring.name} is a {family.words.channel} ({family.name} family)"
     return (
         f"Loaded ({kind}): {app.name}; " + "; ".join(parts)
-        + f"; ring centreline radius {radius:.2f} mm; s_ref ({ring.name}) = {s_ref:.2f} mm."
+        + f"{frame}; s_ref ({ring.name}) = {s_ref:.2f} mm."
     )  # fmt: skip

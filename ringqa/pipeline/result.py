@@ -471,6 +471,9 @@ class CommissioningResult:
         Named warnings of the input checks (``"[name] message"``,
         :func:`ringqa.errors.named_warning`): printed by the command line, in results.json
         ``warnings`` and first in the notes (report page 1).
+    channel : str
+        The channel commissioned, as the CSV tables' ``channel`` column names it: the plan's
+        channel number, or the channel's name for file inputs (``""``: ``settings.channel``).
     """
 
     applicator: str
@@ -493,6 +496,7 @@ class CommissioningResult:
     conclusion: str = ""
     settings_origin: dict[str, str] = field(default_factory=dict)
     warnings: tuple[str, ...] = ()
+    channel: str = ""
 
     def warning_records(self) -> list[dict]:
         """The results.json ``warnings``: ``name``, ``severity`` (``note`` for

@@ -50,7 +50,8 @@ class CommissionSettings:
         afterloader (:data:`~ringqa.pipeline.simulate.SOURCE_CABLE`: Flexisource -> flexitron,
         mHDR-v2 -> microselectron), the Flexitron cable for other sources (said in the report).
     channel : str
-        The applicator channel to simulate (``"ring"``).
+        The applicator channel to simulate (``"ring"``; a name or the plan's channel number;
+        ``"ring"`` for an applicator of another family: its first channel).
     point_spec : DosePointSpec
         Where the standard dose points are.
     plan_step_mm : float
@@ -69,6 +70,9 @@ class CommissionSettings:
     stem_mm : float or None
         Straight channel kept before the first bend in the simulation, mm (60, the shipped rings'
         stem; None: the whole channel). See :mod:`ringqa.geometry.stem`.
+    cross_check : bool
+        Also run the flexible-element engine and compare its dwells with the reported ones
+        (``--cross-check``; :func:`ringqa.pipeline.simulate.cross_check_run`).
     centreline_correction : str, Path or None
         A CT/film centreline segment (CSV/JSON, mm, proximal -> distal, in the applicator's frame)
         spliced over the channel's library centreline (``--centreline-correction``;
@@ -81,6 +85,12 @@ class CommissionSettings:
         Where each setting came from (configuration key -> ``"default"``, ``"user config
         <path>"``, ``"--config <path>"``, ``"command line"``; :mod:`ringqa.config`); carried
         into the result (``results.json`` ``settings_origin``). Empty when built in Python.
+    structures : str or Path or None
+        An RT Structure Set whose open contours are the RT Plan's channels
+        (:mod:`ringqa.io.rtstruct`; ``--structures``).
+    lumen_mm : float or None
+        Lumen diameter (mm) of the channels read from a structure set (``--lumen-mm``; None:
+        the per-applicator lumen table).
 
     Raises
     ------
@@ -101,13 +111,23 @@ class CommissionSettings:
     dose_action_pct: float = DOSE_ACTION_PCT
     register: str = "none"
     stem_mm: float | None = DEFAULT_STEM_MM
+    cross_check: bool = False
     centreline_correction: str | Path | None = None
     require_measured: bool | None = None
     settings_origin: Mapping[str, str] = field(default_factory=dict)
+    structures: str | Path | None = None
+    lumen_mm: float | None = None
 
     def __post_init__(self) -> None:
         def keep(name: str, value) -> None:
             object.__setattr__(self, name, value)
+
+        if self.lumen_mm is not None and not (_is_number(self.lumen_mm) and
+                                              0 < self.lumen_mm <= 10):  # fmt: skip
+            raise RingQAError(
+                f"--lumen-mm {self.lumen_mm!r}: must be a lumen diameter in mm, > 0 and <= 10 "
+                "(gynaecological applicator channels are 1.5-4 mm)"
+            )
 
         if not (_is_number(self.prescription_gy) and self.prescription_gy > 0):
             raise RingQAError(f"--prescription-gy {self.prescription_gy!r}: must be a number > 0")
@@ -195,3 +215,70 @@ class CommissionSettings:
             keep("sk_U", float(self.sk_U))
         if self.stem_mm is not None:
             keep("stem_mm", float(self.stem_mm))
+
+
+@dataclass(frozen=True)
+class SettingNames:
+    """Every name one commissioning setting goes by (:data:`SETTING_NAMES`).
+
+    Attributes
+    ----------
+    field : str
+        The :class:`CommissionSettings` field.
+    config_keys : tuple of str
+        Its keys in the clinic configuration (:data:`ringqa.config.KEYS`; unit, default, range
+        and help are there); ``scene.*`` for the scene overrides.
+    cli_flags : tuple of str
+        Its ``ringqa commission`` options.
+    results_key : str or None
+        Its key in ``results.json`` ``settings`` (:meth:`~ringqa.pipeline.result.RunSettings
+        .as_dict`); None when the run records it elsewhere (the notes, the provenance's inputs).
+    note : str
+        Where a name differs from the field's (the drift the table makes visible).
+    """
+
+    field: str
+    config_keys: tuple[str, ...] = ()
+    cli_flags: tuple[str, ...] = ()
+    results_key: str | None = None
+    note: str = ""
+
+
+#: The names of every commissioning setting, one row per :class:`CommissionSettings` field (but
+#: ``settings_origin``, which records where the others came from). A test checks each name
+#: against the configuration's keys, the command line's options and results.json, so a renamed
+#: or new setting fails until this table says what it is called where.
+SETTING_NAMES: tuple[SettingNames, ...] = (
+    SettingNames("source", ("simulation.source",), ("--source",), "source"),
+    SettingNames("sk_U", ("simulation.sk_u",), ("--sk-u",), "sk_U",
+                 "sk_U in Python and results.json, sk_u in the configuration and --sk-u"),
+    SettingNames("prescription_gy", ("plan.prescription_gy",), ("--prescription-gy",),
+                 "prescription_gy"),
+    SettingNames("cable", ("simulation.cable",), ("--cable",), "cable"),
+    SettingNames("channel", (), ("--channel",), "channel"),
+    SettingNames("point_spec", ("dose_points.point_a_height_mm", "dose_points.point_a_lateral_mm",
+                                "dose_points.surface_offset_mm", "dose_points.depth_mm"),
+                 (), "dose_points", "point_spec in Python, dose_points elsewhere"),
+    SettingNames("plan_step_mm", ("plan.step_mm",), (), "plan_step_mm"),
+    SettingNames("tandem_dwells", ("plan.tandem_dwells",), (), "tandem_dwells"),
+    SettingNames("position_limits_mm", ("tolerances.position_recommended_mm",
+                                        "tolerances.position_required_mm"), (),
+                 "position_limits_mm", "one pair in Python and results.json, two keys in the "
+                 "configuration"),
+    SettingNames("dose_action_pct", ("tolerances.dose_action_pct",), ("--dose-action-pct",),
+                 "dose_action_pct"),
+    SettingNames("register", ("simulation.register",), ("--register",), "register",
+                 "register here; registration in summary.csv and the reference check"),
+    SettingNames("stem_mm", ("simulation.stem_mm", "simulation.whole_channel"),
+                 ("--stem-mm", "--whole-channel"), "stem_mm",
+                 "None (the whole channel) is simulation.whole_channel / --whole-channel"),
+    SettingNames("centreline_correction", (), ("--centreline-correction",),
+                 "centreline_correction"),
+    SettingNames("require_measured", (), ("--centreline-reference",), None,
+                 "require_measured = not --centreline-reference (the same concept, inverted)"),
+    SettingNames("scene_overrides", ("scene.*",), ("--set",), "scene_overrides"),
+    SettingNames("structures", (), ("--structures",), None,
+                 "the file is in the provenance's inputs"),
+    SettingNames("lumen_mm", (), ("--lumen-mm",), None,
+                 "said in the notes (each channel's lumen and where it comes from)"),
+)  # fmt: skip

@@ -85,6 +85,64 @@ NUMERICAL_ERROR_WARN_MM = 0.1
 CONCURRENT_RUNS = True
 
 
+#: The cross-check (issue 28): the flexible-element engine (``model.formulation = "flexible"``)
+#: runs once at the commissioning settings beside the rigid one; the dwells' largest disagreement
+#: above max(:data:`CROSS_CHECK_MIN_MM`, 2 x the combined numerical error) fails the numerics.
+CROSS_CHECK_MIN_MM = 0.2
+#: The flexible engine's own numerical error at the commissioning settings, mm: its dwells moved
+#: at most 0.020 mm from x1 to x0.5 on ring26-flexitron, ring13-push100, the example and
+#: needle-paper (docs/engine.md, benchmarks/flexible_agreement.py); taken as 0.05 mm.
+CROSS_CHECK_FLEXIBLE_ERROR_MM = 0.05
+
+
+@dataclass(frozen=True)
+class CrossCheck:
+    """The flexible engine's dwells against the reported (rigid, refined) ones.
+
+    Attributes
+    ----------
+    disagreement_mm : (n,) ndarray
+        Per dwell (the reference's order): distance between the two engines' source centres, mm
+        (NaN where the flexible run did not get).
+    max_mm : float
+        Largest disagreement (NaN when the flexible run failed).
+    limit_mm : float
+        max(CROSS_CHECK_MIN_MM, 2 x (the rigid runs' numerical error + the flexible engine's)).
+    fails : bool
+        ``max_mm > limit_mm``.
+    ok : bool
+        The flexible run reached every dwell.
+    solve_time_s, wall_time_s : float
+        What the flexible run cost (s).
+    flexible_pos_mm : (n, 3) ndarray
+        Its source centres (the reference's order), for plotting beside the rigid ones.
+    text : str
+        One line for the report.
+    """
+
+    disagreement_mm: np.ndarray
+    max_mm: float
+    limit_mm: float
+    fails: bool
+    ok: bool
+    solve_time_s: float
+    wall_time_s: float
+    flexible_pos_mm: np.ndarray
+    text: str
+
+    def as_dict(self) -> dict:
+        """The ``results.json`` ``numerical_check.cross_check`` section."""
+        return {
+            "max_disagreement_mm": self.max_mm,
+            "limit_mm": self.limit_mm,
+            "fails": self.fails,
+            "ok": self.ok,
+            "solve_time_s": self.solve_time_s,
+            "wall_time_s": self.wall_time_s,
+            "text": self.text,
+        }
+
+
 class SimulationJammedError(RingQAError):
     """The simulated cable jammed (or the engine failed) before reaching every dwell."""
 
@@ -220,6 +278,8 @@ class NumericalCheck:
         much finer runs (:data:`RESOLVE_FACTORS`; ``resolved``) and ``error_mm`` is theirs.
     resolved : bool
         The reported positions come from the resolving runs.
+    cross_check : CrossCheck or None
+        The flexible engine's run beside the rigid ones (None: not run, ``cross_check=False``).
     total_solve_time_s : float
         Solve time of all runs, s.
     stabilised_steps : int
@@ -242,6 +302,7 @@ class NumericalCheck:
     n_probes: int = 0
     branch_mm: float = 0.0
     resolved: bool = False
+    cross_check: CrossCheck | None = None
 
     @property
     def warns(self) -> bool:
@@ -265,6 +326,7 @@ class NumericalCheck:
             "text": list(self.text),
             "branch_mm": self.branch_mm,
             "resolved": self.resolved,
+            "cross_check": None if self.cross_check is None else self.cross_check.as_dict(),
         }
 
 
@@ -607,6 +669,7 @@ def simulate_dwells(
     engine: Engine | None = None,
     progress: bool = False,
     stem_mm: float | None = None,
+    cross_check: bool = False,
 ) -> SimulatedDwells:
     """Simulate the cable to the dwells at ``relative_position_mm``, twice (commissioning and
     refined settings); results in their order.
@@ -628,6 +691,9 @@ def simulate_dwells(
         Show the engine's progress bar.
     stem_mm : float or None
         Straight channel kept before the first bend, mm (None: the whole channel).
+    cross_check : bool
+        Also run the flexible-element engine once at the commissioning settings and compare
+        (:func:`cross_check_run`; ringqa's own engine only).
 
     Returns
     -------
@@ -743,6 +809,13 @@ def simulate_dwells(
     stabilised = _stabilised(fine)
     n_steps = getattr(getattr(res, "stats", None), "n_steps", None)
     coarse_dict, fine_dict = _scene_dict(engine, coarse.scene), _scene_dict(engine, fine.scene)
+    xcheck = None
+    if cross_check and own_engine(engine):
+        xcheck = cross_check_run(engine, runs[0].scene, advances, float(np.max(error_mm)),
+                                 lambda run: distance(run, fine),
+                                 lambda run: m_to_mm(run.pos_m[_dwell_rows(run, advances,
+                                                                           wanted)]))  # fmt: skip
+    text = numerical_text(error_mm, stabilised, n_steps, pair_mm, len(probes), branch_mm, resolved)
     numerics = NumericalCheck(
         error_mm=error_mm,
         max_mm=float(np.max(error_mm)),
@@ -752,14 +825,13 @@ def simulate_dwells(
         solve_time_s=float(getattr(coarse.res, "solve_time_s", coarse.wall_s)),
         refined_solve_time_s=float(getattr(res, "solve_time_s", fine.wall_s)),
         stabilised_steps=stabilised,
-        text=numerical_text(
-            error_mm, stabilised, n_steps, pair_mm, len(probes), branch_mm, resolved
-        ),
+        text=text if xcheck is None else (*text, xcheck.text),
         n_runs=len(runs),
         n_probes=len(probes),
         branch_mm=branch_mm,
         resolved=resolved,
         total_solve_time_s=sum(float(getattr(r.res, "solve_time_s", r.wall_s)) for r in runs),
+        cross_check=xcheck,
     )
     idx_f = _dwell_rows(fine, advances, wanted)
     dirs = np.asarray(res.source_dir, dtype=float).reshape(-1, 3)[idx_f]
@@ -782,6 +854,57 @@ def simulate_dwells(
         stem=stem,
         notes=tuple(notes),
     )
+
+
+def cross_check_run(
+    engine: Engine, scene, advances, rigid_error_mm: float, distance, positions
+) -> CrossCheck:
+    """Run the flexible-element engine on the commissioning ``scene`` and compare its dwells
+    with the reported (refined rigid) run's.
+
+    Parameters
+    ----------
+    engine : Engine
+        ringqa's own (the scene gets ``model.formulation = "flexible"``).
+    scene
+        The commissioning run's scene.
+    advances : (n,) ndarray
+        The advances run, mm.
+    rigid_error_mm : float
+        The rigid runs' numerical error (max over the dwells), mm.
+    distance, positions : callable
+        ``distance(run) -> (n,)`` mm to the reported run and ``positions(run) -> (n, 3)`` mm,
+        in the reference's order.
+    """
+    flex_scene = engine.scene_with_overrides(scene, {"model.formulation": "flexible"})
+    n = np.asarray(advances).size
+    limit = max(CROSS_CHECK_MIN_MM, 2.0 * (rigid_error_mm + CROSS_CHECK_FLEXIBLE_ERROR_MM))
+
+    def not_compared(why: str, solve: float, wall: float) -> CrossCheck:
+        text = f"Cross-check with the flexible-element engine not made: {why}"
+        return CrossCheck(np.full(n, np.nan), float("nan"), limit, False, False, solve, wall,
+                          np.full((n, 3), np.nan), text)  # fmt: skip
+
+    t0 = time.perf_counter()
+    try:
+        run = _run_with_retries(engine, flex_scene, advances, False)
+    except RingQAError as exc:  # a scene the flexible engine does not model: said, not failed
+        return not_compared(str(exc), 0.0, time.perf_counter() - t0)
+    wall = time.perf_counter() - t0
+    solve = float(getattr(run.res, "solve_time_s", wall))
+    if not run.ok:
+        msg = getattr(run.res, "message", "")
+        return not_compared(f"its run did not reach every dwell ({msg}).", solve, wall)
+    d = np.asarray(distance(run), dtype=float)
+    worst = float(np.max(d))
+    fails = worst > limit
+    text = (
+        f"Cross-check with an independent engine (flexible beam elements instead of rigid "
+        f"links): the dwells agree to {worst:.3f} mm (median {float(np.median(d)):.3f} mm), "
+        + ("MORE than" if fails else "within")
+        + f" the {limit:.2f} mm the numerical errors allow; it took {solve:.2f} s."
+    )
+    return CrossCheck(d, worst, limit, fails, True, solve, wall, positions(run), text)
 
 
 #: Engine warnings about the fallback stabilisation start with a count and contain this; the

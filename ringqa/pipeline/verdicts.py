@@ -19,7 +19,7 @@ import pandas as pd
 
 from ringqa.pipeline.deviations import Deviations
 from ringqa.pipeline.doses import StandardPlans
-from ringqa.pipeline.numbers import DOSE_PCT, fmt, fmt_verdict_value
+from ringqa.pipeline.numbers import DOSE_PCT, ERROR_MM, fmt, fmt_verdict_value
 from ringqa.pipeline.result import Verdict
 
 #: Position tolerances, mm: recommended and required (AAPM MPPG 13.a, 2023; TG-56).
@@ -101,17 +101,22 @@ def tps_verdict(doses: pd.DataFrame, action_pct: float = TPS_CHECK_ACTION_PCT) -
     )  # fmt: skip
 
 
-def numerics_verdict(max_error_mm: float, warn_mm: float) -> Verdict:
+def numerics_verdict(max_error_mm: float, warn_mm: float, cross_check=None) -> Verdict:
     """PASS when the simulation's numerical error (max over the dwells) is at most ``warn_mm``,
-    else WARN."""
+    else WARN; FAIL when the cross-check (``cross_check.fails``: the flexible-element engine
+    disagrees with the reported dwells by more than the numerical errors allow)."""
     status = "PASS" if max_error_mm <= warn_mm else "WARN"
     word = "within" if status == "PASS" else "above"
+    shown = fmt_verdict_value(max_error_mm, "mm", CHECK_NUMERICS)
+    text = f"Numerical error of the simulated positions: max {shown}, {word} {warn_mm:g} mm."
+    if cross_check is not None and getattr(cross_check, "fails", False):
+        status = "FAIL"
+        text += (
+            f" The independent flexible-element engine disagrees by up to "
+            f"{fmt(cross_check.max_mm, ERROR_MM)} mm (allowed {fmt(cross_check.limit_mm)} mm)."
+        )
     return Verdict(
-        CHECK_NUMERICS, max_error_mm, "mm", (warn_mm,), status,
-        f"Numerical error of the simulated positions: max "
-        f"{fmt_verdict_value(max_error_mm, 'mm', CHECK_NUMERICS)}, {word} "
-        f"{warn_mm:g} mm.",
-        ROLE_NUMERICS,
+        CHECK_NUMERICS, max_error_mm, "mm", (warn_mm,), status, text, ROLE_NUMERICS,
     )  # fmt: skip
 
 
@@ -225,6 +230,7 @@ def check_tolerances(
     numerical_error_mm: float,
     numerical_warn_mm: float,
     tps_action_pct: float = TPS_CHECK_ACTION_PCT,
+    cross_check=None,
 ) -> tuple[Verdict, ...]:
     """The position verdicts, one dose verdict per compared plan, the RT Plan's own doses vs the
     TPS (when there are any) and the numerics verdict (last).
@@ -255,6 +261,8 @@ def check_tolerances(
         Its warning level, mm.
     tps_action_pct : float
         Action level of the RT Plan's own doses against the TPS's, %.
+    cross_check : ringqa.pipeline.simulate.CrossCheck or None
+        The flexible-element engine's comparison (its ``fails`` makes the numerics FAIL).
 
     Returns
     -------
@@ -293,5 +301,5 @@ def check_tolerances(
     tps = tps_verdict(doses, tps_action_pct)
     if tps is not None:
         verdicts.append(tps)
-    verdicts.append(numerics_verdict(numerical_error_mm, numerical_warn_mm))
+    verdicts.append(numerics_verdict(numerical_error_mm, numerical_warn_mm, cross_check))
     return tuple(verdicts)

@@ -155,23 +155,72 @@ def dose_points_from_frame(
 
 
 def applicator_dose_points(applicator, spec: DosePointSpec | None = None) -> tuple[DosePoint, ...]:
-    """The six standard dose points of an :class:`ringqa.geometry.Applicator` (mm).
+    """The standard dose points of an :class:`ringqa.geometry.Applicator` (mm).
 
-    Uses ``ring_centre_m``, ``ring_normal``, ``ring_lateral`` and ``ring_radius_m``.
+    Point A left/right from the applicator's frame (``ring_centre_m``, ``ring_normal``,
+    ``ring_lateral``: :func:`point_a_points`) when one of its channels belongs to a
+    gynaecological family, then each channel family's own points
+    (:meth:`ringqa.geometry.families.base.ApplicatorFamily.points`: the ring's lateral surface
+    and 5 mm points, the ovoids' surface points, a free-form applicator's own points), each name
+    once. For a ring this is the six points of :func:`dose_points_from_frame`, in that order.
     """
-    for attr in ("ring_centre_m", "ring_normal", "ring_lateral", "ring_radius_m"):
-        if getattr(applicator, attr, None) is None:
-            raise RingQAError(
-                f"applicator {getattr(applicator, 'name', '?')}: no {attr}; dose points need the "
-                "ring frame (define the ring centre, normal, lateral direction and radius)"
-            )
-    return dose_points_from_frame(
-        m_to_mm(np.asarray(applicator.ring_centre_m, dtype=float)),
-        applicator.ring_normal,
-        applicator.ring_lateral,
-        m_to_mm(float(applicator.ring_radius_m)),
-        spec,
-    )
+    from ringqa.geometry.families import family_named, family_of
+    from ringqa.geometry.frame import frame_of
+
+    spec = spec or DosePointSpec()
+    try:
+        frame = frame_of(applicator)
+    except AttributeError:
+        frame = None
+    if frame is None or any(v is None for v in (frame.centre_m, frame.normal, frame.lateral,
+                                                   frame.scale_m)):  # fmt: skip
+        raise RingQAError(
+            f"applicator {getattr(applicator, 'name', '?')}: no frame; dose points need the "
+            "applicator's frame (define its centre, normal, lateral direction and radius)"
+        )
+    channels = tuple(getattr(applicator, "channels", ()) or ())
+    families = [family_of(applicator, ch) for ch in channels]
+    if not channels:  # a frame alone: its family's points (a ring's, by default)
+        channels = (None,)
+        families = [family_named(getattr(applicator, "family", "ring") or "ring")]
+    pts: list[DosePoint] = []
+    if any(f.gynae for f in families):
+        pts += point_a_points(
+            m_to_mm(np.asarray(frame.centre_m, dtype=float)), frame.normal, frame.lateral, spec
+        )
+    for ch, fam in zip(channels, families, strict=True):
+        for p in fam.points(applicator, ch, spec):
+            if all(p.name != q.name for q in pts):
+                pts.append(DosePoint(p.name, np.asarray(p.position_mm, dtype=float), p.kind))
+    return tuple(pts)
+
+
+def point_a_points(centre_mm, normal, lateral, spec: DosePointSpec | None = None):
+    """Point A left and right (:func:`dose_points_from_frame`'s first two points), mm.
+
+    Parameters
+    ----------
+    centre_mm : (3,) array_like
+        The frame's origin, mm.
+    normal, lateral : (3,) array_like
+        Cranial and patient-left axes (lateral made perpendicular to normal).
+    spec : DosePointSpec, optional
+
+    Returns
+    -------
+    list of DosePoint
+    """
+    spec = spec or DosePointSpec()
+    c = np.asarray(centre_mm, dtype=float).reshape(3)
+    n = _unit(normal, "ring_normal")
+    lat = _unit(lateral, "ring_lateral")
+    lat = lat - np.dot(lat, n) * n
+    lat = _unit(lat, "ring_lateral (component orthogonal to ring_normal)")
+    a_up = c + spec.point_a_height_mm * n
+    return [
+        DosePoint(f"point_a_{side}", a_up + sign * spec.point_a_lateral_mm * lat, "point_a")
+        for side, sign in (("left", 1.0), ("right", -1.0))
+    ]
 
 
 def points_array_mm(points) -> np.ndarray:

@@ -26,6 +26,7 @@ from ringqa.outdir import MARKER_NAME, marker_record, staged_output
 from ringqa.report.fields import ReportFields
 from ringqa.report.pdf import write_batch_pdf, write_pdf
 from ringqa.report.tables import SCHEMA, results_dict, write_batch_tables, write_tables
+from ringqa.textio import read_csv_table
 
 __all__ = [
     "SCHEMA",
@@ -47,14 +48,7 @@ ACCURACY_COLUMNS = ("time_s", "max_err_mm", "status")
 def read_accuracy_csv(path) -> pd.DataFrame:
     """Read ``accuracy.csv`` of ``ringqa accuracy`` (for the report's accuracy page)."""
     p = Path(path)
-    try:
-        table = pd.read_csv(p)
-    except (OSError, ValueError) as exc:
-        raise InputFileError(
-            p,
-            f"cannot read the accuracy table ({exc})",
-            "give the accuracy.csv written by ringqa accuracy",
-        ) from exc
+    table = read_csv_table(p)  # ringqa.textio: encodings, repeated columns refused
     missing = [c for c in ACCURACY_COLUMNS if c not in table.columns]
     if missing:
         raise InputFileError(
@@ -77,13 +71,20 @@ def _write_one(
     for name, data in (extra_files or {}).items():
         (folder / name).write_bytes(data)
     if export is not None:
-        from ringqa.io.export_tps import write_exports
+        from ringqa.io.export_tps import add_export_listing, write_exports
 
-        write_exports(result, folder, export)
+        add_export_listing(folder, write_exports(result, folder, export))  # in results.json
     if pdf:
         write_pdf(
-            result, folder / "report.pdf", accuracy=accuracy, fields=fields, sections=sections
-        )
+            result, folder / "report.pdf", accuracy=accuracy, fields=fields, sections=sections,
+            notes=_export_note(export),
+        )  # fmt: skip
+
+
+def _export_note(checked) -> list[str]:
+    from ringqa.io.export_tps import export_note
+
+    return export_note(checked)
 
 
 def _checked_exports(results, export: bool) -> list:
@@ -162,7 +163,7 @@ def write_batch(
         done = ()
         if forked:  # the workers start on the PDFs now; this process writes the rest meanwhile
             pool = workers_stop.enter_context(
-                _pdf_pool(batch.results, subs, owns, sections, n_workers)
+                _pdf_pool(batch.results, subs, owns, sections, n_workers, checked)
             )
             done = pool.imap(_pdf_task, range(len(batch.results)))
         items = zip(batch.results, checked, subs, owns, strict=True)
@@ -205,7 +206,7 @@ def prepare_report() -> None:
     fig.canvas.draw()
 
 
-def _pdf_pool(results, folders, fields, sections, workers: int):
+def _pdf_pool(results, folders, fields, sections, workers: int, exports=None):
     """A pool of forked processes (a context manager) set up to render ``results[k]`` into
     ``folders[k]/report.pdf`` (:func:`_pdf_task`); the folders are made here first."""
     from ringqa.pipeline.forked import worker_pool
@@ -213,7 +214,8 @@ def _pdf_pool(results, folders, fields, sections, workers: int):
     prepare_report()  # once, before forking: the workers inherit it
     for folder in folders:
         folder.mkdir(parents=True, exist_ok=True)
-    job = (results, [f / "report.pdf" for f in folders], fields, sections)
+    notes = [_export_note(e) for e in (exports or [None] * len(results))]
+    job = (results, [f / "report.pdf" for f in folders], fields, sections, notes)
     return worker_pool(min(workers, len(results)), job=job)
 
 
@@ -222,6 +224,6 @@ def _pdf_task(k: int) -> int:
     worker)."""
     from ringqa.pipeline.forked import job
 
-    results, paths, fields, sections = job()
-    write_pdf(results[k], paths[k], fields=fields[k], sections=sections)
+    results, paths, fields, sections, notes = job()
+    write_pdf(results[k], paths[k], fields=fields[k], sections=sections, notes=notes[k])
     return k

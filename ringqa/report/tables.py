@@ -46,7 +46,7 @@ def results_dict(result: CommissioningResult) -> dict:
             "reference": result.reference,
             "passed": result.passed,
             "verdicts": [v.as_dict() for v in result.verdicts],
-            "summary": result.summary_row(),
+            "summary": {**result.summary_row(), "channel": channel_of_result(result)},
             "notes": list(result.notes),
             "warnings": result.warning_records(),
             "settings": result.settings.as_dict(),
@@ -80,16 +80,38 @@ def input_base(result: CommissioningResult) -> Path | None:
     return input_folder(p)
 
 
+def channel_of_result(result: CommissioningResult) -> str:
+    """The ``channel`` column's value of a result (its ``channel``, else the channel simulated)."""
+    return str(getattr(result, "channel", "") or result.settings.channel)
+
+
+def with_channel(result: CommissioningResult, df: pd.DataFrame) -> pd.DataFrame:
+    """``df`` with the ``channel`` column last (CONTRACT: the plan's channel number, or the
+    channel's name for file inputs; ``"all"`` on the rows of the RT Plan's own dwells, which are
+    every channel's). Last, so that readers indexing the older columns by position still
+    work."""
+    label = channel_of_result(result)
+    if "channel" in df.columns:
+        return df
+    out = df.copy()
+    value = label
+    if "plan" in out.columns:
+        value = [("all" if p == "rtplan" else label) for p in out["plan"]]
+    out["channel"] = value
+    return out
+
+
 def write_tables(result: CommissioningResult, folder: Path) -> list[Path]:
-    """Write dwells.csv, doses.csv, plan_dwells.csv, summary.csv and results.json into folder."""
+    """Write dwells.csv, doses.csv, plan_dwells.csv, summary.csv and results.json into folder
+    (dwells, doses and summary with the ``channel`` column: :func:`with_channel`)."""
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     out = []
     for name, df in (
-        ("dwells.csv", result.dwells),
-        ("doses.csv", result.doses),
+        ("dwells.csv", with_channel(result, result.dwells)),
+        ("doses.csv", with_channel(result, result.doses)),
         ("plan_dwells.csv", result.plan_dwells),
-        ("summary.csv", pd.DataFrame([result.summary_row()])),
+        ("summary.csv", with_channel(result, pd.DataFrame([result.summary_row()]))),
     ):
         df.to_csv(folder / name, index=False, float_format=FLOAT_FORMAT, encoding=csv_encoding(df))
         out.append(folder / name)
@@ -98,17 +120,29 @@ def write_tables(result: CommissioningResult, folder: Path) -> list[Path]:
     return out
 
 
+def batch_summary_with_channel(batch: BatchResult) -> pd.DataFrame:
+    """The batch's summary with the ``channel`` column last (each result's channel, matched by
+    its output folder; ``""`` for a failed input)."""
+    summary = batch.summary
+    if "channel" in summary.columns or "folder" not in summary.columns:
+        return summary
+    by_folder = {batch.label(i): channel_of_result(r) for i, r in enumerate(batch.results)}
+    out = summary.copy()
+    out["channel"] = [by_folder.get(f, "") for f in out["folder"]]
+    return out
+
+
 def write_batch_tables(batch: BatchResult, folder: Path) -> list[Path]:
     """The cross-applicator summary.csv, all_dwells.csv and batch.json of a BatchResult."""
     folder = Path(folder)
-    summary = batch.summary
+    summary = batch_summary_with_channel(batch)
     summary.to_csv(
         folder / "summary.csv", index=False, float_format=FLOAT_FORMAT,
         encoding=csv_encoding(summary),
     )  # fmt: skip
     for name, frames in (
-        ("all_dwells.csv", [r.dwells for r in batch.results]),
-        ("all_doses.csv", [r.doses for r in batch.results]),
+        ("all_dwells.csv", [with_channel(r, r.dwells) for r in batch.results]),
+        ("all_doses.csv", [with_channel(r, r.doses) for r in batch.results]),
     ):
         if frames:
             table = pd.concat(frames, ignore_index=True)

@@ -35,6 +35,10 @@ def warm_up() -> None:
 def simulate(scene, advances_mm=None, progress: bool = False) -> SimResult:
     """Push the scene's instrument through its channel and report at the requested advances.
 
+    ``scene.model.formulation`` chooses the engine: ``"rigid"`` (rigid links and hinge springs,
+    :mod:`ringqa.simulation.solvers`) or ``"flexible"`` (beam elements,
+    :mod:`ringqa.simulation.flexible`); both return the same :class:`SimResult`.
+
     Parameters
     ----------
     scene : ringqa.simulation.scene.Scene
@@ -68,6 +72,10 @@ def simulate(scene, advances_mm=None, progress: bool = False) -> SimResult:
         )
     if not np.all(np.isfinite(adv)):
         raise SimulationError("advances_mm: all advances must be finite numbers (mm)")
+    if getattr(getattr(scene, "model", None), "formulation", "rigid") == "flexible":
+        from ringqa.simulation.flexible import run_flexible
+
+        return run_flexible(scene, adv, progress=progress)
     from ringqa.simulation.solvers.driver import run
 
     return run(scene, adv, progress=progress)

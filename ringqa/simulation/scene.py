@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING, Any
 
 from ringqa.errors import SceneError
 from ringqa.simulation.scene_keys import (
+    FORMULATIONS,
     FRICTION_LAWS,
     INTEGRATORS,
     MOTION_KINDS,
@@ -29,6 +30,7 @@ if TYPE_CHECKING:  # pragma: no cover
     from ringqa.geometry import Channel
 
 __all__ = [
+    "FORMULATIONS",
     "FRICTION_LAWS",
     "INTEGRATORS",
     "MOTION_KINDS",
@@ -38,6 +40,7 @@ __all__ = [
     "ContactParams",
     "Effects",
     "Instrument",
+    "ModelSettings",
     "Motion",
     "Outputs",
     "Scene",
@@ -320,6 +323,24 @@ class Outputs:
         check_fields("outputs", self)
 
 
+@dataclass(frozen=True)
+class ModelSettings:
+    """How the engine discretises the instrument.
+
+    Attributes
+    ----------
+    formulation : str
+        ``"rigid"`` (default: rigid links joined by hinge springs EI/l, the paper's rigid
+        multibody model) or ``"flexible"`` (cubic Hermite beam elements with nodal positions and
+        tangents, bending from the elements' curvature: :mod:`ringqa.simulation.flexible`).
+    """
+
+    formulation: str = _d("model", "formulation")
+
+    def __post_init__(self) -> None:
+        check_fields("model", self)
+
+
 @dataclass(frozen=True, eq=False)
 class ChannelSpec:
     """How a scene file described its channel (user units), tied to the channel it built.
@@ -353,6 +374,8 @@ class Scene:
     channel_spec : ChannelSpec or None
         How a scene file described the channel (an applicator name, an analytic shape); None for
         a channel given as an object, or once the channel is replaced.
+    model : ModelSettings
+        The discretisation (``model.formulation``: rigid or flexible).
     """
 
     name: str
@@ -365,13 +388,15 @@ class Scene:
     outputs: Outputs = field(default_factory=Outputs)
     description: str = ""
     channel_spec: ChannelSpec | None = None
+    model: ModelSettings = field(default_factory=ModelSettings)
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str):
             raise SceneError(f"name: expected a string, got {self.name!r}")
         for attr, cls in (("instrument", Instrument), ("effects", Effects),
                           ("contact", ContactParams), ("motion", Motion),
-                          ("solver", SolverSettings), ("outputs", Outputs)):  # fmt: skip
+                          ("solver", SolverSettings), ("outputs", Outputs),
+                          ("model", ModelSettings)):  # fmt: skip
             if not isinstance(getattr(self, attr), cls):
                 raise SceneError(f"scene.{attr}: expected a {cls.__name__}")
         if getattr(self.channel, "centreline", None) is None or not hasattr(self.channel, "lumen"):

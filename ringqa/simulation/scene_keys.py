@@ -34,6 +34,9 @@ SOLVER_KINDS = ("quasistatic", "dynamic")
 INTEGRATORS = ("backward_euler", "bdf2")
 MOTION_KINDS = ("constant", "stepwise", "retract")
 PRESETS = ("flexitron", "microselectron", "catheter")
+#: the engine's discretisation of the instrument (``model.formulation``): the paper's rigid links
+#: with hinge springs, or flexible (Kirchhoff) beam elements (:mod:`ringqa.simulation.flexible`)
+FORMULATIONS = ("rigid", "flexible")
 
 #: SI value = user value x this factor, by unit
 _SCALE = {"mm": M_PER_MM, "mm/s": M_PER_MM}
@@ -276,11 +279,15 @@ KEYS: tuple[Key, ...] = (
     # ---- outputs
     _k("outputs", "trajectory", "trajectory", "", (bool,), False, None,
        "keep every step (ringqa simulate writes trajectory.h5)"),
+    # ---- model (the discretisation: a second, independent engine)
+    _k("model", "formulation", "formulation", "", (str,), "rigid", FORMULATIONS,
+       "rigid links with hinge springs (the paper's rigid model) or flexible beam elements "
+       "(cubic Hermite, nodal positions and tangents; quasi-static only)"),
 )  # fmt: skip
 
 #: the tables of a scene file (``section`` is a custom instrument section, inside [instrument])
 SECTIONS = ("", "channel", "instrument", "discretisation", "effects", "contact", "motion",
-            "solver", "outputs")  # fmt: skip
+            "solver", "outputs", "model")  # fmt: skip
 
 _BY_NAME = {(k.section, k.name): k for k in KEYS}
 _BY_FIELD = {(k.section, k.field): k for k in KEYS if k.field}

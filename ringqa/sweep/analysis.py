@@ -25,7 +25,16 @@ import pandas as pd
 
 from ringqa.sweep.store import StoredSamples
 
-__all__ = ["OUTPUTS", "SUMMARY_COLUMNS", "scalar_outputs", "sensitivity", "shift_mm", "summary"]
+__all__ = [
+    "OUTPUTS",
+    "SUMMARY_COLUMNS",
+    "failure_report",
+    "scalar_outputs",
+    "sensitivity",
+    "sensitivity_reason",
+    "shift_mm",
+    "summary",
+]
 
 SUMMARY_COLUMNS = ("dwell", "point", "quantity", "mean", "sd", "p2_5", "p97_5", "n_ok", "n_failed")
 SENSITIVITY_COLUMNS = (
@@ -140,20 +149,30 @@ def sensitivity(s: StoredSamples, names: Sequence[str], problem: dict | None) ->
     """The ``sensitivity.csv`` table; ``problem``: the SALib problem of a Sobol design (None:
     regression coefficients only)."""
     outs = scalar_outputs(s)
+    reason = sensitivity_reason(s, names)
     rows = []
     for name, y in outs.items():
         good = s.ok & np.isfinite(y)
         coef, r2 = src(s.values[good], y[good])
+        method = "src" if np.isfinite(coef).any() else (reason or "none: the output has no spread")
         sob = None
         if problem is not None and good.all() and len(y) > 0 and np.std(y) > 0:
             from SALib.analyze import sobol
 
             sob = sobol.analyze(problem, y, calc_second_order=False, seed=0)
+        elif problem is not None and method == "src":
+            n_bad = int((~good).sum())
+            method = (
+                f"src (no Sobol indices: {n_bad} of {len(y)} runs failed, and SALib needs "
+                "every run of the design)"
+                if n_bad
+                else "src (no Sobol indices: the output has no spread)"
+            )
         for j, p in enumerate(names):
             row = {
                 "output": name,
                 "parameter": p,
-                "method": "sobol+src" if sob is not None else "src",
+                "method": "sobol+src" if sob is not None else method,
                 "src": coef[j],
                 "r2": r2,
                 "s1": np.nan,
@@ -170,3 +189,110 @@ def sensitivity(s: StoredSamples, names: Sequence[str], problem: dict | None) ->
                 )
             rows.append(row)
     return pd.DataFrame(rows, columns=list(SENSITIVITY_COLUMNS))
+
+
+#: a failure/parameter link is called out when at most this share of the successful samples lies
+#: on the failures' side of the threshold
+FAILURE_LINK_SHARE = 0.25
+
+
+def failure_report(s: StoredSamples, names: Sequence[str], centres: Sequence[float]) -> dict:
+    """Which samples failed, why, and whether the failures go with one parameter.
+
+    For each parameter ``x`` (and its distance from the centre, ``|x - centre|``) the threshold
+    that all failures pass is ``t = min`` (or ``max``) of the failures' values; the link is
+    called out ("all 3 failures have |centreline.displacement_mm| >= 0.357") when at least two
+    samples failed and at most :data:`FAILURE_LINK_SHARE` of the successful samples pass the same
+    threshold; the strongest such link comes first.
+
+    Parameters
+    ----------
+    s : StoredSamples
+    names : sequence of str
+        The parameters (the columns of ``s.values``).
+    centres : sequence of float
+        Each parameter's nominal value.
+
+    Returns
+    -------
+    dict
+        ``n``, ``n_failed``, ``failed_fraction``, ``reasons`` (reason -> count: the message up to
+        its first colon), ``links`` (list of dicts: ``parameter``, ``form``, ``threshold``,
+        ``side``, ``ok_share``, ``text``) and ``text`` (one line for the terminal and the
+        report).
+    """
+    n = len(s.index)
+    failed = ~np.asarray(s.ok, dtype=bool)
+    k = int(failed.sum())
+    reasons: dict[str, int] = {}
+    for m, bad in zip(s.message, failed, strict=True):
+        if bad:
+            key = str(m).split(":", 1)[0] or "unknown"
+            reasons[key] = reasons.get(key, 0) + 1
+    links = []
+    n_ok = n - k
+    if k >= 2 and n_ok >= 1:
+        vals = np.asarray(s.values, dtype=float).reshape(n, -1)
+        for j, (name, c) in enumerate(zip(names, centres, strict=True)):
+            x = vals[:, j]
+            forms = [(name, x)]
+            if np.any(x < c) and np.any(x > c):
+                label = f"|{name}|" if c == 0 else f"|{name} - {c:g}|"
+                forms.append((label, np.abs(x - c)))
+            for label, v in forms:
+                vf, vo = v[failed], v[~failed]
+                for side, t, share in (
+                    (">=", float(vf.min()), float(np.mean(vo >= vf.min()))),
+                    ("<=", float(vf.max()), float(np.mean(vo <= vf.max()))),
+                ):
+                    if share <= FAILURE_LINK_SHARE:
+                        links.append(
+                            {
+                                "parameter": name,
+                                "form": label,
+                                "side": side,
+                                "threshold": t,
+                                "ok_share": share,
+                                "text": f"all {k} failures have {label} {side} {t:.4g} "
+                                f"({share:.0%} of the {n_ok} successful samples do too)",
+                            }
+                        )
+        links.sort(key=lambda d: d["ok_share"])
+    frac = k / n if n else 0.0
+    if k == 0:
+        text = f"all {n} samples succeeded"
+    else:
+        why = ", ".join(f"{r} x{c}" for r, c in sorted(reasons.items(), key=lambda x: -x[1]))
+        text = (
+            f"{k} of {n} samples failed ({frac:.1%}: {why}); the intervals are conditional on "
+            "success"
+        )
+        if links:
+            text += f"; {links[0]['text']}"
+    return {
+        "n": n,
+        "n_failed": k,
+        "failed_fraction": frac,
+        "reasons": reasons,
+        "links": links,
+        "text": text,
+    }
+
+
+def sensitivity_reason(s: StoredSamples, names: Sequence[str]) -> str:
+    """Why ``sensitivity.csv`` has no regression coefficients ("" when it has them)."""
+    outs = scalar_outputs(s)
+    good = np.asarray(s.ok, dtype=bool)
+    n_good = int(good.sum())
+    vals = np.asarray(s.values, dtype=float).reshape(len(s.index), -1)[good]
+    live = int(np.sum(vals.std(axis=0) > 0)) if n_good > 1 else 0
+    if n_good <= live + 1:
+        return (
+            f"no regression coefficients: {n_good} successful samples for {live} varied "
+            f"parameters (at least {live + 2} needed; run more samples)"
+        )
+    if live == 0:
+        return "no regression coefficients: no parameter varies across the successful samples"
+    if all(np.nanstd(y[good]) == 0 for y in outs.values()):
+        return "no regression coefficients: the outputs do not vary across the samples"
+    return ""

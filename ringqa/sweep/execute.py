@@ -8,8 +8,13 @@
   finish. A worker that dies mid-task: Dask reruns its task on another worker; every batch
   already handed over is kept.
 
-Each worker warms the numba on-disk cache once (:func:`warm_worker`, a worker plugin), so
-samples do not pay the compilation; with the parent warmed first the workers only load it.
+Each worker warms the numba on-disk cache once (:func:`warm_worker`), so samples do not pay the
+compilation; with the parent warmed first the workers only load it. Every worker runs one thing
+at a time on one core: numba, OpenMP and BLAS get one thread (:data:`ONE_THREAD`, set before the
+worker process starts) and a worker's commissioning runs never fork children of their own
+(``ringqa.pipeline.simulate.CONCURRENT_RUNS`` off in the workers). Tasks are sized from the
+measured time of a sample (:func:`auto_batch_size`) and Dask's work stealing moves queued tasks
+from busy to idle workers, so the tail of a sweep stays short.
 """
 
 from __future__ import annotations
@@ -21,18 +26,54 @@ from collections.abc import Callable, Iterator, Sequence
 from ringqa.errors import RingQAError
 from ringqa.sweep.runner import Job, SampleRecord, run_batch
 
-__all__ = ["batches", "connect", "stream", "warm_worker"]
+__all__ = ["auto_batch_size", "batches", "connect", "one_core", "stream", "warm_worker"]
 
 #: seconds to wait for an existing scheduler before giving up
 CONNECT_TIMEOUT_S = 10
+#: environment of a local cluster's worker processes: one thread for numba, OpenMP and BLAS
+#: (the workers already use every core)
+ONE_THREAD = {
+    "NUMBA_NUM_THREADS": "1",
+    "OMP_NUM_THREADS": "1",
+    "OPENBLAS_NUM_THREADS": "1",
+    "MKL_NUM_THREADS": "1",
+}
+#: wall time aimed at per task with ``batch_size = "auto"``, s (the scheduler's round trip of a
+#: few ms stays ~1 % of it)
+TASK_TARGET_S = 0.5
+#: with ``batch_size = "auto"``, at least this many tasks per worker (a short tail)
+TASKS_PER_WORKER = 4
 
 
-def warm_worker(job: Job, nominal: Sequence) -> str:
-    """Run the nominal sample once in this process (compiles or loads the numba kernels)."""
+def one_core() -> None:
+    """This process runs one sample at a time on one core: its commissioning runs fork no
+    children (the sweep's workers use the cores already)."""
+    import ringqa.pipeline.simulate as simulate
+
+    simulate.CONCURRENT_RUNS = False
+
+
+def warm_worker(job: Job, nominal: Sequence, cheap: bool = False) -> str:
+    """Run the nominal sample once in this process (compiles or loads the numba kernels; a
+    ``cheap`` sweep's prepared input is built too)."""
     from ringqa.sweep.runner import run_sample
 
-    rec = run_sample(job, -1, nominal)
+    one_core()
+    if cheap:
+        from ringqa.sweep.fast import cheap_sample
+
+        rec = cheap_sample(job, -1, nominal, None, None)
+    else:
+        rec = run_sample(job, -1, nominal)
     return f"{rec.worker} warmed in {rec.seconds:.2f} s"
+
+
+def auto_batch_size(sample_s: float, n_todo: int, n_workers: int) -> int:
+    """Samples per task for samples of ``sample_s`` seconds: about :data:`TASK_TARGET_S` of
+    work per task, but at least :data:`TASKS_PER_WORKER` tasks per worker."""
+    per_task = max(1, round(TASK_TARGET_S / max(sample_s, 1e-3)))
+    spread = max(1, -(-n_todo // (TASKS_PER_WORKER * max(1, n_workers))))
+    return int(max(1, min(per_task, spread)))
 
 
 @contextlib.contextmanager
@@ -64,6 +105,7 @@ def connect(scheduler: str | None, workers: int | None) -> Iterator[object]:
         processes=True,
         dashboard_address=":0",
         silence_logs=logging.ERROR,
+        env=dict(ONE_THREAD),
     )
     client = Client(cluster)
     try:
@@ -86,17 +128,21 @@ def stream(
     batch_size: int,
     on_batch: Callable[[list[SampleRecord]], None],
     nominal: Sequence | None = None,
+    task: Callable[..., list[SampleRecord]] = run_batch,
+    task_args: Sequence = (),
 ) -> None:
     """Run ``todo`` on the cluster; call ``on_batch`` with each finished batch's records
-    (``nominal``: the values each worker runs once first, to warm its numba kernels)."""
+    (``nominal``: the values each worker runs once first, to warm its numba kernels; ``task``:
+    the Dask task, ``task(job, batch, *task_args)``, default :func:`run_batch`)."""
     from distributed import as_completed
 
     # warm each worker once (numba cache); workers that join later warm on their first task
     if nominal is not None:
         with contextlib.suppress(Exception):
-            client.run(warm_worker, job, list(nominal))
+            client.run(warm_worker, job, list(nominal), task is not run_batch)
     futures = [
-        client.submit(run_batch, job, b, pure=False, retries=2) for b in batches(todo, batch_size)
+        client.submit(task, job, b, *task_args, pure=False, retries=2)
+        for b in batches(todo, batch_size)
     ]
     try:
         for fut in as_completed(futures):

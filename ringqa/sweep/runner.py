@@ -182,5 +182,9 @@ def record_of(res, index: int, values: tuple, seconds: float, worker: str) -> Sa
 
 
 def run_batch(job: Job, batch: Sequence[tuple[int, Sequence]]) -> list[SampleRecord]:
-    """The Dask task: run every ``(index, values)`` of ``batch`` in turn."""
+    """The Dask task: run every ``(index, values)`` of ``batch`` in turn (one at a time: the
+    commissioning runs fork no children here)."""
+    import ringqa.pipeline.simulate as simulate
+
+    simulate.CONCURRENT_RUNS = False
     return [run_sample(job, i, v) for i, v in batch]

@@ -12,7 +12,6 @@ import hashlib
 import json
 import math
 import numbers
-import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -20,6 +19,7 @@ from typing import Any
 
 from ringqa.errors import RingQAError
 from ringqa.pipeline.uncertainty import PERTURBATION_KEYS
+from ringqa.textio import read_toml
 
 __all__ = [
     "DISTRIBUTIONS",
@@ -41,6 +41,12 @@ DISTRIBUTIONS: dict[str, tuple[str, ...]] = {
 }
 #: sampling methods: independent random draws (numpy), or SALib's Sobol/Saltelli design
 METHODS = ("random", "sobol")
+#: ``numerics``: ``calibrated`` (one engine run per sample, the numerical check measured once per
+#: sweep on ``calibration_samples`` samples: ringqa.sweep.fast) or ``full`` (every sample a full
+#: commissioning run with its own numerical check)
+NUMERICS = ("calibrated", "full")
+#: default number of calibration samples of a calibrated sweep
+CALIBRATION_SAMPLES = 6
 #: CommissionSettings fields a spec may set in its [settings] table
 SETTINGS_KEYS = (
     "source",
@@ -59,6 +65,9 @@ TOP_KEYS = (
     "seed",
     "method",
     "batch_size",
+    "numerics",
+    "calibration_samples",
+    "sample_budget_s",
     "settings",
     "set",
     "parameters",
@@ -126,7 +135,13 @@ class SweepSpec:
     method : str
         ``random`` or ``sobol``.
     batch_size : int
-        Samples per Dask task.
+        Samples per Dask task (0: ``"auto"``, sized from the measured time of a sample).
+    numerics : str
+        ``calibrated`` or ``full`` (:data:`NUMERICS`).
+    calibration_samples : int
+        Samples of a calibrated sweep run both ways to measure the numerical error.
+    sample_budget_s : float or None
+        Wall-clock budget of one sample's engine run, s (None: set from the calibration).
     settings : dict
         CommissionSettings fields (``stem_mm``, ``cable``, ...).
     fixed : dict
@@ -148,6 +163,9 @@ class SweepSpec:
     parameters: tuple[Parameter, ...]
     description: str = ""
     raw: Mapping[str, Any] = field(default_factory=dict)
+    numerics: str = "calibrated"
+    calibration_samples: int = CALIBRATION_SAMPLES
+    sample_budget_s: float | None = None
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -158,8 +176,13 @@ class SweepSpec:
         """A checksum of everything that decides each sample's numbers: a resumed sweep must
         have the same. Not ``batch_size`` or ``description``, nor (random method) ``samples``:
         sample i depends on (seed, i) only, so a finished sweep can be extended with more."""
-        skip = ("batch_size", "description") + (("samples",) if self.method == "random" else ())
+        skip = ("batch_size", "description", "sample_budget_s") + (
+            ("samples",) if self.method == "random" else ()
+        )
         d = {k: v for k, v in self.raw.items() if k not in skip}
+        if self.numerics == "calibrated":  # one engine run per sample: other numbers
+            d["numerics"] = self.numerics
+            d["calibration_samples"] = self.calibration_samples
         return hashlib.sha256(json.dumps(d, sort_keys=True, default=str).encode()).hexdigest()
 
 
@@ -182,14 +205,11 @@ def load_spec(path: str | Path, sets: Mapping[str, Any] | None = None) -> SweepS
         Unreadable file, unknown key, bad value or impossible distribution.
     """
     p = Path(path)
-    try:
-        data = tomllib.loads(p.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise SweepSpecError(f"{p}: no such sweep spec (give the path of a .toml file)") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise SweepSpecError(f"{p}: cannot be read ({exc})") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise SweepSpecError(f"{p}: not valid TOML ({exc})") from None
+    if not p.exists():
+        raise SweepSpecError(f"{p}: no such sweep spec (give the path of a .toml file)")
+    data = read_toml(
+        p, error=lambda path, problem, fix: SweepSpecError(f"{path}: {problem} ({fix})")
+    )
     data = apply_spec_sets(data, sets or {}, str(p))
     base = p.parent
     inp = data.get("input")
@@ -268,11 +288,32 @@ def spec_from_dict(data: Mapping, origin: str = "<spec>") -> SweepSpec:
             f"{origin}: method = {method!r}: choose one of {', '.join(METHODS)} (random: "
             "independent draws; sobol: SALib's Sobol design, for Sobol indices)"
         )
-    batch = data.get("batch_size", 4)
-    if not (isinstance(batch, int) and not isinstance(batch, bool) and 1 <= batch <= 10_000):
+    batch = data.get("batch_size", "auto")
+    if batch == "auto":
+        batch = 0
+    elif not (isinstance(batch, int) and not isinstance(batch, bool) and 1 <= batch <= 10_000):
         raise SweepSpecError(
             f"{origin}: batch_size = {batch!r}: give a whole number of samples per task >= 1 "
-            "(e.g. 4)"
+            '(e.g. 4), or "auto" (sized from the measured time of a sample)'
+        )
+    numerics = data.get("numerics", "calibrated")
+    if numerics not in NUMERICS:
+        raise SweepSpecError(
+            f"{origin}: numerics = {numerics!r}: choose one of {', '.join(NUMERICS)} "
+            "(calibrated: one engine run per sample, the numerical error measured once per "
+            "sweep; full: every sample a full commissioning run)"
+        )
+    n_cal = data.get("calibration_samples", CALIBRATION_SAMPLES)
+    if not (isinstance(n_cal, int) and not isinstance(n_cal, bool) and 1 <= n_cal <= 1000):
+        raise SweepSpecError(
+            f"{origin}: calibration_samples = {n_cal!r}: give a whole number, 1 to 1000 (the "
+            f"samples run both ways to measure the numerical error; default {CALIBRATION_SAMPLES})"
+        )
+    budget = data.get("sample_budget_s")
+    if budget is not None and not (_num(budget) and budget > 0):
+        raise SweepSpecError(
+            f"{origin}: sample_budget_s = {budget!r}: give a number of seconds > 0 (the wall "
+            "time one sample may take), or leave it out (set from the calibration)"
         )
     settings = data.get("settings", {})
     if not isinstance(settings, Mapping):
@@ -318,6 +359,9 @@ def spec_from_dict(data: Mapping, origin: str = "<spec>") -> SweepSpec:
         parameters=params,
         description=str(data.get("description", "")),
         raw=json.loads(json.dumps(data, default=str)),
+        numerics=str(numerics),
+        calibration_samples=int(n_cal),
+        sample_budget_s=None if budget is None else float(budget),
     )
 
 

@@ -15,6 +15,8 @@ The file is flushed after every batch, so a killed sweep keeps every sample writ
 
 from __future__ import annotations
 
+import dataclasses
+import json
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -131,6 +133,29 @@ class SampleStore:
         if self._f is not None:
             self._f.close()
             self._f = None
+
+    def numerical_bound(self):
+        """The calibrated sweep's :class:`~ringqa.sweep.fast.NumericalBound` stored in the file
+        (None: not calibrated yet)."""
+        from ringqa.sweep.fast import NumericalBound
+
+        assert self._f is not None
+        text = self._f.attrs.get("numerical_bound")
+        if text is None:
+            return None
+        d = json.loads(text)
+        return NumericalBound(
+            error_mm=np.asarray(d["error_mm"], dtype=float),
+            **{k: tuple(v) for k, v in d.items() if k != "error_mm"},
+        )
+
+    def set_numerical_bound(self, bound) -> None:
+        """Keep ``bound`` in the file (a resumed sweep reports the same numerical error)."""
+        assert self._f is not None
+        d = dataclasses.asdict(bound)
+        d["error_mm"] = [float(x) for x in bound.error_mm]
+        self._f.attrs["numerical_bound"] = json.dumps(d)
+        self._f.flush()
 
     def done(self) -> set[int]:
         """Indices already stored."""

@@ -31,7 +31,9 @@ import pandas as pd
 from ringqa.errors import RingQAError
 from ringqa.outdir import check_writable, staged_output
 from ringqa.provenance import display_path
-from ringqa.sweep.analysis import sensitivity, summary
+from ringqa.sweep.analysis import failure_report, sensitivity, sensitivity_reason, summary
+from ringqa.sweep.execute import auto_batch_size
+from ringqa.sweep.fast import NumericalBound, calibrate, cheap_sample, run_cheap_batch
 from ringqa.sweep.runner import Job, SampleRecord, commission_settings
 from ringqa.sweep.sampling import design, n_runs, salib_problem
 from ringqa.sweep.spec import SweepSpec
@@ -98,6 +100,37 @@ def _nominal(job: Job, values) -> tuple[SampleRecord, np.ndarray, object]:
     return rec, ref[["x_mm", "y_mm", "z_mm"]].to_numpy(float), res
 
 
+def calibration_indices(n_runs: int, k: int) -> list[int]:
+    """``k`` sample indices spread evenly over a design of ``n_runs`` (all when fewer)."""
+    if n_runs <= k:
+        return list(range(n_runs))
+    return sorted({int(np.rint(x)) for x in np.linspace(0, n_runs - 1, k)})
+
+
+def _calibrate(cl, job: Job, table, spec: SweepSpec, nom_rec, nom_cheap, nominal) -> NumericalBound:
+    """The numerical bound of a calibrated sweep: the nominal run (already run both ways here)
+    and ``spec.calibration_samples - 1`` design samples run both ways on the cluster."""
+    from ringqa.sweep.execute import one_core
+    from ringqa.sweep.fast import calibrate_one
+
+    nominal_point = {
+        "index": -1,
+        "ok": True,
+        "cheap_s": nom_cheap.cpu_seconds,
+        "full_s": nom_rec.cpu_seconds,
+        "dist_mm": np.linalg.norm(nom_cheap.positions_mm - nom_rec.positions_mm, axis=1).tolist(),
+        "full_error_mm": np.asarray(nom_rec.dwell["numerical_error_mm"], float).tolist(),
+    }
+    idx = calibration_indices(len(table), max(0, spec.calibration_samples - 1))
+    vals = [[v.item() if hasattr(v, "item") else v for v in table[i]] for i in idx]
+    cl.run(one_core)
+    futures = [
+        cl.submit(calibrate_one, job, i, v, pure=False) for i, v in zip(idx, vals, strict=True)
+    ]
+    results = [nominal_point, *cl.gather(futures)]
+    return calibrate(results, len(nom_rec.dwell_ids))
+
+
 def _versions() -> dict:
     import importlib.metadata as md
 
@@ -152,6 +185,16 @@ def run_sweep(
         t0 = time.perf_counter()
         nom_rec, reference_mm, nom_res = _nominal(job, nominal)
         nominal_s = time.perf_counter() - t0
+        cheap = spec.numerics == "calibrated"
+        nom_cheap = None
+        if cheap:  # the nominal cheap sample: prepares this process, times a sample
+            nom_cheap = cheap_sample(job, -1, nominal, None, None)
+            if not nom_cheap.ok:
+                raise RingQAError(
+                    "the nominal run (every parameter at its centre) failed as a single engine "
+                    f"run at the commissioning settings: {nom_cheap.message} (numerics = "
+                    '"full" runs every sample as a full commissioning run)'
+                )
         # a local cluster starts after the nominal run warmed the numba cache
         if cl is None and not partial:
             t_cluster = time.perf_counter()
@@ -164,6 +207,17 @@ def run_sweep(
         ) as st:
             done = st.done()
             todo = [] if partial else [(i, table[i]) for i in range(len(table)) if i not in done]
+            t_cal = time.perf_counter()
+            bound = None
+            if cheap:
+                bound = st.numerical_bound()
+                if bound is None and cl is not None:
+                    bound = _calibrate(cl, job, table, spec, nom_rec, nom_cheap, nominal)
+                    st.set_numerical_bound(bound)
+            calibration_s = time.perf_counter() - t_cal
+            sample_s = nom_cheap.seconds if cheap else nom_rec.seconds
+            batch_size = spec.batch_size or auto_batch_size(sample_s, len(todo), n_workers)
+            budget_s = spec.sample_budget_s or (bound.budget_s if bound is not None else None)
             bar = _bar(len(table), len(done), progress)
             t_run = time.perf_counter()
 
@@ -176,8 +230,12 @@ def run_sweep(
 
             try:
                 with guard.installed():
-                    if todo:
-                        stream(cl, job, todo, spec.batch_size, on_batch, nominal)
+                    if todo and cheap:
+                        err = None if bound is None else [float(x) for x in bound.error_mm]
+                        stream(cl, job, todo, batch_size, on_batch, nominal, run_cheap_batch,
+                               (err, budget_s))  # fmt: skip
+                    elif todo:
+                        stream(cl, job, todo, batch_size, on_batch, nominal)
             finally:
                 bar.close()
             run_s = time.perf_counter() - t_run
@@ -191,6 +249,8 @@ def run_sweep(
         )
         if not ok
     ]
+    failed_report = failure_report(samples, spec.names, [float(v) for v in nominal])
+    sens_reason = sensitivity_reason(samples, spec.names)
     n_new = len(todo)
     sample_s = float(np.sum(samples.seconds))
     record = {
@@ -209,12 +269,15 @@ def run_sweep(
         "execution": {
             "scheduler": scheduler or "LocalCluster (processes)",
             "workers": n_workers,
-            "batch_size": spec.batch_size,
+            "batch_size": batch_size,
+            "batch_size_auto": spec.batch_size == 0,
+            "sample_budget_s": budget_s,
             "workers_used": sorted(set(samples.worker)),
         },
         "timings_s": {
             "nominal_run": nominal_s,
             "cluster_start": cluster_s,
+            "calibration": calibration_s,
             "samples_wall": run_s,
             "samples_wall_sum": sample_s,
             "samples_cpu_sum": float(np.nansum(samples.cpu_seconds)),
@@ -235,11 +298,29 @@ def run_sweep(
             ),
         },
         "spread_vs_numerics": _spread_vs_numerics(summ),
+        "numerical_check": bound.as_dict()
+        if bound is not None
+        else {
+            "mode": spec.numerics,
+            "text": "every sample is a full commissioning run with its own numerical check"
+            if spec.numerics == "full"
+            else "not calibrated (no finished calibration)",
+        },
+        "numerics": spec.numerics,
         "parameters": [
             {"key": p.key, "distribution": p.distribution, **p.args, "source": p.source}
             for p in spec.parameters
         ],
         "failures": failures,
+        "failure_report": failed_report,
+        "intervals": (
+            "every sample succeeded"
+            if failed_report["n_failed"] == 0
+            else f"conditional on success: {failed_report['n_failed']} of "
+            f"{failed_report['n']} samples ({failed_report['failed_fraction']:.1%}) failed and "
+            "are not in the means, sds and percentiles"
+        ),
+        "sensitivity_note": sens_reason,
     }
     _write(
         out,
@@ -249,7 +330,13 @@ def run_sweep(
         samples,
         nom_rec.positions_mm,
         reference_mm,
-        f"{nom_res.applicator}: {display_path(spec.path)}",  # never an install path
+        f"{nom_res.applicator}: {display_path(spec.path)}"  # never an install path
+        + (
+            f" ({failed_report['n_failed']} of {failed_report['n']} samples failed: intervals "
+            "conditional on success)"
+            if failed_report["n_failed"]
+            else ""
+        ),
     )
     return SweepResult(out, samples, summ, sens, record)
 

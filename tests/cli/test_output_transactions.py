@@ -81,8 +81,9 @@ def test_foreign_folder_is_refused_before_any_work(tmp_path, capsys, monkeypatch
     assert main(["commission", "fake26", "--out", str(out)]) == 2
     line = _one_line(capsys.readouterr().err)
     assert line == (
-        f"ringqa commission: error: --out {out}: holds files ringqa did not write (e.g. "
-        "notes.txt); choose an empty or new folder, or a folder an earlier ringqa run wrote"
+        f"ringqa commission: error: --out {out}: holds files ringqa did not write: notes.txt; "
+        "ringqa never deletes them (move them out of the folder, or choose an empty or new "
+        "folder)"
     )
     assert _tree(out) == {"notes.txt": b"mine"}
     assert _names(tmp_path) == ["results"]
@@ -252,3 +253,93 @@ def test_sigterm_during_a_real_batch_leaves_no_staging_and_no_output(tmp_path):
     assert proc.returncode == 143, err
     assert "interrupted by SIGTERM" in err
     assert list(tmp_path.iterdir()) == []
+
+
+class _Broken:
+    """A standard output whose reader went away (``| head``) or whose disk is full."""
+
+    def __init__(self, err: int) -> None:
+        self.err = err
+
+    def write(self, text):
+        raise OSError(self.err, os.strerror(self.err))
+
+    def flush(self):
+        raise OSError(self.err, os.strerror(self.err))
+
+
+@pytest.mark.parametrize("err", [errno.EPIPE, errno.ENOSPC])
+def test_a_closed_or_full_stdout_does_not_fail_a_finished_run(tmp_path, capsys, monkeypatch, err):
+    """stdout raising EPIPE / ENOSPC on every write: the run still exits 0, its folder is
+    complete, and stderr says once that stdout could not be written (exit status the run's)."""
+    out = tmp_path / "demo"
+    monkeypatch.setattr(sys, "stdout", _Broken(err))
+    assert main(["tg43-demo", "--out", str(out)]) == 0
+    assert (out / MARKER).is_file() and (out / "provenance.json").is_file()
+    line = _one_line(capsys.readouterr().err)
+    assert "standard output could not be written" in line and "(0)" in line
+
+
+def test_log_file_on_a_full_device_is_refused_before_any_work(tmp_path, capsys):
+    """--log-file /dev/full: opening works, the first line cannot be written: exit 2 at once,
+    one line naming the option and the reason; no output folder."""
+    if not Path("/dev/full").exists():
+        pytest.skip("no /dev/full on this system")
+    out = tmp_path / "demo"
+    assert main(["--log-file", "/dev/full", "tg43-demo", "--out", str(out)]) == 2
+    line = _one_line(capsys.readouterr().err)
+    assert "--log-file /dev/full: cannot be written: No space left on device" in line
+    assert not out.exists()
+
+
+def test_log_file_that_fills_up_during_the_run_gives_one_warning(tmp_path, capsys, monkeypatch):
+    """The log file's disk fills after the first line: one warning line, no logging traceback,
+    the run's exit status (0) and a complete folder."""
+    import ringqa.cli as cli
+
+    real = cli._open_log_file
+
+    def filling(path):
+        fh = real(path)
+        fh.stream.write = _Broken(errno.ENOSPC).write
+        return fh
+
+    monkeypatch.setattr(cli, "_open_log_file", filling)
+    out = tmp_path / "demo"
+    assert (
+        main(["-v", "--log-file", str(tmp_path / "run.log"), "tg43-demo", "--out", str(out)]) == 0
+    )
+    err = capsys.readouterr().err
+    assert "Traceback" not in err and "Logging error" not in err
+    assert err.count("--log-file") == 1 and "No space left on device" in err
+    assert (out / MARKER).is_file()
+
+
+@pytest.mark.parametrize("kind", ["symlink", "dot", "log_inside"])
+def test_bad_out_or_log_file_is_refused_before_any_work(tmp_path, capsys, monkeypatch, kind):
+    """A symbolic-link --out, --out ., a --log-file inside --out: exit 2 at once with the
+    reason; nothing written anywhere."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "real").mkdir()
+    (tmp_path / "link").symlink_to(tmp_path / "real")
+    argv = {
+        "symlink": ["tg43-demo", "--out", "link"],
+        "dot": ["tg43-demo", "--out", "."],
+        "log_inside": ["--log-file", "o/log.txt", "tg43-demo", "--out", "o"],
+    }[kind]
+    word = {"symlink": "symbolic link", "dot": "current folder", "log_inside": "inside --out"}
+    assert main(argv) == 2
+    assert word[kind] in _one_line(capsys.readouterr().err)
+    assert _names(tmp_path) == ["link", "real"] and _names(tmp_path / "real") == []
+
+
+def test_control_characters_are_escaped_on_the_terminal(capsys):
+    """An ANSI escape and a carriage return in text printed while a command runs (a plan's
+    applicator name in a message) reach the terminal as visible escapes."""
+    from ringqa.cli import terminal_streams
+
+    with terminal_streams():
+        print("applicator ring\x1b[2J\rPASS")
+        print("note", file=sys.stderr)
+    out = capsys.readouterr()
+    assert out.out == "applicator ring\\x1b[2J\\x0dPASS\n" and out.err == "note\n"

@@ -16,6 +16,7 @@ from ringqa.config import (
     COMMAND_LINE,
     DEFAULT,
     KEYS,
+    ConfigError,
     config_keys_table,
     effective_config,
     read_config_file,
@@ -40,6 +41,7 @@ CHANGED = {
     "simulation.register": "rigid",
     "simulation.stem_mm": 50.0,
     "simulation.whole_channel": True,
+    "simulation.cross_check": True,
     "report.institution": "St Elsewhere, Radiotherapy",
     "report.physicist": "J. Jansen",
     "report.afterloader": "Flexitron #123",
@@ -81,6 +83,7 @@ def _attr(settings: CommissionSettings, fields, key: str):
         "simulation.register": settings.register,
         "simulation.stem_mm": settings.stem_mm,
         "simulation.whole_channel": settings.stem_mm is None,
+        "simulation.cross_check": settings.cross_check,
     }.get(key, getattr(spec, name, None) if table == "dose_points" else getattr(fields, name, None))
 
 
@@ -316,3 +319,67 @@ def test_report_fields_reach_the_report_writer(fake_inputs, write_config, tmp_pa
     out = tmp_path / "out"
     assert main(["commission", "fakeA", "--config", str(path), "--out", str(out), "--quiet"]) == 0
     assert seen == [ReportFields(physicist="J. Jansen", notes="new ring")]
+
+
+def test_ringqa_config_naming_a_missing_file_is_an_error(tmp_path, monkeypatch, capsys):
+    """RINGQA_CONFIG names a file that is not there (a share not mounted): commission and
+    config show refuse, naming the variable and the file, instead of running on defaults;
+    the platform's default file may be absent (RINGQA_CONFIG unset)."""
+    missing = tmp_path / "share" / "site.toml"
+    monkeypatch.setenv("RINGQA_CONFIG", str(missing))
+    with pytest.raises(ConfigError, match=r"RINGQA_CONFIG=.*site.toml: configuration file not"):
+        effective_config()
+    out = tmp_path / "out"
+    assert main(["commission", "fakeA", "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and str(missing) in err and not out.exists()
+    assert main(["config", "path"]) == 0  # where it is looked for still prints
+    assert "not present" in capsys.readouterr().out
+    monkeypatch.delenv("RINGQA_CONFIG")
+    monkeypatch.setenv("XDG_CONFIG_HOME", str(tmp_path / "nothing"))
+    assert effective_config().origins["plan.step_mm"] == "default"
+
+
+@pytest.mark.parametrize(
+    ("text", "words"),
+    [
+        (
+            "[solver]\nincrement_mm = 0.5\n[contact]\nmu_k = 0.3\n",
+            ["[solver], [contact]", "[scene.solver]"],
+        ),
+        ("[plan]\nstep_mm = 5\n[contact]\nmu_k = 0.3\n", ["'contact'", "[scene.contact]"]),
+    ],
+)
+def test_scene_tables_outside_scene_are_refused_not_dropped(write_config, text, words):
+    """A site file with [solver] and [contact] (friction) tables but no [channel]/[instrument]
+    used to be taken for recommended.toml, its friction dropped silently: now refused naming the
+    tables and the fix ([scene.contact]); beside configuration tables, the same hint."""
+    with pytest.raises(ConfigError) as info:
+        read_config_file(write_config(text))
+    for w in words:
+        assert w in str(info.value)
+
+
+def test_recommended_toml_names_what_it_does_not_take(write_config, caplog):
+    """A complete scene file: its numerical settings are taken and a warning names the rest
+    (here channel, instrument but its element lengths, contact, solver.kind)."""
+    rec = write_config(
+        """\
+        [channel]
+        kind = "arc"
+        [instrument]
+        preset = "flexitron"
+        [contact]
+        mu_k = 0.3
+        [solver]
+        kind = "quasistatic"
+        increment_mm = 0.25
+        """,
+        "recommended.toml",
+    )
+    with caplog.at_level("WARNING", logger="ringqa.config"):
+        cfg = read_config_file(rec)
+    assert cfg == {"scene.solver.increment_mm": 0.25}
+    text = caplog.text
+    assert "not taken: channel, instrument (but its sections' element lengths), contact" in text
+    assert "solver.kind" in text

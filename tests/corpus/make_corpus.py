@@ -27,9 +27,18 @@ PLAN = DATA / "examples" / "oncentra_ring26x60" / "RP_ring26x60_oncentra43.dcm"
 RING = DATA / "applicators" / "ring26x60.json"
 SCENES = DATA / "scenes"
 
-CATEGORIES = ("plans", "libraries", "folders", "scenes", "options", "output", "signals")
+CATEGORIES = (
+    "plans", "libraries", "folders", "scenes", "options", "config", "output", "signals", "export",
+)  # fmt: skip
 #: scene settings that make a commissioning run of the example plan take ~2 s instead of ~20 s
 FAST = ("--set", "solver.increment_mm=1.0", "--set", "discretisation.element_length_mm.cable=3.0")
+#: the same for the shipped rings' Flexitron cable (sections capsule, thin, thick)
+FAST_RING = (
+    "--set",
+    "solver.increment_mm=1.0",
+    "--set",
+    "discretisation.element_length_mm.thin=3.0",
+)
 
 
 @dataclass(frozen=True)
@@ -55,6 +64,8 @@ class Case:
         For "accepted and correct": ``check(out_dir)`` asserts a number of the output.
     setup : str
         A fault the test arranges (``enospc``, ``sigterm``, ``readonly``, ...; see the test).
+    env : tuple of (str, str)
+        Environment variables set for the case (``RINGQA_CONFIG``).
     slow : bool
         Marked ``slow`` (a full commissioning of more than one input).
     """
@@ -68,11 +79,12 @@ class Case:
     check: Callable[[Path], None] | None = field(default=None, compare=False)
     setup: str = ""
     slow: bool = False
+    env: tuple[tuple[str, str], ...] = ()
 
     @property
     def outcome(self) -> str:
         """``refused``, ``warning``, ``accepted`` or ``interrupted`` (counts in the docs)."""
-        if self.exit_code in (130, 143):
+        if self.exit_code in (129, 130, 143):
             return "interrupted"
         if self.exit_code != 0:
             return "refused"
@@ -291,6 +303,33 @@ def _plans(c: Path) -> list[Case]:
         2,
         "CumulativeTimeWeight",
     )
+
+    # issue 25: plan content that used to pass without a word
+    ds = _plan_ds()
+    ds.BrachyTreatmentType = "LDR"
+    _save(ds, c / "plan_ldr.dcm")
+    add("plan_ldr", [*imp, "{c}/plan_ldr.dcm", "--out", "{out}"], 0, "LDR",
+        warning="plan.treatment_type")  # fmt: skip
+    ds = _plan_ds()
+    ds.ApplicationSetupSequence[0].ChannelSequence[0].ReferencedSourceNumber = 5
+    _save(ds, c / "plan_missing_source.dcm")
+    add("plan_missing_source", [*imp, "{c}/plan_missing_source.dcm", "--out", "{out}"], 0,
+        "ReferencedSourceNumber 5", warning="plan.source_reference")  # fmt: skip
+    ds = _plan_ds()
+    ref = ds.DoseReferenceSequence[2]
+    del ref.DoseReferencePointCoordinates
+    ref.DoseReferenceDescription = "Bladder\x1b[31m PASS\x1b[0m"  # an ANSI escape in the name
+    _save(ds, c / "plan_point_no_coordinates.dcm")
+    add("plan_point_no_coordinates", [*imp, "{c}/plan_point_no_coordinates.dcm", "--out",
+        "{out}"], 0, "Bladder\\x1b[31m", warning="plan.dose_point",
+        setup="no_raw_escape")  # fmt: skip
+    ds = _plan_ds()
+    for cp in ds.ApplicationSetupSequence[0].ChannelSequence[0].BrachyControlPointSequence:
+        x, y, z = (float(v) for v in cp.ControlPoint3DPosition)
+        cp.ControlPoint3DPosition = [x, y, z + 0.3]
+    _save(ds, c / "plan_library_mismatch.dcm")
+    add("plan_library_mismatch", [*imp, "{c}/plan_library_mismatch.dcm", "--out", "{out}"], 0,
+        "library may not belong", warning="plan.library_match")  # fmt: skip
     return cases
 
 
@@ -388,6 +427,31 @@ def _libraries(c: Path) -> list[Case]:
         "lib_empty.json",
     )
 
+    # strict JSON (issue 25): a key twice, deep nesting, NaN, encodings
+    text = json.dumps(_ring_doc(), indent=1)
+    dup = text.replace('"s_ref_mm":', '"s_ref_mm": 100.0,\n   "s_ref_mm":', 1)
+    (c / "lib_duplicate_key.json").write_text(dup)
+    add("lib_duplicate_key", ["commission", "{c}/lib_duplicate_key.json", "--out", "{out}"], 2,
+        "key 's_ref_mm' is given twice")  # fmt: skip
+    (c / "lib_deep.json").write_text("[" * 200_000 + "]" * 200_000)
+    add("lib_deep_json", ["commission", "{c}/lib_deep.json", "--out", "{out}"], 2,
+        "nested too deeply")  # fmt: skip
+    (c / "lib_cp1252.json").write_bytes(text.replace('"ring26x60"', '"ring 26\u00b0"', 1)
+                                        .encode("cp1252"))  # fmt: skip
+    add("lib_cp1252_json", ["commission", "{c}/lib_cp1252.json", "--out", "{out}"], 2,
+        "not UTF-8 text: byte 0xb0")  # fmt: skip
+    (c / "lib_utf16.json").write_bytes(text.encode("utf-16"))
+
+    def utf16_read(out: Path) -> None:
+        """The ring26x60 file saved as UTF-16 (with its BOM) reads like the original: the
+        applicator's name and 147.90 mm ring channel (docs/validation.md)."""
+        data = json.loads((out / "results.json").read_text())
+        assert data["applicator"] == "ring26x60", data["applicator"]
+
+    add("lib_utf16_json", ["commission", "{c}/lib_utf16.json", "--out", "{out}", "--quiet",
+        "--no-pdf", "--centreline-reference", *FAST_RING], 0, "centreline reference",
+        check=utf16_read)  # fmt: skip
+
     # the Oncentra library inside the example plan
     ds = _library_edit(_plan_ds(), '<transform jointAddress="@" matrix="-0.9944154088620123 ',
                        '<transform jointAddress="@" matrix="NaN ')  # fmt: skip
@@ -474,6 +538,16 @@ def _folders(c: Path) -> list[Case]:
     add("folder_unknown_key", [*base, folder("typo", spec={**spec, "lumen_diameter_mm": 3.0})], 2,
         "lumen_diameter_mm")  # fmt: skip
     add("folder_path_metres", [*base, folder("metres", path_mm=path / 1000)], 2, "metres")
+    arg = folder("dup_column")
+    dup = np.column_stack([cl, cl[:, 0] + 5.0])
+    _csv(c / "dup_column" / "centreline.csv", dup, header="x_mm,y_mm,z_mm,x_mm")
+    add("folder_duplicate_column", [*base, arg], 2, "column 'x_mm' twice")
+    add("folder_utf16_csv", [*base, folder("utf16", cl_encoding="utf-16")], 0, "UTF-16",
+        warning="csv.encoding", check=n_positions(12))  # fmt: skip
+    arg = folder("dup_key")
+    text = json.dumps(spec).replace('"s_ref_mm":', '"s_ref_mm": 50.0, "s_ref_mm":', 1)
+    (c / "dup_key" / "applicator.json").write_text(text)
+    add("folder_duplicate_key", [*base, arg], 2, "given twice")
 
     # a folder of two applicators with the same name, plus one broken: three rows, two folders
     batch = c / "batch_same_name"
@@ -546,6 +620,77 @@ def _scenes(c: Path) -> list[Case]:
     add("scene_missing_file", None, 2, "scene_missing_file.toml")
     add("scene_negative_step", arc.replace("step_mm = 2.0", "step_mm = -2.0"), 2, "step_mm")
     add("scene_nan_radius", arc.replace("radius_mm = 13.0", "radius_mm = nan"), 2, "radius_mm")
+    (c / "scene_utf16.toml").write_bytes(arc.encode("utf-16"))
+    add("scene_utf16", None, 0, "reached all 31", check=run_ok)
+    (c / "scene_not_utf8.toml").write_bytes(arc.encode("utf-8") + b"# \xff\xfe\n")
+    add("scene_not_utf8", None, 2, "not UTF-8")
+    add("scene_deep_toml", "x = " + "[" * 50_000 + "]" * 50_000 + "\n", 2, "scene_deep_toml")
+    return cases
+
+
+def _config(c: Path) -> list[Case]:
+    """Clinic configuration files (issue 25): missing, misplaced tables, encodings."""
+    cases: list[Case] = []
+    com = ("commission", "ring26x60", "--out", "{out}", "--quiet", "--no-pdf", *FAST_RING)
+
+    def add(name, extra, code, word, **kw):
+        cases.append(Case(name, "config", (*com, *extra), code, word, **kw))
+
+    add("config_env_missing", [], 2, "RINGQA_CONFIG",
+        env=(("RINGQA_CONFIG", str(c / "unmounted-share" / "site.toml")),))  # fmt: skip
+    (c / "site_scene_tables.toml").write_text(
+        "[solver]\nincrement_mm = 0.5\n[contact]\nmu_k = 0.3\nmu_s = 0.35\n"
+    )
+    add("config_scene_tables", ["--config", "{c}/site_scene_tables.toml"], 2, "[scene.solver]")
+    (c / "site_contact_beside_plan.toml").write_text("[plan]\nstep_mm = 5\n[contact]\nmu_k = 0.3\n")
+    add("config_contact_beside_plan", ["--config", "{c}/site_contact_beside_plan.toml"], 2,
+        "[scene.contact]")  # fmt: skip
+    (c / "site_dup.toml").write_text("[plan]\nprescription_gy = 7\nprescription_gy = 8\n")
+    add("config_duplicate_key", ["--config", "{c}/site_dup.toml"], 2, "site_dup.toml")
+    add("config_missing_file", ["--config", "{c}/no_such_site.toml"], 2, "no_such_site.toml")
+    (c / "site_utf16.toml").write_bytes("[plan]\nprescription_gy = 7.5\n".encode("utf-16"))
+
+    def prescription(out: Path) -> None:
+        """The UTF-16 site file's plan.prescription_gy = 7.5 is in force, with its origin."""
+        data = json.loads((out / "results.json").read_text())
+        assert data["settings"]["prescription_gy"] == 7.5, data["settings"]
+        assert data["settings_origin"]["plan.prescription_gy"].startswith("--config")
+
+    add("config_utf16", ["--config", "{c}/site_utf16.toml"], 0, "centreline reference",
+        check=prescription)  # fmt: skip
+    return cases
+
+
+def _export(c: Path) -> list[Case]:
+    """``--export`` of the example plan (issue 25, issue 27 item 9)."""
+    cases: list[Case] = []
+    com = ("commission", "--out", "{out}", "--quiet", "--no-pdf", "--export", *FAST)
+
+    def add(name, argv, code, word, **kw):
+        cases.append(Case(name, "export", tuple(argv), code, word, **kw))
+
+    def exported(out: Path) -> None:
+        """results.json lists both export files with the SHA-256 of their bytes; the exported
+        plan names ringqa as its maker (not Nucletron / OTP V4.3.0.410)."""
+        import hashlib
+
+        import pydicom
+
+        data = json.loads((out / "results.json").read_text())
+        names = [e["path"] for e in data["export"]]
+        assert names == ["export/source_path_ring.csv", "export/RP_simulated.dcm"], names
+        for e in data["export"]:
+            assert hashlib.sha256((out / e["path"]).read_bytes()).hexdigest() == e["sha256"]
+        ds = pydicom.dcmread(out / "export" / "RP_simulated.dcm")
+        assert ds.Manufacturer == "ringqa" and str(ds.SoftwareVersions).startswith("ringqa ")
+
+    add("export_ok", [*com, str(PLAN)], 0, "(measured reference)", check=exported)
+    ds = _plan_ds()
+    for cp in ds.ApplicationSetupSequence[0].ChannelSequence[0].BrachyControlPointSequence:
+        cp.ControlPointRelativePosition = float(cp.ControlPointRelativePosition) + 2.5
+    _save(ds, c / "plan_relative_shifted.dcm")
+    add("export_relative_disagrees", [*com, "{c}/plan_relative_shifted.dcm"], 2,
+        "disagrees with its 3D position")  # fmt: skip
     return cases
 
 
@@ -574,6 +719,11 @@ def _options(c: Path) -> list[Case]:
         argv=("commission", "ring99x99", "--out", "{out}"))  # fmt: skip
     add("opt_correction_in_batch", ["--all-shipped", "--centreline-correction", "x.csv"], 2,
         "give one applicator")  # fmt: skip
+    add("opt_set_nested_deep", ["--set", "solver.tol=" + "[" * 50_000 + "]" * 50_000], 2,
+        "solver.tol")  # fmt: skip
+    (c / "accuracy_dup_column.csv").write_text("time_s,max_err_mm,status,time_s\n1,0.1,0,2\n")
+    add("opt_accuracy_csv_dup_column", ["--accuracy-csv", "{c}/accuracy_dup_column.csv",
+        *FAST_RING], 2, "column 'time_s' twice")  # fmt: skip
 
     def centreline_run(out: Path) -> None:
         """ring26x60 with the centreline reference: dwells every 5 mm (the plan step) from
@@ -615,8 +765,36 @@ def _output(c: Path) -> list[Case]:
     add("out_enospc_commission", [*com, "{out}"], 2, "No space left", setup="enospc")
     add("out_eacces_simulate", ["simulate", str(SCENES / "arc-frictionless.toml"), "--quiet",
         "--out", "{out}"], 2, "Permission denied", setup="eacces")  # fmt: skip
-    add("out_parent_is_file", [*imp, "{out}/sub"], 2, "not writable", setup="out_is_file")
+    add("out_parent_is_file", [*imp, "{out}/sub"], 2, "is a file", setup="out_is_file")
+    # issue 25: files the physicist saved into an earlier output are never deleted
+    add("out_earlier_with_user_file", [*imp, "{out}"], 2, "notes.txt", setup="earlier_user_file")
+    add("out_earlier_report_signed", [*imp, "{out}"], 2, "changed since ringqa wrote it",
+        setup="earlier_signed")  # fmt: skip
+    add("out_file_saved_during_run", [*imp, "{out}"], 2, "appeared in it while the command ran",
+        setup="saved_during")  # fmt: skip
+    add("out_file_saved_during_rerun", [*imp, "{out}"], 2, "scan.tif",
+        setup="saved_during_rerun")  # fmt: skip
+    add("out_symlink", [*imp, "{out}"], 2, "symbolic link", setup="symlink")
+    add("out_dot", [*imp, "."], 2, "current folder")
+    add("out_log_inside", ["--log-file", "{out}/run.log", *imp, "{out}"], 2, "inside --out")
+    add("out_log_dev_full", ["--log-file", "/dev/full", *imp, "{out}"], 2, "No space left")
+    add("out_stdout_closed", [*imp, "{out}"], 0, "standard output could not be written",
+        setup="stdout_epipe", check=_has_plan_json)  # fmt: skip
+
+    def modes(out: Path) -> None:
+        """umask 022: the folder 0755, its files (plan.json, the marker) 0644 (issue 27.7)."""
+        assert out.stat().st_mode & 0o777 == 0o755
+        for name in ("plan.json", ".ringqa-output.json", "dwells.csv"):
+            assert (out / name).stat().st_mode & 0o777 == 0o644, name
+
+    add("out_umask_022", [*imp, "{out}"], 0, "7 files", setup="umask022", check=modes)
     return cases
+
+
+def _has_plan_json(out: Path) -> None:
+    """The import finished: plan.json lists the example's two channels."""
+    data = json.loads((out / "plan.json").read_text())
+    assert [ch["number"] for ch in data["channels"]] == [1, 2]
 
 
 def _signals(c: Path) -> list[Case]:
@@ -634,6 +812,7 @@ def _signals(c: Path) -> list[Case]:
     add("sig_int_simulate", sim, 130, "interrupted by SIGINT", setup="sigint")
     add("sig_term_keeps_earlier", imp, 143, "nothing written", setup="sigterm_earlier")
     add("sig_killed_run_leftover", com, 0, "removed left-over staging", setup="staging")
+    add("sig_hup_import", imp, 129, "interrupted by SIGHUP", setup="sighup")
     return cases
 
 
@@ -641,8 +820,8 @@ def build(folder: str | Path) -> list[Case]:
     """Write the corpus inputs into ``folder`` (created) and return the cases."""
     c = Path(folder)
     c.mkdir(parents=True, exist_ok=True)
-    cases = [*_plans(c), *_libraries(c), *_folders(c), *_scenes(c), *_options(c), *_output(c),
-             *_signals(c)]  # fmt: skip
+    cases = [*_plans(c), *_libraries(c), *_folders(c), *_scenes(c), *_options(c), *_config(c),
+             *_output(c), *_signals(c), *_export(c)]  # fmt: skip
     names = [k.name for k in cases]
     assert len(set(names)) == len(names), "case names must be unique"
     assert all(k.category in CATEGORIES for k in cases)

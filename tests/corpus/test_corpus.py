@@ -8,6 +8,7 @@ The inputs are generated once per session from the shipped examples
 from __future__ import annotations
 
 import errno
+import hashlib
 import json
 import os
 import shutil
@@ -96,15 +97,61 @@ def _arrange(case: Case, corpus: Path, out: Path, monkeypatch, capsys) -> dict:
     elif setup == "input_folder":
         shutil.copytree(corpus / "ok", out)
         after["unchanged_tree"] = (out, _tree(out))
-    elif setup in ("earlier", "sigterm_earlier"):
+    elif setup in ("earlier", "sigterm_earlier", "earlier_user_file", "earlier_signed"):
         assert _run(_argv(case, corpus, out)) == 0
-        (out / "stale-from-another-run.csv").write_text("old")
-        # the marker makes it ringqa's folder: a new run replaces it whole
-        if setup == "sigterm_earlier":
-            after["unchanged_tree"] = (out, _tree(out))
+        (out / "dwells.csv").write_text("the earlier run's content, to be replaced")
+        marker = json.loads((out / MARKER).read_text())
+        for entry in marker["files"]:  # the earlier run's dwells.csv as its marker lists it
+            if entry["path"] == "dwells.csv":
+                content = b"the earlier run's content, to be replaced"
+                entry.update(size=len(content), sha256=hashlib.sha256(content).hexdigest())
+        (out / MARKER).write_text(json.dumps(marker))
+        if setup == "earlier_user_file":
+            (out / "notes.txt").write_text("the physicist's notes")
+        if setup == "earlier_signed":
+            (out / "plan.json").write_text('{"signed": "J. Jansen"}')
+        if setup == "earlier":  # the marker lists every file: a new run replaces them
+            after["changed_files"] = [out / "dwells.csv"]
         else:
-            after["absent_files"] = [out / "stale-from-another-run.csv"]
+            after["unchanged_tree"] = (out, _tree(out))
         capsys.readouterr()
+    elif setup == "saved_during_rerun":
+        assert _run(_argv(case, corpus, out)) == 0
+        capsys.readouterr()
+
+        def save_scan(path):
+            (out / "scan.tif").write_bytes(b"film scan")
+
+        _break_writer(monkeypatch, save_scan)
+        after["kept"] = {out / "scan.tif": b"film scan"}
+    elif setup == "saved_during":
+
+        def save_notes(path):
+            out.mkdir(exist_ok=True)
+            (out / "notes.txt").write_text("saved while ringqa ran")
+
+        _break_writer(monkeypatch, save_notes)
+        after["kept"] = {out / "notes.txt": b"saved while ringqa ran"}
+    elif setup == "symlink":
+        real = out.parent / "real-folder"
+        real.mkdir()
+        (real / "mine.txt").write_text("mine")
+        out.symlink_to(real)
+        after["unchanged_tree"] = (real, _tree(real))
+    elif setup == "stdout_epipe":
+
+        class Closed:
+            def write(self, text):
+                raise BrokenPipeError(errno.EPIPE, "Broken pipe")
+
+            def flush(self):
+                raise BrokenPipeError(errno.EPIPE, "Broken pipe")
+
+        monkeypatch.setattr(sys, "stdout", Closed())
+    elif setup == "umask022":
+        after["restore_umask"] = os.umask(0o022)
+    elif setup == "no_raw_escape":
+        after["no_raw_escape"] = True
     elif setup == "staging":
         left = out.parent / f".{out.name}.staging-{_dead_pid()}-k1ll3d00"
         left.mkdir()
@@ -112,8 +159,11 @@ def _arrange(case: Case, corpus: Path, out: Path, monkeypatch, capsys) -> dict:
     elif setup == "old_leftover":
         old = out.parent / f".{out.name}.old-{_dead_pid()}-k1ll3d00"
         old.mkdir()
-        (old / MARKER).write_text(json.dumps({"software": "ringqa"}))
         (old / "plan.json").write_text("{}")
+        listed = {"path": "plan.json", "size": 2, "sha256": hashlib.sha256(b"{}").hexdigest()}
+        (old / MARKER).write_text(
+            json.dumps({"software": "ringqa", "files": [listed], "folders": []})
+        )
     elif setup == "readonly":
         out.parent.chmod(0o555)
         if os.access(out.parent, os.W_OK):  # root: chmod does not stop writes
@@ -129,8 +179,8 @@ def _arrange(case: Case, corpus: Path, out: Path, monkeypatch, capsys) -> dict:
         _break_writer(monkeypatch, fail)
     elif setup in ("sigterm", "sigint") or setup == "sigterm_earlier":
         pass
-    if setup in ("sigterm", "sigint", "sigterm_earlier"):
-        signum = signal.SIGINT if setup == "sigint" else signal.SIGTERM
+    if setup in ("sigterm", "sigint", "sigterm_earlier", "sighup"):
+        signum = {"sigint": signal.SIGINT, "sighup": signal.SIGHUP}.get(setup, signal.SIGTERM)
         interactive = signal.default_int_handler if signum == signal.SIGINT else signal.SIG_DFL
         after["restore_signal"] = (signum, signal.signal(signum, interactive))
 
@@ -146,6 +196,10 @@ def _check_out(case: Case, out: Path, after: dict) -> None:
     """``--out`` absent or complete (marker + report file), no hidden folder left beside it."""
     leftovers = [p.name for p in out.parent.glob(f".{out.name}.*")]
     assert not leftovers, leftovers
+    for path, content in after.get("kept", {}).items():  # a user's file is never deleted
+        assert path.read_bytes() == content, path
+    if "kept" in after:
+        return
     if "unchanged" in after:
         for path, content in after["unchanged"].items():
             assert path.read_bytes() == content
@@ -159,8 +213,8 @@ def _check_out(case: Case, out: Path, after: dict) -> None:
         report = REPORT_FILES[case.argv[0]]
         batch = (out / "batch.json").is_file()
         assert (out / ("summary.csv" if batch else report)).is_file()
-    for path in after.get("absent_files", []):
-        assert not path.exists()
+    for path in after.get("changed_files", []):
+        assert path.read_text() != "the earlier run's content, to be replaced", path
     if case.exit_code != 0 and case.check is None:  # a refusal writes nothing
         assert not out.exists()
 
@@ -185,10 +239,14 @@ def _params():
 def test_case(case: Case, corpus: Path, tmp_path: Path, monkeypatch, capfd):
     out = tmp_path / f"out-{case.name}"
     argv = _argv(case, corpus, out)
+    for key, value in case.env:
+        monkeypatch.setenv(key, value)
     after = _arrange(case, corpus, out, monkeypatch, capfd)
     try:
         code = _run(argv)
     finally:
+        if "restore_umask" in after:
+            os.umask(after["restore_umask"])
         if "restore_mode" in after:
             after["restore_mode"].chmod(0o755)
         if "restore_signal" in after:
@@ -198,6 +256,8 @@ def test_case(case: Case, corpus: Path, tmp_path: Path, monkeypatch, capfd):
     text = cap.out + cap.err
     word = case.word.replace("{out}", str(out))
     assert "Traceback" not in text, text
+    if after.get("no_raw_escape"):
+        assert "\x1b" not in text, text
     assert code == case.exit_code, text
     assert word in text, text
     _check_out(case, out, after)

@@ -312,3 +312,30 @@ def test_tiny_windows_and_windows_beyond_the_ends(circle):
     q2 = tip + 3e-3 * tan + 1e-3 * nor
     s, d = cl.closest(q2, s_hint_m=cl.length_m + 3e-3, window_m=1e-3)
     assert abs(s[0] - (cl.length_m + 3e-3)) < UM and abs(d[0] - 1e-3) < UM
+
+
+def test_more_points_than_the_limit_are_refused_with_the_count_and_the_fix():
+    """MAX_POINTS + 1 points on a line are refused before any fit, naming the count, the limit
+    and how to resample; the limit itself is accepted by point_count_problem."""
+    from ringqa.geometry.centreline import MAX_POINTS, point_count_problem
+
+    assert point_count_problem(MAX_POINTS) is None
+    n = MAX_POINTS + 1
+    pts = np.c_[np.linspace(0.0, 0.1, n), np.zeros(n), np.zeros(n)]
+    with pytest.raises(GeometryError) as err:
+        Centreline.from_points(pts)
+    msg = str(err.value)
+    assert f"{n:,} points" in msg and f"{MAX_POINTS:,}" in msg and "resample" in msg
+
+
+def test_a_dense_centreline_equals_a_sparse_one():
+    """40 000 points (the issue's dense input, 3.7 um apart) on a 13 mm-radius half circle give
+    the same curve as 400 points: length R pi to 1e-9 relative (the arc-length fit's
+    tolerance), curvature 1/R to 1e-6 relative at the table samples away from the ends."""
+    r = 13e-3
+    for n in (400, 40_000):
+        phi = np.linspace(0.0, np.pi, n)
+        cl = Centreline.from_points(np.c_[r * np.cos(phi), r * np.sin(phi), np.zeros(n)])
+        assert abs(cl.length_m - r * np.pi) <= 1e-9 * r * np.pi
+        kappa = cl.table.kappa[10:-10]
+        np.testing.assert_allclose(kappa, 1.0 / r, rtol=1e-6)

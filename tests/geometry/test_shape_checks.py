@@ -120,3 +120,42 @@ def test_close_far_pairs_match_a_kd_tree():
         got = {tuple(p) for p in _close_far_pairs(pts, s, r, gap).tolist()}
         assert got == want
         assert n < 300 or len(want) > 100
+
+
+@pytest.mark.parametrize("strict", [False, True])
+def test_close_pairs_match_brute_force(strict):
+    """The sorted sweep finds exactly the pairs the all-pairs distance matrix finds (sorted by i
+    then j, distances equal to 1e-18 m), with <= and with < (a pair exactly r apart on a grid:
+    spacing r in x, found only without strict), on a random cloud and on a ring lying in the
+    plane x = 0 (the sort axis is then y or z, never the degenerate x)."""
+    from ringqa.geometry.shape_checks import close_pairs
+
+    rng = np.random.default_rng(5)
+    r = 2.0**-10  # ~1 mm, exact in binary: the grid's neighbours are exactly r apart
+    grid = np.c_[np.arange(20) * r, np.zeros(20), np.zeros(20)]
+    phi = np.linspace(0.0, 4 * np.pi, 400)  # two turns: every point has a twin
+    ring = np.c_[np.zeros(400), 0.013 * np.cos(phi), 0.013 * np.sin(phi)]
+    for pts in (rng.uniform(0.0, 0.01, (500, 3)), grid, ring):
+        d = np.linalg.norm(pts[:, None, :] - pts[None, :, :], axis=2)
+        hit = d < r if strict else d <= r
+        want = np.argwhere(np.triu(hit, 1))
+        i, j, dist = close_pairs(pts, r, strict=strict)
+        np.testing.assert_array_equal(np.c_[i, j], want)
+        np.testing.assert_allclose(dist, d[want[:, 0], want[:, 1]], rtol=0, atol=1e-18)
+    assert close_pairs(grid, r, strict=False)[0].size == 19
+    assert close_pairs(grid, r, strict=True)[0].size == 0
+
+
+def test_duplicate_positions_far_apart_in_a_dense_path_are_found():
+    """20 000 measured positions (the issue's case that took 21.6 GB as all pairwise
+    differences): positions 17 and 19 000 coincide (0.5 um apart, closer than the 1 um
+    tolerance) and are named; the check's memory is O(n) (close_pairs)."""
+    from ringqa.geometry import ring_applicator
+    from ringqa.geometry.registration import RegistrationError, reference_positions
+
+    ch = ring_applicator(26, 60).channel("ring")
+    s = np.linspace(ch.s_ref_m, ch.s_ref_m - 0.1, 20_000)
+    pts = ch.centreline.position(s)
+    pts[19_000] = pts[17] + [0.5e-6, 0.0, 0.0]
+    with pytest.raises(RegistrationError, match=r"positions 17 and 19000 coincide \(0\.500 um"):
+        reference_positions(pts, ch, step_m=0.1 / 19_999)

@@ -128,3 +128,74 @@ def test_nothing_simulated_refused(example_result):
     empty = dataclasses.replace(example_result, dwells=d[d["path"] != "simulated"])
     with pytest.raises(ExportError, match="no simulated channel"):
         check_export(empty)
+
+
+def _edited_plan(repo_root, tmp_path, shift_mm: float, control_point: int = 0):
+    """The example plan with ring channel 1's control point moved along its relative positions
+    by ``shift_mm`` (its 3D position unchanged)."""
+    ds = pydicom.dcmread(repo_root / EXAMPLE)
+    for setup in ds.ApplicationSetupSequence:
+        for item in setup.ChannelSequence:
+            if int(item.ChannelNumber) == 1:
+                cp = item.BrachyControlPointSequence[control_point]
+                cp.ControlPointRelativePosition = float(cp.ControlPointRelativePosition) + shift_mm
+    path = tmp_path / "RP_edited.dcm"
+    ds.save_as(path)
+    return path
+
+
+def test_plan_whose_relative_and_3d_positions_disagree_is_refused(
+    repo_root, example_result, tmp_path
+):
+    """Control point 0's relative position moved by +2.5 mm (one dwell) and +26.8 mm (the issue's
+    case), its 3D position kept: matched by 3D position to the commissioned dwell, whose
+    relative position then differs by 2.5 / 26.8 mm > RELATIVE_TOL_MM = 0.1 mm: refused naming
+    the channel and the control point. A 0.05 mm edit (within the tolerance) is exported, each
+    dwell at the simulated position of its 3D match."""
+    sim = simulated_paths(example_result)["ring"]
+    for shift in (2.5, 26.8):
+        plan = _edited_plan(repo_root, tmp_path, shift)
+        with pytest.raises(ExportError, match=r"channel 1, control point 0: its relative posit"):
+            simulated_rtplan(plan, 1, sim)
+    plan = _edited_plan(repo_root, tmp_path, 0.05)
+    ds = simulated_rtplan(plan, 1, sim)
+    original = read_rtplan(repo_root / EXAMPLE).channel(1)
+    ring = ds.ApplicationSetupSequence[0].ChannelSequence
+    cps = next(i for i in ring if int(i.ChannelNumber) == 1).BrachyControlPointSequence
+    k = int(np.argmin(np.linalg.norm(sim.reference_mm - original.positions_mm[0], axis=1)))
+    np.testing.assert_allclose([float(v) for v in cps[0].ControlPoint3DPosition],
+                               sim.positions_mm[k], atol=1e-4)  # fmt: skip
+
+
+def test_exported_plan_names_ringqa_as_its_maker(exported):
+    """Manufacturer / ManufacturerModelName 'ringqa', SoftwareVersions 'ringqa <version>' (the
+    input's 'Nucletron' / 'OTP V4.3.0.410' are gone)."""
+    from ringqa import __version__
+
+    folder, _ = exported
+    ds = pydicom.dcmread(folder / "export" / "RP_simulated.dcm")
+    assert ds.Manufacturer == "ringqa" and ds.ManufacturerModelName == "ringqa"
+    assert ds.SoftwareVersions == f"ringqa {__version__}"
+
+
+def test_results_json_lists_the_export_with_sha256(repo_root, example_result, tmp_path):
+    """write_report with export: results.json 'export' lists both files with their size and
+    SHA-256 (recomputed here with hashlib) and 'files' names them; the report's note names
+    them (export_note)."""
+    import hashlib
+    import json
+
+    from ringqa.io.export_tps import check_export, export_note
+    from ringqa.report import write_report
+
+    out = tmp_path / "out"
+    write_report(example_result, out, pdf=False, export=True)
+    record = json.loads((out / "results.json").read_text())
+    names = ["export/source_path_ring.csv", "export/RP_simulated.dcm"]
+    assert [e["path"] for e in record["export"]] == names
+    for e in record["export"]:
+        data = (out / e["path"]).read_bytes()
+        assert e["sha256"] == hashlib.sha256(data).hexdigest() and e["size"] == len(data)
+    assert set(names) <= set(record["files"])
+    (line,) = export_note(check_export(example_result))
+    assert all(n in line for n in names)

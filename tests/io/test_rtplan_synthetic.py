@@ -360,3 +360,88 @@ def test_no_pydicom_exception_escapes_at_any_truncation(rtplan_factory, tmp_path
             continue
         for ch in plan.channels:
             assert np.all(np.isfinite(ch.times_s)) and np.all(ch.times_s >= 0)
+
+
+def _names(plan) -> list[str]:
+    from ringqa.errors import split_warning
+
+    return [split_warning(w)[0] for w in plan.warnings]
+
+
+def test_dose_reference_without_coordinates_is_named(rtplan_factory):
+    """A COORDINATES dose reference whose coordinates were dropped: a plan.dose_point warning
+    naming it (it used to vanish from the TPS check without a word); a VOLUME reference without
+    coordinates stays silent (not a point)."""
+
+    def drop(kind):
+        def edit(ds):
+            ds.DoseReferenceSequence[0].DoseReferenceStructureType = kind
+            del ds.DoseReferenceSequence[0].DoseReferencePointCoordinates
+
+        return edit
+
+    plan = read_rtplan(rtplan_factory(edit=drop("COORDINATES")))
+    assert "plan.dose_point" in _names(plan)
+    first = next(w for w in plan.warnings if "plan.dose_point" in w)
+    assert "left out of the plan-vs-TPS dose check" in first
+    plan = read_rtplan(rtplan_factory(edit=drop("VOLUME")))
+    assert "plan.dose_point" not in _names(plan)
+
+
+def test_channel_naming_a_missing_source_is_warned(rtplan_factory):
+    """ReferencedSourceNumber 7 while the SourceSequence has only source 0: plan.source_reference
+    naming the channel, the number and the sources the plan has."""
+
+    def edit(ds):
+        for item in ds.ApplicationSetupSequence[0].ChannelSequence:
+            item.ReferencedSourceNumber = 7
+
+    plan = read_rtplan(rtplan_factory(edit=edit))
+    warning = next(w for w in plan.warnings if w.startswith("[plan.source_reference]"))
+    assert "ReferencedSourceNumber 7" in warning and "SourceSequence: 0" in warning
+
+
+@pytest.mark.parametrize("kind", ["LDR", "MANUAL", "MDR"])
+def test_a_plan_that_is_not_an_afterloaders_is_warned(rtplan_factory, kind):
+    """LDR/MANUAL/MDR: plan.treatment_type naming the type; HDR (the factory's default) and PDR
+    (its own per-pulse notice) do not get it."""
+    plan = read_rtplan(rtplan_factory(treatment_type=kind))
+    warning = next(w for w in plan.warnings if w.startswith("[plan.treatment_type]"))
+    assert f"BrachyTreatmentType is {kind}" in warning
+    for ok in ("HDR", "PDR"):
+        assert "plan.treatment_type" not in _names(read_rtplan(rtplan_factory(treatment_type=ok)))
+
+
+def test_polyline_distance_is_to_segments_not_vertices():
+    """A point above the middle of a 10 mm segment at height 0.05 mm: 0.05 mm (its nearest
+    vertex is 5.0002 mm away); beyond the end: the distance to the end vertex (3-4-5: 5 mm)."""
+    from ringqa.io.rtplan import polyline_distance_mm
+
+    line = np.array([[0.0, 0, 0], [10.0, 0, 0]])
+    pts = np.array([[5.0, 0.05, 0], [13.0, 4.0, 0]])
+    np.testing.assert_allclose(polyline_distance_mm(pts, line), [0.05, 5.0])
+
+
+def test_library_of_another_plan_is_warned_above_a_tenth_of_a_millimetre(repo_root, tmp_path):
+    """The example plan (dwells on the library's source path within 5e-7 mm: no warning) with
+    ring channel 1's dwells moved 0.3 mm along z: plan.library_match naming the channel and a
+    distance between 0.2 and 0.3 mm (0.3 mm less the part of the move along the tilted path;
+    the old check stayed silent up to 2 mm)."""
+    import re
+
+    import pydicom
+
+    example = repo_root / "data/examples/oncentra_ring26x60/RP_ring26x60_oncentra43.dcm"
+    assert "plan.library_match" not in _names(read_rtplan(example))
+    ds = pydicom.dcmread(example)
+    for setup in ds.ApplicationSetupSequence:
+        for item in setup.ChannelSequence:
+            if int(item.ChannelNumber) == 1:
+                for cp in item.BrachyControlPointSequence:
+                    x, y, z = (float(v) for v in cp.ControlPoint3DPosition)
+                    cp.ControlPoint3DPosition = [x, y, z + 0.3]
+    moved = tmp_path / "RP_moved.dcm"
+    ds.save_as(moved)
+    warning = next(w for w in read_rtplan(moved).warnings if "plan.library_match" in w)
+    found = re.search(r"channel 1: dwells lie up to ([0-9.]+) mm", warning)
+    assert found and 0.2 < float(found.group(1)) <= 0.3

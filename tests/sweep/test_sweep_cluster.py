@@ -15,7 +15,7 @@ import pytest
 from ringqa.cli import main
 from ringqa.sweep import load_spec
 from ringqa.sweep.analysis import SUMMARY_COLUMNS
-from ringqa.sweep.runner import run_sample
+from ringqa.sweep.fast import cheap_sample
 from ringqa.sweep.sampling import design
 from ringqa.sweep.store import read_samples
 from ringqa.sweep.study import job_of
@@ -25,7 +25,8 @@ def test_sweep_through_scheduler_address_resumes_and_is_worker_independent(
     local_cluster, tmp_path, spec_writer, capsys
 ):
     """3 samples, then the same command with samples=5: the second run computes only samples 3
-    and 4 (resumed, the first three untouched). Sample 1 re-run here in the test process gives
+    and 4 (resumed, the first three untouched). Sample 1 re-run here in the test process (one
+    engine run at the commissioning settings, as the workers ran it) gives
     bit-identical positions to the worker's (the seed of a sample is (seed, i) only), and the
     outputs hold the contract columns."""
     spec = spec_writer(tmp_path, samples=3)
@@ -61,7 +62,7 @@ def test_sweep_through_scheduler_address_resumes_and_is_worker_independent(
     assert all(not w.endswith(f":{__import__('os').getpid()}") for w in s.worker)
 
     sp = load_spec(spec, {"samples": 5})
-    rec = run_sample(job_of(sp), 1, design(sp)[1])
+    rec = cheap_sample(job_of(sp), 1, design(sp)[1])  # the default numerics = "calibrated"
     np.testing.assert_array_equal(rec.positions_mm[:, 0], s.arrays["x_mm"][1])
     np.testing.assert_array_equal(rec.dwell["deviation_mm"], s.arrays["deviation_mm"][1])
 

@@ -29,6 +29,7 @@ from ringqa.simulation.scenefile.sections import (
     read_contact,
     read_effects,
     read_instrument,
+    read_model,
     read_motion,
     read_outputs,
     read_solver,
@@ -112,6 +113,7 @@ def scene_from_data(
             outputs=read_outputs(ck),
             description=ck.value("", "description"),
             channel_spec=ChannelSpec(spec, channel) if spec else None,
+            model=read_model(ck),
         )
     except SceneError as exc:  # a dataclass's own check: name the file too
         if origin and not str(exc).startswith(origin):

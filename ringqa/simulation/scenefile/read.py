@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import Any
 
 from ringqa.errors import SceneError
+from ringqa.textio import read_toml
 
 
 def read_scene_dict(path: str | Path) -> dict:
@@ -28,11 +29,11 @@ def read_scene_dict(path: str | Path) -> dict:
     p = Path(path)
     if not p.is_file():
         raise SceneError(f"{p}: scene file not found (give the path to a .toml scene file)")
-    try:
-        with open(p, "rb") as fh:
-            return tomllib.load(fh)
-    except tomllib.TOMLDecodeError as exc:
-        raise SceneError(f"{p}: not valid TOML: {exc} (fix the syntax there)") from None
+    return read_toml(p, error=_scene_error)  # ringqa.textio: UTF-16 read, errors named
+
+
+def _scene_error(path: Path, problem: str, fix: str) -> SceneError:
+    return SceneError(f"{path}: {problem} ({fix})")
 
 
 def parse_value(text: str) -> Any:
@@ -41,7 +42,7 @@ def parse_value(text: str) -> Any:
         return text
     try:
         return tomllib.loads(f"v = {text}")["v"]
-    except tomllib.TOMLDecodeError:
+    except (tomllib.TOMLDecodeError, RecursionError):  # nested too deeply: kept as text
         return text
 
 

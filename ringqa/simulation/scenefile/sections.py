@@ -24,6 +24,7 @@ from ringqa.simulation.scene import (
     ContactParams,
     Effects,
     Instrument,
+    ModelSettings,
     Motion,
     Outputs,
     SolverSettings,
@@ -225,6 +226,11 @@ def read_outputs(ck: Checker) -> Outputs:
     return Outputs(**given_fields(ck, "outputs", ck.section("outputs")))
 
 
+def read_model(ck: Checker) -> ModelSettings:
+    """``[model]``."""
+    return ModelSettings(**given_fields(ck, "model", ck.section("model")))
+
+
 __all__ = [
     "DEFAULT_GRAVITY_M_S2",
     "DEFAULT_SPAN_MM",
@@ -236,6 +242,7 @@ __all__ = [
     "read_custom_instrument",
     "read_effects",
     "read_instrument",
+    "read_model",
     "read_motion",
     "read_outputs",
     "read_solver",

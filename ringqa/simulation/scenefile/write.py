@@ -100,6 +100,8 @@ def scene_to_dict(scene: Scene) -> dict:
     out["motion"] = section_dict("motion", scene.motion)
     out["solver"] = section_dict("solver", scene.solver)
     out["outputs"] = section_dict("outputs", scene.outputs)
+    if scene.model != type(scene.model)():  # written only when not the default (rigid)
+        out["model"] = section_dict("model", scene.model)
     return plain(out)
 
 

@@ -184,8 +184,12 @@ def warm_kernels(model: Model) -> None:
         combine(1.0, q, 0.0, q, q.copy())
 
 
-def run(scene, advances_m: np.ndarray, progress: bool = False) -> SimResult:
-    """Simulate ``scene`` and report at ``advances_m`` (see module docstring)."""
+def run(
+    scene, advances_m: np.ndarray, progress: bool = False, deadline: float | None = None
+) -> SimResult:
+    """Simulate ``scene`` and report at ``advances_m`` (see module docstring); ``deadline``: a
+    :func:`time.perf_counter` time after which the run stops at the next load step with status
+    -1 and ``settings["budget_exceeded"] = True`` (a sweep's per-sample budget; None: none)."""
     model = Model(scene, advances_m)
     history_free = (
         not any(u.name in ("friction", "wall_damping") for u in model.units)
@@ -216,6 +220,7 @@ def run(scene, advances_m: np.ndarray, progress: bool = False) -> SimResult:
     time_s = 0.0
     bar = _progress_bar(scene, schedule, u) if progress else None
     hist = None  # the integrator's history (BDF2)
+    over = False
     for leg in schedule.legs() if status == STATUS_SUCCESS else ():
         dwell_left = leg.dwell_s
         while status == STATUS_SUCCESS and (abs(leg.target_m - u) > 1e-12 or dwell_left > 1e-15):
@@ -243,6 +248,12 @@ def run(scene, advances_m: np.ndarray, progress: bool = False) -> SimResult:
             recorder.step(q, u, time_s, monitor.push)
             schedule.adapt(out.sub, out.last_iters, out.rest_speed_m_s)
             status, message = monitor.jam(u, du)
+            if deadline is not None and status == STATUS_SUCCESS and time.perf_counter() > deadline:
+                status, over = STATUS_FAILED, True
+                message = (
+                    f"the run exceeded its time budget at advance {u * 1e3:.3f} mm "
+                    f"({time.perf_counter() - t0:.1f} s of solving)"
+                )
         if status != STATUS_SUCCESS:
             break
         schedule.arrived(leg)
@@ -251,8 +262,11 @@ def run(scene, advances_m: np.ndarray, progress: bool = False) -> SimResult:
     if bar is not None:
         bar.close()
     solve_time = time.perf_counter() - t0
-    return _result(scene, model, integrator, monitor, recorder, status, message, v, time_s,
-                   solve_time)  # fmt: skip
+    res = _result(scene, model, integrator, monitor, recorder, status, message, v, time_s,
+                  solve_time)  # fmt: skip
+    if over:
+        res.settings["budget_exceeded"] = True
+    return res
 
 
 def _result(scene, model, integrator, monitor, recorder, status, message, v, time_s, solve_time):

@@ -1,0 +1,83 @@
+"""The commissioning cross-check with the flexible-element engine (issue 28)."""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from ringqa.errors import SceneError
+from ringqa.pipeline.simulate import (
+    CROSS_CHECK_FLEXIBLE_ERROR_MM,
+    CROSS_CHECK_MIN_MM,
+    Engine,
+    cross_check_run,
+)
+from ringqa.pipeline.verdicts import numerics_verdict
+
+ADV = np.array([10.0, 20.0, 30.0])
+RIGID_MM = np.c_[ADV, np.zeros(3), np.zeros(3)]
+
+
+def _engine(offset_mm=0.0, raise_exc=None, status=0):
+    """A stand-in engine: the flexible run's dwells are the rigid ones moved by offset_mm in y."""
+
+    def simulate(scene, advances_mm, progress=False):
+        if raise_exc is not None:
+            raise raise_exc
+        pos = RIGID_MM + np.array([0.0, offset_mm, 0.0])
+        return SimpleNamespace(status=status, message="m", source_pos_m=pos * 1e-3,
+                               solve_time_s=0.5, advances_mm=advances_mm)  # fmt: skip
+
+    def with_overrides(scene, ov):
+        return SimpleNamespace(**{**vars(scene), **ov})
+
+    return Engine(simulate, None, with_overrides, lambda s: {})
+
+
+def _check(engine, rigid_error_mm=0.01):
+    scene = SimpleNamespace(name="x", solver=SimpleNamespace(increment_m=1e-3))
+    return cross_check_run(
+        engine, scene, ADV, rigid_error_mm,
+        lambda run: np.linalg.norm(run.pos_m * 1e3 - RIGID_MM, axis=1),
+        lambda run: run.pos_m * 1e3,
+    )  # fmt: skip
+
+
+def test_agreement_within_the_limit_passes():
+    xc = _check(_engine(0.05))
+    assert xc.ok and not xc.fails
+    assert xc.max_mm == pytest.approx(0.05)
+    assert xc.limit_mm == CROSS_CHECK_MIN_MM  # 2 x (0.01 + 0.05) = 0.12 < 0.2
+    assert "agree to 0.050 mm" in xc.text and "within the 0.20 mm" in xc.text
+    assert xc.solve_time_s == 0.5
+    assert numerics_verdict(0.01, 0.1, xc).status == "PASS"
+
+
+def test_disagreement_above_the_limit_fails_the_numerics():
+    xc = _check(_engine(0.3))
+    assert xc.fails
+    v = numerics_verdict(0.01, 0.1, xc)
+    assert v.status == "FAIL"
+    assert "disagrees by up to 0.300 mm" in v.text
+
+
+def test_the_limit_grows_with_the_numerical_errors():
+    """max(0.2 mm, 2 x (rigid error + the flexible engine's)): a rigid error of 0.2 mm allows
+    2 x 0.25 = 0.5 mm, so a 0.3 mm disagreement is within it."""
+    xc = _check(_engine(0.3), rigid_error_mm=0.2)
+    assert xc.limit_mm == pytest.approx(2 * (0.2 + CROSS_CHECK_FLEXIBLE_ERROR_MM))
+    assert not xc.fails
+
+
+def test_a_scene_the_flexible_engine_refuses_is_said_not_failed():
+    xc = _check(_engine(raise_exc=SceneError("effects.torsion: not modelled")))
+    assert not xc.ok and not xc.fails
+    assert "not made" in xc.text and "effects.torsion" in xc.text
+    assert numerics_verdict(0.01, 0.1, xc).status == "PASS"
+
+
+def test_a_jammed_flexible_run_is_not_compared():
+    xc = _check(_engine(status=1))
+    assert not xc.ok and not xc.fails and np.isnan(xc.max_mm)

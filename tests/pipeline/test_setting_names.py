@@ -1,0 +1,73 @@
+"""Every commissioning setting's names in one table (ringqa.pipeline.settings.SETTING_NAMES),
+checked against where each name is actually used: the configuration's keys, the command line's
+options and results.json. A new or renamed setting fails here until the table says its names."""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+
+import pytest
+
+from ringqa.config import KEYS
+from ringqa.pipeline.result import RunSettings
+from ringqa.pipeline.settings import SETTING_NAMES, CommissionSettings
+from ringqa.plan import DosePointSpec
+
+
+def test_every_field_has_one_row():
+    fields = {f.name for f in dataclasses.fields(CommissionSettings)} - {"settings_origin"}
+    rows = [r.field for r in SETTING_NAMES]
+    assert sorted(rows) == sorted(fields)
+
+
+def test_config_keys_exist_and_defaults_agree():
+    """Each configuration key exists; a one-key setting's configuration default is the
+    CommissionSettings default (the two lists cannot drift apart unnoticed)."""
+    keys = {k.key: k for k in KEYS}
+    defaults = CommissionSettings()
+    for row in SETTING_NAMES:
+        for key in row.config_keys:
+            if key != "scene.*":
+                assert key in keys, (row.field, key)
+        if len(row.config_keys) == 1 and row.config_keys[0] != "scene.*":
+            assert keys[row.config_keys[0]].default == getattr(defaults, row.field), row.field
+
+
+def test_cli_flags_exist():
+    from ringqa.cli.commission import add_parser
+
+    sub = argparse.ArgumentParser().add_subparsers()
+    add_parser(sub)
+    options = set(sub.choices["commission"]._option_string_actions)
+    for row in SETTING_NAMES:
+        for flag in row.cli_flags:
+            assert flag in options, (row.field, flag)
+
+
+def test_results_keys_exist():
+    run = RunSettings(
+        source="flexisource", sk_U=1.0, prescription_gy=7.0, cable="flexitron", channel="ring",
+        register="none", stem_mm=60.0, plan_step_mm=5.0, tandem_dwells=7,
+        position_limits_mm=(1.0, 2.0), dose_action_pct=5.0, dose_points=DosePointSpec(),
+        scene_overrides={}, scene={},
+    )  # fmt: skip
+    keys = set(run.as_dict())
+    for row in SETTING_NAMES:
+        if row.results_key is not None:
+            assert row.results_key in keys, (row.field, row.results_key)
+
+
+@pytest.mark.parametrize("row", SETTING_NAMES, ids=lambda r: r.field)
+def test_a_name_that_differs_says_so(row):
+    """Where a configuration key (its last part, or the whole key with . as _) or a flag differs
+    from the field's name (beyond - for _), the row's note says how."""
+    tails = {
+        k.split(".")[-1]
+        for k in row.config_keys
+        if k != "scene.*" and row.field not in (k.split(".")[-1], k.replace(".", "_"))
+    }
+    flags = {f.lstrip("-").replace("-", "_") for f in row.cli_flags}
+    names = (tails | flags | {row.results_key or row.field}) - {row.field}
+    if names - {"set"}:
+        assert row.note, (row.field, names)
