@@ -6,18 +6,31 @@ but one plain line at most every :data:`INTERVAL_S` seconds and one at the end::
 
     ringqa sweep: 12/256 sample (4 %), 31 s
 
-so a log stays readable and still shows that the run is alive.
+so a log stays readable and still shows that the run is alive. ``RINGQA_PROGRESS_INTERVAL_S``
+sets the interval (0: a line per update, e.g. for a supervising script that reads the pipe).
 """
 
 from __future__ import annotations
 
+import os
 import sys
 import time
 
-__all__ = ["INTERVAL_S", "PlainProgress", "progress_bar"]
+__all__ = ["INTERVAL_S", "PlainProgress", "plain_interval_s", "progress_bar"]
 
-#: seconds between two plain progress lines (not on a terminal)
+#: seconds between two plain progress lines (not on a terminal); RINGQA_PROGRESS_INTERVAL_S
+#: overrides it
 INTERVAL_S = 30.0
+
+
+def plain_interval_s() -> float:
+    """The plain lines' interval: ``RINGQA_PROGRESS_INTERVAL_S`` if set to a number >= 0, else
+    :data:`INTERVAL_S`."""
+    try:
+        value = float(os.environ.get("RINGQA_PROGRESS_INTERVAL_S", INTERVAL_S))
+    except ValueError:
+        return INTERVAL_S
+    return value if value >= 0 else INTERVAL_S
 
 
 class PlainProgress:
@@ -28,7 +41,7 @@ class PlainProgress:
     """
 
     def __init__(self, iterable=None, *, total=None, desc="", unit="it", initial=0, file=None,
-                 interval_s: float = INTERVAL_S, **_):  # fmt: skip
+                 interval_s: float | None = None, **_):  # fmt: skip
         self.iterable = iterable
         if total is None and iterable is not None and hasattr(iterable, "__len__"):
             total = len(iterable)
@@ -37,7 +50,7 @@ class PlainProgress:
         self.unit = unit
         self.n = initial
         self.file = file or sys.stderr
-        self.interval_s = interval_s
+        self.interval_s = plain_interval_s() if interval_s is None else interval_s
         self.postfix = ""
         self._t0 = time.perf_counter()
         self._last = self._t0
