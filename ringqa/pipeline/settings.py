@@ -272,6 +272,8 @@ SETTING_NAMES: tuple[SettingNames, ...] = (
     SettingNames("stem_mm", ("simulation.stem_mm", "simulation.whole_channel"),
                  ("--stem-mm", "--whole-channel"), "stem_mm",
                  "None (the whole channel) is simulation.whole_channel / --whole-channel"),
+    SettingNames("cross_check", ("simulation.cross_check",), ("--cross-check", "--no-cross-check"),
+                 None, "its outcome is results.json numerical_check.cross_check"),
     SettingNames("centreline_correction", (), ("--centreline-correction",),
                  "centreline_correction"),
     SettingNames("require_measured", (), ("--centreline-reference",), None,

@@ -10,9 +10,11 @@ the channel by the increment), its own Newton, a failed step cut into halves and
 a viscous tether to the predictor (the fallback stabilisation, counted and reported).
 
 Supported: quasi-static solver; contact; friction none / Coulomb / Stribeck; gravity; constant
-or stepwise forward motion (pauses cost nothing quasi-statically). Refused with a
-:class:`~ringqa.errors.SceneError` naming the key: the dynamic solver (inertia), torsion, wall
-damping, retraction and backward stepping, an always-on stabilisation.
+or stepwise forward motion (pauses cost nothing quasi-statically); jams (push force above
+``solver.jam_force_n``, or the tip moving less than 10 % of the input over
+``solver.jam_length_m``). Refused with a :class:`~ringqa.errors.SceneError` naming the key: the
+dynamic solver (inertia), torsion, wall damping, retraction and backward stepping, an always-on
+stabilisation, ``outputs.trajectory``.
 """
 
 from __future__ import annotations
@@ -43,6 +45,11 @@ MAX_CUTS = 4
 #: the fallback tether's stiffness per node, as a fraction of the wall stiffness (as the rigid
 #: engine's: 1e-3 k_wall)
 TETHER_FRACTION = 1.0e-3
+#: Load-step predictor: the slide plus this fraction of the previous step's Newton correction
+#: (its solution minus its slide) when the step continues the previous one (same increment,
+#: solved whole in at most EXTRAPOLATE_MAX_ITERS iterations); as the rigid engine's predictor
+EXTRAPOLATE_FRACTION = 0.5
+EXTRAPOLATE_MAX_ITERS = 8
 #: Newton's tolerance is at least this many times the axial penalty's round-off (FlexModel)
 ROUNDOFF_FLOOR = 16.0
 #: the tangent offset used to slide a node's tangent along the channel in the predictor (m)
@@ -66,6 +73,9 @@ def check_supported(scene) -> None:
     if m.kind == "retract" or m.backward:
         raise SceneError(f"motion.kind = {m.kind!r} (backward = {m.backward}): the flexible engine "
                          f"pushes forward only; {fix}")  # fmt: skip
+    if scene.outputs.trajectory:
+        raise SceneError(f"outputs.trajectory: the flexible engine records the requested advances "
+                         f"only; {fix}")  # fmt: skip
     if scene.solver.stabilisation != 0.0:
         raise SceneError(f"solver.stabilisation: an always-on tether is not modelled by the "
                          f"flexible engine (it uses one only as the fallback); {fix}")  # fmt: skip
@@ -79,6 +89,11 @@ class FlexModel:
         self.scene = scene
         self.warnings: list[str] = []
         solver = scene.solver
+        if solver.integrator == "bdf2":
+            self.warnings.append(
+                "solver.integrator = 'bdf2' applies to the dynamic solver only: ignored by the "
+                "quasi-static load steps"
+            )
         self.table = tb = ChannelTable.from_channel(scene.channel)
         inst = scene.instrument
         self.cft = float(inst.centre_from_tip_m)
@@ -187,6 +202,9 @@ class FlexModel:
         self.k_teth = TETHER_FRACTION * self.k_wall
         self._chan = tb.args()
         self.node_s = np.zeros(nn)
+        #: the last whole load step's Newton correction and its increment (the predictor)
+        self.last_correction: np.ndarray | None = None
+        self.last_du = float("nan")
         self.node_s2 = np.zeros(nn)
         # the source: element and parameter at sigma = cft
         e_src = int(np.clip(np.searchsorted(rod.sigma, self.cft, side="right") - 1, 0,
@@ -371,6 +389,8 @@ def run_flexible(scene, advances_m: np.ndarray, progress: bool = False) -> SimRe
     push = model.push_force()
     max_pen = 0.0
     jam_f = float(scene.solver.jam_force_n)
+    jam_len = float(scene.solver.jam_length_m)
+    tip_hist = [(u, float(model.samp_s[0]))]  # (input, the tip's arc length)
     for target, idx in targets if status == STATUS_SUCCESS else ():
         while status == STATUS_SUCCESS and target - u > 1e-12:
             du = min(model.increment, target - u)
@@ -400,6 +420,15 @@ def run_flexible(scene, advances_m: np.ndarray, progress: bool = False) -> SimRe
                 status = STATUS_JAMMED
                 message = (f"jammed: push force {push:.2f} N above solver.jam_force_n = "
                            f"{jam_f:g} N at advance {u * 1e3:.2f} mm")  # fmt: skip
+            tip_hist.append((u, model.table.closest(q[0:3], tip_hist[-1][1])[0]))
+            back = [h for h in tip_hist if h[0] <= u - jam_len + 1e-12]
+            if status == STATUS_SUCCESS and back:
+                u0, s0 = back[-1]
+                if tip_hist[-1][1] - s0 < 0.1 * (u - u0):
+                    status = STATUS_JAMMED
+                    message = (f"jammed: the tip moved {(tip_hist[-1][1] - s0) * 1e3:.2f} mm "
+                               f"over the last {(u - u0) * 1e3:.1f} mm of input "
+                               f"(solver.jam_length_mm) at advance {u * 1e3:.2f} mm")  # fmt: skip
         if status != STATUS_SUCCESS:
             break
         src, d, tip = model.source(q)
@@ -507,6 +536,9 @@ def _take_step(model: FlexModel, q: np.ndarray, u: float, du: float):
     failed = 0
     save_s = model.samp_s.copy()
     save_ns = (model.node_s.copy(), model.node_s2.copy())
+    corr = model.last_correction if model.last_du == du else None
+    model.last_correction = None
+    model.last_du = du
     for tether in (False, True):
         for cut in range(MAX_CUTS + 1):
             n_sub = 2**cut
@@ -520,14 +552,26 @@ def _take_step(model: FlexModel, q: np.ndarray, u: float, du: float):
                 model.sample_positions(qc, model.qs_prev)
                 model.qs_start[:] = model.qs_prev
                 model.predict(qc, h, u + (k + 1) * h)
+                q_plain = qc.copy()
+                extrapolated = corr is not None and n_sub == 1 and not tether
+                if extrapolated:
+                    qc[: model.n_free] += EXTRAPOLATE_FRACTION * corr[: model.n_free]
                 q_ref = qc.copy()
                 kt = model.k_teth if tether else 0.0
                 st, it, _ = model.solve(qc, h, kt, q_ref)
                 iters += it
+                if st != 0 and extrapolated:  # retried from the plain slide
+                    failed += 1
+                    model.samp_s[:] = save_s + h
+                    qc[:] = q_plain
+                    st, it, _ = model.solve(qc, h, kt, q_plain)
+                    iters += it
                 if st != 0:
                     ok = False
                     failed += 1
                     break
+                if n_sub == 1 and not tether and it <= EXTRAPOLATE_MAX_ITERS and du > 0:
+                    model.last_correction = qc - q_plain
                 wf += model.out[2]
                 if tether:
                     dx = (qc - q_ref).reshape(-1, ND)[:-1, :3]

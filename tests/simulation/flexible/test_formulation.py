@@ -57,3 +57,20 @@ def test_simulate_dispatches_to_the_flexible_engine():
     # still in the straight entry: the rod lies on the centreline, pushed by nothing
     assert np.all(np.abs(res.push_force_n) < 1e-6)
     assert np.all(res.offset_m < 1e-9)
+
+
+def test_trajectory_is_refused_by_name():
+    sc = load(SCENE, overrides={"model.formulation": "flexible", "outputs.trajectory": True})
+    with pytest.raises(SceneError, match=r"outputs\.trajectory"):
+        simulate(sc, advances_mm=[20.0])
+
+
+def test_a_push_force_above_the_limit_is_a_jam():
+    """arc-frictionless peaks at 0.61 N; with solver.jam_force_n = 0.2 N the run ends jammed
+    (status 1, never an exception) with NaN rows for the advances not reached, as the rigid
+    engine reports it."""
+    sc = load(SCENE, overrides={"model.formulation": "flexible", "solver.jam_force_n": 0.2})
+    res = simulate(sc, advances_mm=[35.0, 70.0])
+    assert res.status == 1, res.message
+    assert "jam_force_n" in res.message
+    assert np.isfinite(res.push_force_n[0]) and np.isnan(res.push_force_n[-1])
