@@ -286,7 +286,16 @@ KEYS: tuple[ConfigKey, ...] = (
         "text",
         "source serial and calibration (certificate, date)",
     ),
-    ConfigKey("report.notes", "", "", "text", "free notes printed on the first page"),
+    ConfigKey("report.notes", "", "", "text", "free notes printed above the signature block"),
+    ConfigKey(
+        "report.strict",
+        "",
+        False,
+        "flag",
+        "exit status 1 when a verdict is FAIL or ACTION (for scripts; the files are written "
+        "either way)",
+        option="--strict",
+    ),
 )
 _BY_KEY = {k.key: k for k in KEYS}
 TABLES = ("tolerances", "plan", "dose_points", "simulation", "scene", "report")
@@ -561,7 +570,11 @@ def _toml_value(value) -> str:
         return "{" + ", ".join(f"{k} = {_toml_value(x)}" for k, x in value.items()) + "}"
     if isinstance(value, list | tuple):
         return "[" + ", ".join(_toml_value(x) for x in value) + "]"
-    return f"{value:g}" if isinstance(value, float) else str(value)
+    if isinstance(value, float):
+        text = f"{value:g}"
+        # a float stays a float in TOML (7.0, not 7 as an integer)
+        return text if any(c in text for c in ".ein") else text + ".0"
+    return str(value)
 
 
 def effective_config(

@@ -44,7 +44,7 @@ NEEDLE_USES = {"foundations", "geometry", "simulation", "report", "needle"}
 PRIVATE_IMPORT_EXCEPTIONS: dict[tuple[str, str], str] = {}
 
 FOUNDATIONS = {"units", "errors", "paths", "provenance", "outdir", "jsonio", "textio", "datasets",
-               "__init__", "__main__"}  # fmt: skip
+               "progress", "__init__", "__main__"}  # fmt: skip
 
 
 def _layer(module: str) -> int | None:

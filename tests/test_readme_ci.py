@@ -1,8 +1,9 @@
-"""README's Quick start is what CI runs: the newcomer's two commands are exactly `.ci/run`'s.
+"""README's Quick start is what CI runs: the newcomer's three commands are exactly `.ci/run`'s.
 
-The README gives two indented commands under "## Quick start" (set-up + main job, then the
-tests); `.ci/run` must run exactly those lines, in that order, so a green CI proves that the
-README's instructions work on a fresh machine.
+The README gives three indented commands under "## Quick start": the set-up (once; the user
+install, without test tools), the main job (repeated without reinstalling anything), and the
+developers' test tools and tests; `.ci/run` must run exactly those lines, in that order, so a
+green CI proves that the README's instructions work on a fresh machine.
 """
 
 from __future__ import annotations
@@ -24,14 +25,17 @@ def _ci_commands() -> list[str]:
     return [ln.strip() for ln in lines if ln.strip() and not ln.startswith(("#", "set ", "cd "))]
 
 
-def test_readme_gives_exactly_two_commands():
-    """One set-up + main-job command and one test command."""
+def test_readme_gives_set_up_run_and_tests():
+    """A set-up command (pip, no test tools, no ringqa run), the main job (ringqa only: its
+    repeat reinstalls nothing) and the developers' command (the test tools, then pytest)."""
     cmds = _readme_commands()
-    assert len(cmds) == 2, cmds
-    assert "pip install" in cmds[0] and "ringqa " in cmds[0]
-    assert "pytest" in cmds[1]
+    assert len(cmds) == 3, cmds
+    setup, job, tests = cmds
+    assert "pip install" in setup and "[test]" not in setup and "ringqa " not in setup
+    assert job.startswith(".venv/bin/ringqa commission ") and "pip" not in job
+    assert '".[test]"' in tests and "pytest" in tests
 
 
 def test_ci_runs_the_readme_commands():
-    """`.ci/run` runs the README's two commands verbatim and nothing else."""
+    """`.ci/run` runs the README's three commands verbatim and nothing else."""
     assert _ci_commands() == _readme_commands()

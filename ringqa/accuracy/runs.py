@@ -61,6 +61,6 @@ def progress_bar(total: int, on: bool):
     """A tqdm bar over ``total`` runs on stderr, or a silent stand-in (``update``, ``close``)."""
     if not on:
         return _NoBar()
-    from tqdm import tqdm
+    from ringqa.progress import progress_bar as tqdm  # plain lines when not a terminal
 
     return tqdm(total=total, desc="accuracy runs", unit="run")

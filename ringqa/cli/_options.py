@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import re
 
 SET_HELP = (
     "change one simulation setting, e.g. solver.increment_mm=0.5 (names and units: "
@@ -23,3 +24,13 @@ def add_set_option(parser: argparse.ArgumentParser) -> None:
         metavar="KEY=VALUE",
         help=SET_HELP,
     )
+
+
+def plain_help(doc: str | None) -> str:
+    """A module docstring as ``--help`` prints it: reST markup taken out (````x```` -> x,
+    ``:func:`a.b``` -> b, ``**x**`` -> x), for the physicist reading it on a terminal."""
+    text = doc or ""
+    text = re.sub(r":(?:func|class|mod|meth|data|attr):`~?([^`]+)`",
+                  lambda m: m.group(1).rsplit(".", 1)[-1], text)  # fmt: skip
+    text = re.sub(r"``([^`]+)``", r"\1", text)
+    return re.sub(r"\*\*([^*]+)\*\*", r"\1", text)

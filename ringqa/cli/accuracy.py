@@ -21,14 +21,14 @@ import argparse
 import math
 from pathlib import Path
 
-from ringqa.cli._options import add_set_option
+from ringqa.cli._options import add_set_option, plain_help
 
 
 def add_parser(subparsers) -> None:
     p = subparsers.add_parser(
         "accuracy",
         help="accuracy/time study of a scene's numerical settings",
-        description=__doc__,
+        description=plain_help(__doc__),
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument("scene", help="scene TOML file, or a shipped scene name (ring26-flexitron)")

@@ -18,21 +18,34 @@ plane-height: a flat path moved into the ring's plane; rigid: best fit to the ch
 line). Numbers as supplied and as aligned are reported side by side. Every simulation is run
 twice (commissioning settings and a finer run) and each dwell's numerical error is reported.
 
-Writes DIR/dwells.csv, doses.csv, plan_dwells.csv, summary.csv, results.json and report.pdf (one
-subfolder per applicator for several inputs, plus summary.csv, batch.json and summary.pdf for
-all of them). Nothing is half-written: DIR is replaced as a whole at the end (an earlier ringqa
-output in DIR completely; a DIR holding other files is refused before any work). Site settings:
---config (docs/config.md). See docs/validation.md.
+Writes DIR/dwells.csv, doses.csv, plan_dwells.csv, summary.csv, results.json, report.pdf and
+report.html (a 3D view to open in a browser; one subfolder per applicator for several inputs,
+plus summary.csv, batch.json and summary.pdf for all of them). Nothing is half-written: DIR
+is replaced as a whole at the end (an earlier ringqa output in DIR completely; a DIR holding
+other files is refused before any work). Site settings: --config (docs/config.md). See
+docs/validation.md.
+
+Exit status (for scripts, cron jobs and QA databases):
+  0    every verdict PASS or WARN (or a FAIL / ACTION without --strict); files written
+  1    a verdict FAIL or ACTION with --strict (or report.strict = true); files written
+  2    bad input or settings, or a folder that cannot be written; nothing written
+  3    the simulation jammed or failed; nothing written (in a batch: the others are)
+  130  interrupted (Ctrl-C), 143 terminated (SIGTERM); nothing written
+With --log-file FILE the log is an audit trail: inputs and data files with SHA-256, every
+setting with its origin, every verdict, every file written with SHA-256, the exit status and
+the wall time.
 """
 
 from __future__ import annotations
 
 import argparse
 import dataclasses
+import logging
 import sys
+import time
 from pathlib import Path
 
-from ringqa.cli._options import add_set_option
+from ringqa.cli._options import add_set_option, plain_help
 from ringqa.errors import RingQAError
 
 
@@ -40,7 +53,7 @@ def add_parser(subparsers) -> None:
     p = subparsers.add_parser(
         "commission",
         help="measured vs simulated vs centreline dwell positions and doses, with a PDF report",
-        description=__doc__,
+        description=plain_help(__doc__),
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument(
@@ -75,7 +88,8 @@ def add_parser(subparsers) -> None:
     p.add_argument(
         "--example",
         action="store_true",
-        help="commission the shipped example plan (Oncentra 26 mm / 60 degree ring)",
+        help="commission the shipped example plan (Oncentra 26 mm / 60 degree ring) as README's "
+        "quick start does: with --register plane-height unless --register says otherwise",
     )
     p.add_argument(
         "--export",
@@ -198,6 +212,13 @@ def add_parser(subparsers) -> None:
         "once (default: 2 on a machine with 2 or more cores, else 1; the results are the same "
         "as with 1)",
     )
+    p.add_argument(
+        "--strict",
+        action="store_true",
+        default=None,
+        help="exit status 1 when a verdict is FAIL or ACTION (the files are written either "
+        "way; configuration key report.strict)",
+    )
     p.add_argument("--no-pdf", action="store_true", help="write the CSV/JSON files only")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     add_channel_options(p)
@@ -287,6 +308,7 @@ OPTION_KEYS = {
     "cable": "simulation.cable",
     "stem_mm": "simulation.stem_mm",
     "whole_channel": "simulation.whole_channel",
+    "strict": "report.strict",
     "cross_check": "simulation.cross_check",
 }
 
@@ -334,15 +356,108 @@ def print_warnings(res, prefix: str = "") -> None:
         )
 
 
+#: exit statuses of ``ringqa commission`` (README "Exit status", ``--help``)
+EXIT_OK = 0  # every verdict PASS or WARN (or a FAIL / ACTION without --strict)
+EXIT_FAIL = 1  # --strict (report.strict) and a verdict FAIL or ACTION
+EXIT_INPUT = 2  # bad input or settings, or a file that cannot be written: nothing written
+EXIT_SOLVER = 3  # the simulation jammed or failed (nothing written)
+EXIT_MEANINGS = {
+    EXIT_OK: "all verdicts PASS or WARN, or --strict not given",
+    EXIT_FAIL: "a verdict is FAIL or ACTION (--strict)",
+    EXIT_INPUT: "bad input",
+    EXIT_SOLVER: "simulation failure",
+    130: "interrupted (SIGINT)",
+    143: "terminated (SIGTERM)",
+}
+
+#: the audit trail (``ringqa --log-file FILE``, ``-v``): inputs, settings, verdicts, files, exit
+log = logging.getLogger(__name__)
+
+
 def run(args: argparse.Namespace) -> int:
+    """``ringqa commission``: commission, write, and leave an audit trail in the log (inputs
+    with SHA-256, settings with origin, every verdict, every file written with SHA-256, the exit
+    status and the wall time). Returns the exit status (:data:`EXIT_MEANINGS`)."""
+    from ringqa.outdir import OutputInterrupted
+    from ringqa.pipeline import SimulationJammedError
+
+    t0 = time.perf_counter()
+    try:
+        code = _run(args)
+    except SimulationJammedError as exc:
+        print(f"ringqa commission: error: {exc}", file=sys.stderr)
+        code = EXIT_SOLVER
+    except RingQAError as exc:
+        _audit_exit(EXIT_INPUT, t0, str(exc))
+        raise
+    except OSError as exc:
+        _audit_exit(EXIT_INPUT, t0, str(exc))
+        raise
+    except OutputInterrupted as exc:
+        _audit_exit(exc.exit_status, t0)
+        raise
+    except KeyboardInterrupt:
+        _audit_exit(130, t0)
+        raise
+    _audit_exit(code, t0)
+    return code
+
+
+def _audit_exit(code: int, t0: float, reason: str = "") -> None:
+    meaning = EXIT_MEANINGS.get(code, "error")
+    why = f": {reason}" if reason else ""
+    log.info("exit status %d (%s%s), wall time %.2f s", code, meaning, why,
+             time.perf_counter() - t0)  # fmt: skip
+
+
+def audit_inputs_and_settings(config, results) -> None:
+    """Log each result's input files and data files with their SHA-256 and every setting in
+    force with its origin (the audit trail's first part)."""
+    for res in results:
+        prov = res.provenance
+        log.info("input: %s (%s, applicator %s)", res.input_label, res.input_kind,
+                 res.applicator)  # fmt: skip
+        for name, digest in prov.inputs.items():
+            log.info("input file: %s SHA-256 %s", name, digest)
+        for name, digest in prov.data.items():
+            log.info("data file: %s SHA-256 %s", name, digest)
+    for key in sorted(config.values):
+        log.info("setting: %s = %r (%s)", key, config.values[key], config.origins.get(key, ""))
+
+
+def audit_verdicts(res) -> None:
+    """Log every verdict of ``res`` and its conclusion."""
+    from ringqa.pipeline.numbers import fmt_verdict_value
+
+    for v in res.verdicts:
+        log.info("verdict: %s: %s %s: %s (%s)", res.applicator, v.status, v.check,
+                 fmt_verdict_value(v.value, v.unit, v.check), v.text)  # fmt: skip
+    log.info("conclusion: %s: %s", res.applicator, res.conclusion)
+
+
+def audit_files(out: Path) -> None:
+    """Log every file in ``out`` (just written) with its size and SHA-256."""
+    from ringqa.provenance import sha256_of
+
+    files = sorted(p for p in Path(out).rglob("*") if p.is_file())
+    for p in files:
+        log.info("file written: %s (%d bytes, SHA-256 %s)", p.relative_to(out).as_posix(),
+                 p.stat().st_size, sha256_of(p))  # fmt: skip
+    log.info("%d file(s) written in %s", len(files), out)
+
+
+def _run(args: argparse.Namespace) -> int:
     from ringqa.outdir import check_writable
     from ringqa.pipeline import commission_batch
     from ringqa.pipeline.batch import check_labels
     from ringqa.report import write_batch, write_report
 
+    if args.example and args.register is None:
+        args.register = "plane-height"  # README's quick start (a 2D path: see README)
     config = effective(args)
     settings = config.settings()
     fields = config.report_fields()
+    strict = bool(config.values.get("report.strict", False))
     if args.example:
         from ringqa.datasets import example_plan
 
@@ -380,35 +495,45 @@ def run(args: argparse.Namespace) -> int:
             fields = dataclasses.replace(fields, label=labels[0])
         ahead = sweep_spec is None and not args.no_pdf  # the report is prepared meanwhile
         res = commission_ahead(items[0], settings, not args.quiet, ahead)
+        audit_inputs_and_settings(config, [res])
         sections, extra = (), None
         if sweep_spec is not None:
-            sections, extra = _run_uncertainty(sweep_spec, args)
+            sections, extra = _run_uncertainty(sweep_spec, args, res)
         write_report(
             res, args.out, pdf=not args.no_pdf, accuracy_csv=args.accuracy_csv, fields=fields,
             export=args.export, sections=sections, extra_files=extra,
         )  # fmt: skip
+        audit_verdicts(res)
+        audit_files(args.out)
         print_warnings(res)
         verdicts = "; ".join(f"{v.status} {v.check}" for v in res.verdicts)
         print(
             f"ringqa commission: {res.applicator} ({res.reference} reference): {verdicts} "
             f"-> {args.out}"
         )
-        return 0
+        return EXIT_FAIL if strict and not res.passed else EXIT_OK
     batch = commission_batch(items, settings, progress=not args.quiet, labels=labels,
                              workers=args.workers)  # fmt: skip
+    audit_inputs_and_settings(config, batch.results)
     write_batch(
         batch, args.out, pdf=not args.no_pdf, progress=not args.quiet, fields=fields,
         export=args.export, workers=args.workers,
     )  # fmt: skip
     for res in batch.results:
+        audit_verdicts(res)
         print_warnings(res, prefix=f"{res.applicator}: ")
+    audit_files(args.out)
     n = len(batch.results) + len(batch.failures)
     print(f"ringqa commission: {len(batch.results)} of {n} applicators commissioned -> {args.out}")
+    for item, err in batch.failures:
+        log.info("failed: %s: %s", item, err)
+        print(f"ringqa commission: error: {item}: {err}", file=sys.stderr)
+    if batch.solver_failures:
+        return EXIT_SOLVER
     if batch.failures:
-        for item, err in batch.failures:
-            print(f"ringqa commission: error: {item}: {err}", file=sys.stderr)
-        return 2
-    return 0
+        return EXIT_INPUT
+    failed = [r for r in batch.results if not r.passed]
+    return EXIT_FAIL if strict and failed else EXIT_OK
 
 
 def _with_channel_settings(settings, args):
@@ -486,21 +611,23 @@ def sweep_spec_for(args, item, settings=None):
     return load_spec(path, sets)
 
 
-def _run_uncertainty(spec, args) -> tuple[tuple, dict[str, bytes]]:
+def _run_uncertainty(spec, args, res=None) -> tuple[tuple, dict[str, bytes]]:
     """Run the sweep in a temporary folder; return the report's uncertainty page (a section)
     and the files it adds to the output folder (``uncertainty.png``; ``uncertainty.csv``: the
     sweep's summary.csv; ``uncertainty_sweep.json``: its sweep.json), written with the report in
     one staged folder."""
     import tempfile
 
+    from ringqa.report.tables import input_base
     from ringqa.report.uncertainty import uncertainty_section
     from ringqa.sweep import run_sweep
 
+    base = None if res is None else input_base(res)
     with tempfile.TemporaryDirectory(prefix="ringqa-sweep-") as tmp:
         res = run_sweep(spec, Path(tmp) / "sweep", progress=not args.quiet)
         png = (res.out / "uncertainty.png").read_bytes()
         csv = (res.out / "summary.csv").read_bytes()
-        record = (res.out / "sweep.json").read_bytes()
+        record = _relative_record((res.out / "sweep.json").read_bytes(), base)
     r = res.record
     print(
         f"ringqa commission: uncertainty sweep {r['n_ok']} of {r['n_runs']} samples ok "
@@ -512,3 +639,15 @@ def _run_uncertainty(spec, args) -> tuple[tuple, dict[str, bytes]]:
         "uncertainty.csv": csv,
         "uncertainty_sweep.json": record,  # spec, seed, versions, timings, every failure
     }
+
+
+def _relative_record(data: bytes, base) -> bytes:
+    """The sweep's record with every absolute path in it named as outputs name files
+    (:func:`ringqa.provenance.relative_paths`: ``ringqa:data/...`` or relative to the input's
+    folder), never an install path."""
+    import json
+
+    from ringqa.jsonio import json_text
+    from ringqa.provenance import relative_paths
+
+    return json_text(relative_paths(json.loads(data), base), indent=2).encode()

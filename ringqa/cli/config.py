@@ -14,12 +14,14 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from ringqa.cli._options import plain_help
+
 
 def add_parser(subparsers) -> None:
     p = subparsers.add_parser(
         "config",
         help="show the clinic configuration in force and where each setting came from",
-        description=__doc__,
+        description=plain_help(__doc__),
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument(

@@ -1,6 +1,6 @@
 """``ringqa import PLAN.dcm --out DIR``: an RT Plan's contents as CSV/JSON files to inspect.
 
-Writes (contract of issue 3; other tools read these):
+Writes (other tools read these files; docs/importers.md):
 
 - ``DIR/dwells.csv``: ``channel, dwell, relative_position_mm, x_mm, y_mm, z_mm, time_s`` (plus
   ``dir_x, dir_y, dir_z`` when the plan has orientations, and ``channel_name``);
@@ -24,6 +24,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from ringqa.cli._options import plain_help
 from ringqa.errors import split_warning
 from ringqa.jsonio import write_json
 from ringqa.outdir import staged_output
@@ -34,7 +35,7 @@ def add_parser(subparsers) -> None:
     p = subparsers.add_parser(
         "import",
         help="read a brachytherapy RT Plan and write its dwells, points and applicator as CSV",
-        description=__doc__,
+        description=plain_help(__doc__),
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument("plan", type=Path, help="DICOM RT Plan file (RP*.dcm)")

@@ -28,7 +28,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from ringqa.cli._options import add_set_option
+from ringqa.cli._options import add_set_option, plain_help
 
 EXIT_JAMMED = 1
 EXIT_FAILED = 3
@@ -38,7 +38,7 @@ def add_parser(subparsers) -> None:
     p = subparsers.add_parser(
         "needle",
         help="catheter insertion force in S-shaped channels (one channel or the paper's sweep)",
-        description=__doc__,
+        description=plain_help(__doc__),
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument(

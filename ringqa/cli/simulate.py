@@ -14,7 +14,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from ringqa.cli._options import add_set_option
+from ringqa.cli._options import add_set_option, plain_help
 
 EXIT_JAMMED = 1
 EXIT_FAILED = 3
@@ -24,7 +24,7 @@ def add_parser(subparsers) -> None:
     p = subparsers.add_parser(
         "simulate",
         help="simulate a source cable (or catheter) in a channel from a scene file",
-        description=__doc__,
+        description=plain_help(__doc__),
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument("scene", help="scene TOML file, or a shipped scene name (ring26-flexitron)")
@@ -42,6 +42,7 @@ def run(args: argparse.Namespace) -> int:
     from ringqa.simulation.scenefile import load_scene, parse_set_args, resolve_scene_path
 
     check_writable(args.out)
+    check_scene_name(args.scene)
     overrides = parse_set_args(args.overrides)
     if args.trajectory:
         overrides["outputs.trajectory"] = True
@@ -60,3 +61,23 @@ def run(args: argparse.Namespace) -> int:
     if result.status == 0:
         return 0
     return EXIT_JAMMED if result.status == 1 else EXIT_FAILED
+
+
+def shipped_scenes() -> list[str]:
+    """The names of the shipped scenes (``data/scenes/*.toml``), sorted."""
+    from ringqa.paths import data_dir
+
+    return sorted(p.stem for p in (data_dir() / "scenes").glob("*.toml"))
+
+
+def check_scene_name(scene: str) -> None:
+    """Refuse a scene that is neither a file nor a shipped scene, naming the shipped ones."""
+    from ringqa.errors import RingQAError
+
+    path = Path(scene)
+    if path.exists() or path.suffix.lower() == ".toml" or scene in shipped_scenes():
+        return  # a file (its own errors), or a shipped name
+    raise RingQAError(
+        f"{scene}: no such scene file or shipped scene (give the path to a .toml scene file, "
+        f"or one of the shipped scenes: {', '.join(shipped_scenes())})"
+    )

@@ -24,6 +24,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from ringqa.cli._options import plain_help
 from ringqa.errors import RingQAError
 
 
@@ -31,7 +32,7 @@ def add_parser(subparsers) -> None:
     p = subparsers.add_parser(
         "sweep",
         help="uncertainty/sensitivity study of a commissioning run on Dask",
-        description=__doc__,
+        description=plain_help(__doc__),
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument("spec", type=Path, metavar="SPEC.toml", help="sweep spec (docs/sweeps.md)")

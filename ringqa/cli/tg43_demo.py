@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ringqa.cli._options import plain_help
 from ringqa.jsonio import write_json
 from ringqa.outdir import staged_output
 from ringqa.provenance import Provenance
@@ -23,7 +24,7 @@ def add_parser(subparsers) -> None:
     p = subparsers.add_parser(
         "tg43-demo",
         help="TG-43 dose-rate table and isodose plot for one source",
-        description=__doc__,
+        description=plain_help(__doc__),
     )
     p.add_argument("--source", default="flexisource", help="source name or folder (flexisource)")
     p.add_argument("--out", required=True, type=Path, help="output folder")

@@ -16,12 +16,14 @@ from __future__ import annotations
 
 import time
 
+from ringqa.cli._options import plain_help
+
 
 def add_parser(subparsers) -> None:
     p = subparsers.add_parser(
         "warmup",
         help="compile the numerical kernels once (the first run's compile time, paid up front)",
-        description=__doc__,
+        description=plain_help(__doc__),
         formatter_class=__import__("argparse").RawDescriptionHelpFormatter,
     )
     p.add_argument(

@@ -314,7 +314,7 @@ def run_sweep(
     n_workers = min(n_workers, len(specs))
     # tightest channels first: they take longest, so the pool's two queues end together
     order = sorted(specs, key=lambda k: (k[0], k[2]))
-    from tqdm import tqdm
+    from ringqa.progress import progress_bar as tqdm  # plain lines when not a terminal
 
     t0 = time.perf_counter()
     runs: dict[tuple[float, float, float], NeedleRun] = {}

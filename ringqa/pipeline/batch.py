@@ -17,7 +17,13 @@ from ringqa.pipeline.commission import commission
 from ringqa.pipeline.forked import worker_signals
 from ringqa.pipeline.result import CommissioningResult
 from ringqa.pipeline.settings import CommissionSettings
-from ringqa.pipeline.simulate import Engine, default_engine, kernels_cached, own_engine
+from ringqa.pipeline.simulate import (
+    Engine,
+    SimulationJammedError,
+    default_engine,
+    kernels_cached,
+    own_engine,
+)
 
 
 @dataclass(frozen=True, eq=False)
@@ -38,12 +44,17 @@ class BatchResult:
         One per result, unique in the batch: the output subfolder (the applicator's name made
         safe for a file name; ``name-2``, ``name-3`` ... for a repeated name, so two inputs never
         share or overwrite a folder).
+    solver_failures : tuple of str
+        The inputs of :attr:`failures` whose simulation jammed or failed
+        (:class:`~ringqa.pipeline.simulate.SimulationJammedError`; ``ringqa commission`` exits
+        3), as opposed to bad input.
     """
 
     results: tuple[CommissioningResult, ...]
     failures: tuple[tuple[str, str], ...]
     summary: pd.DataFrame
     labels: tuple[str, ...] = ()
+    solver_failures: tuple[str, ...] = ()
 
     def label(self, i: int) -> str:
         """The output subfolder of ``results[i]``."""
@@ -99,29 +110,45 @@ def commission_batch(
     BatchResult
         Write it with ``ringqa.report.write_batch(batch, out_dir)``.
     """
-    from tqdm import tqdm
+    from ringqa.progress import progress_bar as tqdm  # plain lines when not a terminal
 
     items = list(inputs)
     check_labels(labels, len(items))
     results: list[CommissioningResult] = []
     failures: list[tuple[str, str]] = []
+    solver: list[str] = []
     rows = []
     folders: list[str] = []
     taken: set[str] = set()
     bar = tqdm(total=len(items), desc="commission", unit="applicator", disable=not progress)
     n_workers = default_workers() if workers is None else max(1, int(workers))
-    for k, (res, reason) in enumerate(_outcomes(items, settings, engine, n_workers, bar, labels)):
+    outcomes = _outcomes(items, settings, engine, n_workers, bar, labels)
+    for k, (res, reason, jammed) in enumerate(outcomes):
         label = _label(items[k]) if labels is None else str(labels[k])
         bar.update()
         if res is None:
             failures.append((label, reason))
-            rows.append({"applicator": label, "verdict": "ERROR", "error": reason})
+            if jammed:
+                solver.append(label)
+            rows.append({"applicator": label, "verdict": "ERROR", "error": reason,
+                         "input": _input_name(items[k])})  # fmt: skip
             continue
         results.append(res)
         folders.append(unique_label(res.applicator if labels is None else label, taken))
-        rows.append({**res.summary.as_row(), "error": "", "folder": folders[-1]})
+        rows.append({**res.summary_row(), "error": "", "folder": folders[-1]})
     bar.close()
-    return BatchResult(tuple(results), tuple(failures), pd.DataFrame(rows), tuple(folders))
+    return BatchResult(tuple(results), tuple(failures), pd.DataFrame(rows), tuple(folders),
+                       tuple(solver))  # fmt: skip
+
+
+def _input_name(item) -> str:
+    """A failed input as summary.csv's ``input`` names it (as given; ``ringqa:data/...`` for a
+    shipped file)."""
+    from ringqa.provenance import display_path
+
+    if isinstance(item, str | Path) and Path(item).exists():
+        return display_path(item)
+    return str(getattr(item, "name", item))
 
 
 def default_workers() -> int:
@@ -130,15 +157,16 @@ def default_workers() -> int:
     return min(2, os.cpu_count() or 1) if hasattr(os, "fork") else 1
 
 
-def _commission_one(item, settings, engine) -> tuple[CommissioningResult | None, str]:
-    """``(result, "")``, or ``(None, one-line reason)`` when ``item`` failed."""
+def _commission_one(item, settings, engine) -> tuple[CommissioningResult | None, str, bool]:
+    """``(result, "", False)``, or ``(None, one-line reason, jammed)`` when ``item`` failed
+    (``jammed``: the simulation jammed or failed, not the input)."""
     try:
-        return commission(item, settings, engine=engine), ""
+        return commission(item, settings, engine=engine), "", False
     except Exception as exc:  # one applicator must not stop the batch
         reason = " ".join(str(exc).split()) or type(exc).__name__
         if not _is_user_error(exc):
             reason = f"{type(exc).__name__}: {reason}"
-        return None, reason
+        return None, reason, isinstance(exc, SimulationJammedError)
 
 
 def _worker_init() -> None:

@@ -249,7 +249,9 @@ def positions_figure(res, title: str | None = None):
         fontsize=9,
     )
     ax1.plot(0, 0, "k+")
-    ax1.legend(fontsize=6.5, loc="lower left")
+    # beside the ring (the square axes, drawn at the left, leave room): never over a dwell
+    ax1.set_anchor("W")
+    ax1.legend(fontsize=6.5, loc="lower left", bbox_to_anchor=(1.02, 0.0), borderaxespad=0.0)
     ax1.grid(alpha=0.3)
     ax2.set_xlim(-lim, lim)
     ax2.set_xlabel("patient left (mm), in the ring plane")
@@ -387,6 +389,26 @@ def deviations_figure(res, title: str | None = None):
     return _finish(fig, title)
 
 
+#: dose points closer than this in a view (mm) share one label
+LABEL_MERGE_MM = 3.0
+#: vertical label offsets (points) tried in turn for neighbouring dose points
+LABEL_LEVELS_PT = (5, -11, 14, -20, 23, -29)
+
+
+def label_groups(x, y, labels, tol_mm: float) -> list[tuple[float, float, list[str]]]:
+    """Labels of points within ``tol_mm`` of a group's first point joined into one group
+    ``(x, y, [labels])`` (first point's place), in the order of the points."""
+    groups: list[tuple[float, float, list[str]]] = []
+    for xi, yi, label in zip(x, y, labels, strict=True):
+        for gx, gy, names in groups:
+            if float(np.hypot(gx - xi, gy - yi)) < tol_mm:
+                names.append(label)
+                break
+        else:
+            groups.append((float(xi), float(yi), [label]))
+    return groups
+
+
 def dose_points_figure(res, title: str | None = None):
     """The dose points beside the standard plan's dwells: the ring plane (seen from cranial) and
     the orthogonal view, zoomed on the dwells and points (mm).
@@ -423,18 +445,27 @@ def dose_points_figure(res, title: str | None = None):
         "depth5_left": "5 L",
         "depth5_right": "5 R",
     }
-    for k, name in enumerate(pts["point"]):
+    labels = [short.get(name, name) for name in pts["point"]]
+    for k in range(len(labels)):
         colour = "tab:green" if pts["kind"].iloc[k] != "tps" else "tab:purple"
         ax1.plot(pu[k], pv[k], "*", color=colour, ms=9)
         ax2.plot(pu[k], ph[k], "*", color=colour, ms=9)
-        label = short.get(name, name)
-        off = {  # labels point away from each other on both sides (offsets in points)
-            "point_a_left": (-6, 9), "point_a_right": (-6, 9),
-            "surface_left": (-14, -13), "surface_right": (3, -13),
-            "depth5_left": (3, -13), "depth5_right": (-14, -13),
-        }.get(name, (4, 4))  # fmt: skip
-        for ax, yy in ((ax1, pv[k]), (ax2, ph[k])):
-            ax.annotate(label, (pu[k], yy), xytext=off, textcoords="offset points", fontsize=7)
+    # points that fall (nearly) on one another in a view share one label ("A L / S L / A2"):
+    # one label per place, none printed over another
+    # ... written outward (left of a point on the patient's right, right of one on the left),
+    # neighbours on one side alternately above and below
+    for ax, yy in ((ax1, pv), (ax2, ph)):
+        groups = label_groups(pu, yy, labels, LABEL_MERGE_MM)
+        placed: list[tuple[float, float, float, int]] = []  # x, y, side, level
+        for x0, y0, names in sorted(groups, key=lambda g: abs(g[0])):
+            side = -1.0 if x0 < 0 else 1.0
+            near = {lv for px, py, ps, lv in placed
+                    if ps == side and abs(px - x0) < 8.0 and abs(py - y0) < 6.0}  # fmt: skip
+            level = next(lv for lv in LABEL_LEVELS_PT if lv not in near)
+            placed.append((x0, y0, side, level))
+            ax.annotate(" / ".join(names), (x0, y0), xytext=(4 * side, level),
+                        textcoords="offset points", fontsize=7,
+                        ha="left" if side > 0 else "right")  # fmt: skip
     # zoom on the dwells and points (the channels' long stems would dwarf them)
     for ax, xs, ys in ((ax1, (u, pu), (v, pv)), (ax2, (u, pu), (h, ph))):
         xx, yy = np.concatenate(xs), np.concatenate(ys)
@@ -521,6 +552,30 @@ def accuracy_caption(table: pd.DataFrame) -> str:
     )
 
 
+def batch_distances(batch) -> tuple[list[np.ndarray], list[str], list[str]]:
+    """What :func:`batch_distances_figure` plots: per applicator and compared path, the 3D
+    distances the verdicts judge (to the registered reference, reference positions outside the
+    channel left out: :meth:`~ringqa.pipeline.result.CommissioningResult.compared_dwells`),
+    with the box's label and colour. Their medians and maxima are summary.csv's
+    ``median_dist_*`` / ``max_dist_*`` (``_registered`` for a registered run).
+
+    Returns
+    -------
+    (list of ndarray, list of str, list of str)
+        Distances (mm), labels, colours; one per box.
+    """
+    data, labels, colours = [], [], []
+    for r in batch.results:
+        for path in ("centreline", "simulated"):
+            if path == r.reference:
+                continue
+            data.append(r.compared_dwells(path)["dist_to_reference_mm"].to_numpy(dtype=float))
+            name = textwrap.shorten(r.applicator, 22, placeholder="...")
+            labels.append(f"{name}\n{path[:3]}. vs {r.reference[:4]}.")
+            colours.append(COLOURS[path])
+    return data, labels, colours
+
+
 def batch_distances_figure(batch, title: str | None = None):
     """Distances to the reference per applicator, like Figure 5 of Straathof et al. (2024):
     one box per applicator and compared path (mm), with the position tolerances.
@@ -536,16 +591,7 @@ def batch_distances_figure(batch, title: str | None = None):
     """
     fig = new_figure(BATCH_SIZE)
     ax = fig.add_subplot()
-    data, labels, colours = [], [], []
-    for r in batch.results:
-        for path in ("centreline", "simulated"):
-            if path == r.reference:
-                continue
-            sub = r.dwells[r.dwells["path"] == path]["dist_to_reference_mm"].to_numpy()
-            data.append(sub)
-            name = textwrap.shorten(r.applicator, 22, placeholder="...")
-            labels.append(f"{name}\n{path[:3]}. vs {r.reference[:4]}.")
-            colours.append(COLOURS[path])
+    data, labels, colours = batch_distances(batch)
     if data:
         bp = ax.boxplot(data, patch_artist=True, sym="x")
         ax.set_xticks(range(1, len(labels) + 1), labels, fontsize=6.5, rotation=45, ha="right")

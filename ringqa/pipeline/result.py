@@ -511,6 +511,29 @@ class CommissioningResult:
         return out
 
     @property
+    def input_label(self) -> str:
+        """The input as outputs name it: ``ringqa:data/...`` for a shipped file (never an
+        install path), else as the user gave it (:func:`ringqa.provenance.display_path`)."""
+        from ringqa.provenance import display_path
+
+        if self.input_kind in ("shipped", "object"):
+            return self.input
+        return display_path(self.input)
+
+    def summary_row(self) -> dict[str, Any]:
+        """The ``summary.csv`` row: :meth:`Summary.as_row` and the ``input`` (two inputs of the
+        same model are told apart by it)."""
+        return {**self.summary.as_row(), "input": self.input_label}
+
+    def compared_dwells(self, path: str) -> pd.DataFrame:
+        """The rows of ``dwells`` of one path that the verdicts judge (reference positions
+        outside the channel left out); ``dist_to_reference_mm`` is then the distance judged."""
+        d = self.dwells[self.dwells["path"] == path]
+        if "reference_flag" in d:
+            d = d[d["reference_flag"].astype(str) != "outside_channel"]
+        return d
+
+    @property
     def passed(self) -> bool:
         """True when no verdict is FAIL or ACTION."""
         return all(v.status in ("PASS", "WARN") for v in self.verdicts)
@@ -585,7 +608,7 @@ class CommissioningResult:
             Institution, physicist, serial, afterloader, source calibration (blank lines to fill
             by hand when not given).
         notes : str or sequence of str, optional
-            Free notes printed on the first page.
+            Free notes printed above the signature block.
         accuracy : pandas.DataFrame, optional
             ``ringqa accuracy``'s table for an extra page.
         sections : sequence of callables, optional
@@ -603,3 +626,19 @@ class CommissioningResult:
         return writer(
             self, path, fields=fields, notes=notes or (), accuracy=accuracy, sections=sections
         )
+
+    def publish_html(self, path):
+        """Write ``report.html`` of this result (the 3D view, verdicts and dose table; as
+        ``ringqa commission`` does beside report.pdf; :mod:`ringqa.report.html`).
+
+        Parameters
+        ----------
+        path : str or pathlib.Path
+
+        Returns
+        -------
+        pathlib.Path
+        """
+        import importlib
+
+        return importlib.import_module("ringqa.report.html").write_html(self, path)

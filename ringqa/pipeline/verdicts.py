@@ -19,6 +19,7 @@ import pandas as pd
 
 from ringqa.pipeline.deviations import Deviations
 from ringqa.pipeline.doses import StandardPlans
+from ringqa.pipeline.numbers import DOSE_PCT, ERROR_MM, fmt, fmt_verdict_value
 from ringqa.pipeline.result import Verdict
 
 #: Position tolerances, mm: recommended and required (AAPM MPPG 13.a, 2023; TG-56).
@@ -59,7 +60,7 @@ def _position_verdict(check: str, role: str, what_is: str, dist_mm: np.ndarray, 
         )
     else:
         status, what = "FAIL", f"beyond the required {req:g} mm"
-    text = f"{what_is}: max {worst:.2f} mm over {dist_mm.size} positions, {what}.{extra}"
+    text = f"{what_is}: max {fmt(worst)} mm over {dist_mm.size} positions, {what}.{extra}"
     return Verdict(check, worst, "mm", (rec, req), status, text, role)
 
 
@@ -70,7 +71,8 @@ def _dose_verdict(check: str, role: str, what_is: str, diff_pct: np.ndarray,
     word = "within" if status == "PASS" else "beyond"
     return Verdict(
         check, worst, "%", (action,), status,
-        f"{what_is}: max |dose difference| {worst:.2f} %, {word} the {action:g} % action level.",
+        f"{what_is}: max |dose difference| {fmt(worst, DOSE_PCT)} %, {word} the {action:g} % "
+        "action level.",
         role,
     )  # fmt: skip
 
@@ -105,17 +107,22 @@ def numerics_verdict(max_error_mm: float, warn_mm: float, cross_check=None) -> V
     disagrees with the reported dwells by more than the numerical errors allow)."""
     status = "PASS" if max_error_mm <= warn_mm else "WARN"
     word = "within" if status == "PASS" else "above"
-    text = (f"Numerical error of the simulated positions: max {max_error_mm:.3f} mm, {word} "
-            f"{warn_mm:g} mm.")  # fmt: skip
+    shown = fmt_verdict_value(max_error_mm, "mm", CHECK_NUMERICS)
+    text = f"Numerical error of the simulated positions: max {shown}, {word} {warn_mm:g} mm."
     if cross_check is not None and getattr(cross_check, "fails", False):
         status = "FAIL"
         text += (
             f" The independent flexible-element engine disagrees by up to "
-            f"{cross_check.max_mm:.3f} mm (allowed {cross_check.limit_mm:.2f} mm)."
+            f"{fmt(cross_check.max_mm, ERROR_MM)} mm (allowed {fmt(cross_check.limit_mm)} mm)."
         )
     return Verdict(
         CHECK_NUMERICS, max_error_mm, "mm", (warn_mm,), status, text, ROLE_NUMERICS,
     )  # fmt: skip
+
+
+def _v(v: Verdict) -> str:
+    """A verdict's value as every page prints it (:mod:`ringqa.pipeline.numbers`)."""
+    return fmt_verdict_value(v.value, v.unit, v.check)
 
 
 def verdict_meanings(verdicts) -> list[str]:
@@ -127,38 +134,38 @@ def verdict_meanings(verdicts) -> list[str]:
         if v.check == CHECK_TPS:
             out.append(
                 f"TPS check {v.status}: the plan's own dwells and times, dosed with ringqa's "
-                f"TG-43 data, differ from the TPS's doses by up to {v.value:.1f} %. Check the "
+                f"TG-43 data, differ from the TPS's doses by up to {_v(v)}. Check the "
                 "plan's source strength (S_K), channel times and source model before trusting any "
                 "dose number in this report."
             )
         elif v.check == CHECK_CENTRELINE:
             out.append(
                 f"Centreline vs reference {v.status} (a finding about the TPS model): planning on "
-                f"the channel centreline would misplace dwells by up to {v.value:.1f} mm in this "
+                f"the channel centreline would misplace dwells by up to {_v(v)} in this "
                 "applicator; plan on the reference source path (or a validated source-path "
                 "model) instead."
             )
         elif v.check == CHECK_SIMULATED:
             out.append(
                 f"Simulated vs reference {v.status} (a check of the simulation): the simulation "
-                f"does not reproduce the reference path within tolerance (max {v.value:.1f} mm); "
+                f"does not reproduce the reference path within tolerance (max {_v(v)}); "
                 "it cannot stand in for the reference path of this applicator."
             )
         elif v.check == CHECK_SIM_VS_CENTRELINE:
             out.append(
                 f"Simulated vs centreline {v.status}: the simulated source deviates from the "
-                f"centreline by up to {v.value:.1f} mm; measure the source path of this "
+                f"centreline by up to {_v(v)}; measure the source path of this "
                 "applicator before planning on its centreline."
             )
         elif v.check == CHECK_NUMERICS:
             out.append(
                 f"Numerics {v.status}: the simulated positions carry a numerical error of up to "
-                f"{v.value:.2f} mm; simulated-vs-reference differences of that size are numerics."
+                f"{_v(v)}; simulated-vs-reference differences of that size are numerics."
             )
         elif v.check.startswith("dose:"):
             out.append(
                 f"{v.check} {v.status}: the dwell-position differences change the dose at the "
-                f"dose points by up to {v.value:.1f} % (lateral ring-surface points are the most "
+                f"dose points by up to {_v(v)} (lateral ring-surface points are the most "
                 "sensitive; see the dose table)."
             )
     return out
@@ -173,8 +180,7 @@ def conclusion(verdicts) -> str:
         parts.append(
             "planning on the centreline is within tolerance"
             if cl.status == "PASS"
-            else f"planning on the centreline misplaces dwells by up to {cl.value:.1f} mm "
-            f"({cl.status})"
+            else f"planning on the centreline misplaces dwells by up to {_v(cl)} ({cl.status})"
         )
     sim = by.get(CHECK_SIMULATED) or by.get(CHECK_SIM_VS_CENTRELINE)
     if sim is not None:
@@ -182,20 +188,19 @@ def conclusion(verdicts) -> str:
         parts.append(
             f"the simulation reproduces the {against} within tolerance"
             if sim.status == "PASS"
-            else f"the simulation departs from the {against} by up to {sim.value:.1f} mm "
-            f"({sim.status})"
+            else f"the simulation departs from the {against} by up to {_v(sim)} ({sim.status})"
         )
     num = by.get(CHECK_NUMERICS)
     if num is not None and num.status != "PASS":
-        parts.append(f"but its numerical error ({num.value:.2f} mm) is not negligible")
+        parts.append(f"but its numerical error ({_v(num)}) is not negligible")
     tps = by.get(CHECK_TPS)
     if tps is not None and tps.status != "PASS":
-        parts.insert(0, f"the plan's own doses differ from the TPS's by {tps.value:.0f} % "
+        parts.insert(0, f"the plan's own doses differ from the TPS's by {_v(tps)} "
                         "(check S_K, times and source first)")  # fmt: skip
     doses = [v for v in verdicts if v.unit == "%" and v.status != "PASS" and v.check != CHECK_TPS]
     if doses:
         worst = max(doses, key=lambda v: v.value)
-        parts.append(f"dose differences reach {worst.value:.1f} % ({worst.check})")
+        parts.append(f"dose differences reach {_v(worst)} ({worst.check})")
     return "Conclusion: " + "; ".join(parts) + "." if parts else "Conclusion: nothing checked."
 
 

@@ -4,7 +4,8 @@ Public API::
 
     from ringqa.report import write_report, write_batch
     write_report(result, "out/ring26x60")   # dwells.csv doses.csv plan_dwells.csv summary.csv
-                                            # results.json report.pdf, staged (never half-written)
+                                            # results.json report.pdf report.html, staged (never
+                                            # half-written)
     write_batch(batch, "out/")              # one subfolder per applicator + summary.csv,
                                             # batch.json, summary.pdf
     write_report(result, "out", fields=ReportFields(institution="...", physicist="..."))
@@ -60,9 +61,13 @@ def read_accuracy_csv(path) -> pd.DataFrame:
 
 def _write_one(
     result, folder: Path, pdf: bool, accuracy=None, fields=None, export=None, sections=(),
-    extra_files=None,
+    extra_files=None, html: bool | None = None,
 ) -> None:  # fmt: skip
     write_tables(result, folder)
+    if pdf if html is None else html:
+        from ringqa.report.html import write_html
+
+        write_html(result, folder / "report.html")
     for name, data in (extra_files or {}).items():
         (folder / name).write_bytes(data)
     if export is not None:
@@ -145,9 +150,8 @@ def write_batch(
     applicators' PDFs at once (default :func:`ringqa.pipeline.batch.default_workers`; forked,
     each writes its applicator's ``report.pdf`` into the staging folder while this process
     writes the tables and ``summary.pdf``; the files are those of 1 worker)."""
-    from tqdm import tqdm
-
     from ringqa.pipeline.batch import default_workers
+    from ringqa.progress import progress_bar as tqdm  # plain lines when not a terminal
 
     checked = _checked_exports(batch.results, export)
     n_workers = default_workers() if workers is None else max(1, int(workers))
@@ -167,7 +171,7 @@ def write_batch(
             items, desc="reports", unit="applicator", total=len(batch.results),
             disable=not progress or forked,
         ):  # fmt: skip
-            _write_one(res, sub, pdf and not forked, None, own, exp, sections)
+            _write_one(res, sub, pdf and not forked, None, own, exp, sections, html=pdf)
             # each applicator's folder is recognisably ringqa's own (copied out on its own,
             # it is replaced whole by a later run like any output folder)
             write_json(sub / MARKER_NAME, marker_record(), indent=2, end="\n")

@@ -28,7 +28,10 @@ class ReportFields:
     label : str
         A short label for this applicator in a batch (e.g. the serial number).
     notes : str
-        Free notes printed on the first page.
+        Free notes ("Notes of the physicist"), printed above the signature block.
+    strict : bool
+        ``ringqa commission`` exits with status 1 when a verdict is FAIL or ACTION
+        (``report.strict``, ``--strict``); not printed.
     """
 
     institution: str = ""
@@ -38,3 +41,4 @@ class ReportFields:
     source_calibration: str = ""
     label: str = ""
     notes: str = ""
+    strict: bool = False

@@ -43,6 +43,16 @@ import numpy as np
 import pandas as pd
 from reportlab.platypus import CondPageBreak, KeepTogether, PageBreak, Table, TableStyle
 
+from ringqa.pipeline.numbers import (
+    ANGLE_DEG,
+    DIST_MM,
+    DOSE_GY,
+    DOSE_PCT,
+    ERROR_MM,
+    OFFSET_MM,
+    SIGNED_PCT,
+)
+from ringqa.pipeline.numbers import fmt as _fmt_number
 from ringqa.pipeline.plots import (
     FLAG_COLOURS,
     FLAG_NAMES,
@@ -72,7 +82,11 @@ LONG_NAMES = {
 }
 STATUS_COLOURS = layout.STATUS_COLOURS
 #: The dwell table's column of the flags of the reference path as supplied (when registered).
-SUPPLIED_FLAG_COLUMN = "reference\nas\nsupplied"
+SUPPLIED_FLAG_COLUMN = "ref. as\nsupplied"
+#: the dwell table's column of the flags of the registered reference path
+REGISTERED_FLAG_COLUMN = "ref.\nregistered"
+#: short names of the compared paths in the dwell table's headers (whole words on each line)
+PATH_SHORT = {"simulated": "sim.", "centreline": "cl."}
 #: Verdict roles in page-1 order (:mod:`ringqa.pipeline.verdicts`).
 ROLE_ORDER = ("input check", "TPS model", "simulation check", "numerics")
 #: Point kinds of the comparison table, in the order the issue names them.
@@ -124,20 +138,10 @@ class TextItem:
         return [self.text]
 
 
-def fmt_value(value, fmt: str = "{:.2f}", missing: str = "-") -> str:
-    """``value`` formatted with ``fmt``; ``missing`` for None, NaN or infinity (never "nan")."""
-    if value is None:
-        return missing
-    try:
-        if not np.isfinite(float(value)):
-            return missing
-    except (TypeError, ValueError):
-        return str(value)
-    try:
-        text, zero = fmt.format(value), fmt.format(0.0)
-    except (TypeError, ValueError):
-        return str(value)
-    return zero if text.lstrip("+-") == zero.lstrip("+-") else text  # no "-0.00"
+def fmt_value(value, form: str = DIST_MM, missing: str = "-") -> str:
+    """``value`` in its printed ``form`` (:func:`ringqa.pipeline.numbers.fmt`): ``missing`` for
+    None, NaN or infinity (never "nan"), never "-0.00"."""
+    return _fmt_number(value, form, missing)
 
 
 def plain_wording(text: str, keep: Iterable[str] = ()) -> str:
@@ -169,7 +173,7 @@ def transform_text(matrix_m) -> str:
     rot = m[:3, :3]
     t_mm = m_to_mm(m[:3, 3])
     angle = float(np.degrees(np.arccos(np.clip((np.trace(rot) - 1.0) / 2.0, -1.0, 1.0))))
-    xyz = ", ".join(fmt_value(x, "{:+.2f}") for x in t_mm)
+    xyz = ", ".join(fmt_value(x, OFFSET_MM) for x in t_mm)
     text = (
         f"Transform applied to the supplied path (patient coordinates): translation "
         f"(x, y, z) = ({xyz}) mm, {fmt_value(float(np.linalg.norm(t_mm)))} mm in all; "
@@ -197,7 +201,7 @@ def header_items(res) -> list[TextItem]:
     prov = res.provenance
     items = [
         TextItem(
-            "field", f"{res.applicator}  (input: {res.input}, {res.input_kind})", "Applicator"
+            "field", f"{res.applicator}  (input: {res.input_label}, {res.input_kind})", "Applicator"
         ),
         TextItem(
             "field",
@@ -319,7 +323,7 @@ def comparison_rows(res) -> list[tuple[str, str, str]]:
             err = (s.max_numerical_error_mm, s.median_numerical_error_mm)
             if num is not None:
                 err = (num.max_mm, num.median_mm)
-            text = f"{fmt_value(err[0], '{:.3f}')} ({fmt_value(err[1], '{:.3f}')})"
+            text = f"{fmt_value(err[0], ERROR_MM)} ({fmt_value(err[1], ERROR_MM)})"
             rows.append(("Simulated: numerical error, max (median) (mm)", text, text))
     reg_diffs = s.max_abs_diff_registered_pct or s.max_abs_diff_pct
     for plan, per_kind in s.max_abs_diff_pct.items():
@@ -327,8 +331,8 @@ def comparison_rows(res) -> list[tuple[str, str, str]]:
             rows.append(
                 (
                     f"{plan.capitalize()} plan: max |dose difference|, {where} (%)",
-                    fmt_value(per_kind.get(kind)),
-                    fmt_value(reg_diffs.get(plan, {}).get(kind)),
+                    fmt_value(per_kind.get(kind), DOSE_PCT),
+                    fmt_value(reg_diffs.get(plan, {}).get(kind), DOSE_PCT),
                 )
             )
     if measured:
@@ -444,13 +448,13 @@ def _plan_label(plan: str, reference: str) -> str:
 
 def _dose_cell(row, plan: str, reference: str, registered: bool) -> str:
     """One dose-table cell: the dose, and the difference(s) to the reference plan(s)."""
-    dose = fmt_value(row["dose_gy"], "{:.3f}")
+    dose = fmt_value(row["dose_gy"], DOSE_GY)
     if plan == reference:
         return dose
-    raw = fmt_value(row["diff_pct"], "{:+.2f}")
+    raw = fmt_value(row["diff_pct"], SIGNED_PCT)
     if plan == "registered" or not registered:
         return f"{dose} ({raw} %)"
-    return f"{dose} ({raw} / {fmt_value(row.get('diff_registered_pct'), '{:+.2f}')} %)"
+    return f"{dose} ({raw} / {fmt_value(row.get('diff_registered_pct'), SIGNED_PCT)} %)"
 
 
 def dose_table(res) -> tuple[list[str], list[list[str]]]:
@@ -512,29 +516,30 @@ def dwell_table(res) -> pd.DataFrame:
     base = d[d["path"] == ref].reset_index(drop=True)
     flags = reference_flags(res)
     data = {
-        "relative\nposition\n(mm)": base["relative_position_mm"].map("{:g}".format),
-        "in the\nstandard\nplan": base["in_plan"].map({True: "yes", False: ""}),
+        "rel.\npos.\n(mm)": base["relative_position_mm"].map("{:g}".format),
+        "in\nplan": base["in_plan"].map({True: "yes", False: ""}),
     }
     if ref == "measured":
         names = flags[["flag_supplied", "flag"]].map(lambda f: FLAG_NAMES.get(f, f))
         if res.summary.registration != "none":
             data[SUPPLIED_FLAG_COLUMN] = names["flag_supplied"]
-            data["reference\nregistered"] = names["flag"]
+            data[REGISTERED_FLAG_COLUMN] = names["flag"]
         else:
-            data["reference\nposition"] = names["flag"]
+            data["ref.\nposition"] = names["flag"]
     for p in others:
         sub = d[d["path"] == p].reset_index(drop=True)
+        q = PATH_SHORT.get(p, p)
         columns = [
-            ("dist_to_reference_mm", f"{p}\n3D (mm)", "{:.2f}"),
-            ("along_mm", f"{p}\nalong\n(mm)", "{:+.2f}"),
-            ("radial_mm", f"{p}\nradial\n(mm)", "{:+.2f}"),
-            ("out_of_plane_mm", f"{p}\nout of\nplane (mm)", "{:+.2f}"),
-            ("angle_deg", f"{p}\nangle\n(deg)", "{:.1f}"),
+            ("dist_to_reference_mm", f"{q}\n3D\n(mm)", DIST_MM),
+            ("along_mm", f"{q}\nalong\n(mm)", OFFSET_MM),
+            ("radial_mm", f"{q}\nradial\n(mm)", OFFSET_MM),
+            ("out_of_plane_mm", f"{q}\nout of\nplane\n(mm)", OFFSET_MM),
+            ("angle_deg", f"{q}\nangle\n(deg)", ANGLE_DEG),
         ]
         if p == "simulated" and "numerical_error_mm" in sub:
-            columns.append(("numerical_error_mm", "simulated\nnumerical\nerror (mm)", "{:.3f}"))
-        for key, col, fmt in columns:
-            data[col] = sub[key].map(lambda x, fmt=fmt: fmt_value(x, fmt))
+            columns.append(("numerical_error_mm", f"{q}\nnum.\nerror\n(mm)", ERROR_MM))
+        for key, col, form in columns:
+            data[col] = sub[key].map(lambda x, form=form: fmt_value(x, form))
     return pd.DataFrame(data)
 
 
@@ -554,14 +559,19 @@ def table2_rows(results) -> list[list[str]]:
                 (r.reference, plan), {"point_a": [], "surface": [], "depth5": [], "n": []}
             )
             for kind in ("point_a", "surface", "depth5"):
-                per_kind[kind].append(float(d.loc[d["kind"] == kind, "diff_pct"].abs().max()))
+                # the dose difference the verdicts judge (to the registered reference plan)
+                col = "diff_registered_pct" if "diff_registered_pct" in d else "diff_pct"
+                per_kind[kind].append(float(d.loc[d["kind"] == kind, col].abs().max()))
             per_kind["n"].append(1.0)
     rows = []
     for (ref, plan), per_kind in groups.items():
         cells = [f"{ref} - {plan} ({len(per_kind['n'])})"]
         for kind in ("point_a", "surface", "depth5"):
             v = np.asarray(per_kind[kind])
-            cells.append(f"{np.median(v):.1f} ({v.min():.1f} - {v.max():.1f})")
+            cells.append(
+                f"{fmt_value(np.median(v), DOSE_PCT)} ({fmt_value(v.min(), DOSE_PCT)} - "
+                f"{fmt_value(v.max(), DOSE_PCT)})"
+            )
         rows.append(cells)
     return rows
 
@@ -812,7 +822,7 @@ def doses_flowables(res) -> list:
                 str(r.point),
                 fmt_value(r.tps_dose_gy, "{:.4f}"),
                 fmt_value(r.dose_gy, "{:.4f}"),
-                f"{fmt_value(r.diff_pct, '{:+.2f}')} %",
+                f"{fmt_value(r.diff_pct, SIGNED_PCT)} %",
             ]
             for r in own.itertuples()
         ]
@@ -825,6 +835,18 @@ def doses_flowables(res) -> list:
     tg43 = tg43_reference(res.settings.source)
     tg43 = f"TG-43 data of the source {res.settings.source}: {tg43}" if tg43 else ""
     return [*out, *_references(PAPER_REFERENCE + " (dose points, Table 2)", tg43)]
+
+
+#: width of the dwell table's flag columns, points (whole words: "infeasible", "registered")
+FLAG_COLUMN_PT = 50.0
+
+
+def dwell_column_widths(columns: Sequence[str]) -> list[float]:
+    """The dwell table's column widths (points): the flag columns wide enough for their words,
+    the number columns sharing the rest."""
+    flag = [c.startswith("ref.") for c in columns]
+    rest = (layout.FRAME_WIDTH - FLAG_COLUMN_PT * sum(flag)) / max(1, len(columns) - sum(flag))
+    return [FLAG_COLUMN_PT if f else rest for f in flag]
 
 
 def dwell_table_flowables(res) -> list:
@@ -843,13 +865,21 @@ def dwell_table_flowables(res) -> list:
     return [
         heading(f"Dwell by dwell: deviations from the {reference_name(res)}", 1),
         para(
+            "sim. = simulated, cl. = centreline, ref. = reference position (as supplied / "
+            "registered), num. error = the simulation's numerical error. "
             "along = distal positive, radial = outward in the ring plane, out of plane = cranial "
             "positive; angle between source orientations. Shaded rows: reference position "
             "infeasible (cannot lie in the lumen, red) or outside the channel (left out of the "
             "verdicts, grey).",
             "small",
         ),
-        grid_table(rows, row_colours=row_colours, cell_colours=cell_colours, first_left=False),
+        grid_table(
+            rows,
+            dwell_column_widths(columns),
+            row_colours=row_colours,
+            cell_colours=cell_colours,
+            first_left=False,
+        ),
     ]
 
 
@@ -1037,7 +1067,7 @@ def write_pdf(
         Institution, physicist, serial, afterloader, source calibration, notes (blank lines to
         fill by hand when not given).
     notes : str or sequence of str
-        Free notes printed on the first page (after ``fields.notes``).
+        Free notes printed above the signature block (after ``fields.notes``).
     accuracy : pandas.DataFrame, optional
         The table of ``ringqa accuracy`` (accuracy.csv: ``time_s, max_err_mm, status,
         pareto``) for an extra page.
@@ -1059,6 +1089,41 @@ def write_pdf(
         title=f"ringqa commissioning report: {result.applicator}",
         subject="HDR ring applicator commissioning",
     )
+
+
+#: summary.pdf's table: (summary.csv column as judged, header, form); ``{reg}`` is
+#: ``_registered`` for a registered run
+BATCH_COLUMNS = (
+    ("median_dist_sim{reg}_mm", "sim. median (mm)", DIST_MM),
+    ("max_dist_sim{reg}_mm", "sim. max (mm)", DIST_MM),
+    ("max_dist_centreline{reg}_mm", "cl. max (mm)", DIST_MM),
+    ("max_abs_diff_surface_simulated{reg}_pct", "sim. surface max |dD| (%)", DOSE_PCT),
+)
+
+
+#: summary.pdf's table column widths (fractions of the frame)
+BATCH_WIDTHS = (0.17, 0.25, 0.09, 0.11, 0.075, 0.075, 0.075, 0.075, 0.08)
+
+
+def batch_summary_rows(batch) -> tuple[list[str], list[list[str]]]:
+    """summary.pdf's table (header, rows), one row per input as in summary.csv: applicator,
+    input, reference, registration, then the numbers the verdicts judge (the ``_registered``
+    columns of a registered run, as the verdicts judge them) and the verdict."""
+    header = ["applicator", "input", "ref.", "reg.", *(c[1] for c in BATCH_COLUMNS), "verdict"]
+    rows = []
+    for row in batch.summary.to_dict("records"):
+        mode = str(row.get("registration") or "none")
+        reg = "" if mode in ("none", "nan") else "_registered"
+        cells = [
+            _fmt(row.get("applicator"), "{}"),
+            _fmt(row.get("input"), "{}"),
+            _fmt(row.get("reference"), "{}"),
+            "" if row.get("verdict") == "ERROR" else mode,
+        ]
+        cells += [fmt_value(row.get(key.format(reg=reg)), form) for key, _, form in BATCH_COLUMNS]
+        cells.append(_fmt(row.get("verdict"), "{}"))
+        rows.append(cells)
+    return header, rows
 
 
 def write_batch_pdf(batch, path: Path, *, fields: ReportFields | None = None) -> Path:
@@ -1102,21 +1167,18 @@ def write_batch_pdf(batch, path: Path, *, fields: ReportFields | None = None) ->
                 markup=True,
             )
         )
-    cols = [
-        ("applicator", "applicator", "{}"),
-        ("reference", "ref.", "{}"),
-        ("median_dist_sim_mm", "sim. median (mm)", "{:.2f}"),
-        ("max_dist_sim_mm", "sim. max (mm)", "{:.2f}"),
-        ("max_dist_centreline_mm", "cl. max (mm)", "{:.2f}"),
-        ("max_abs_diff_surface_simulated_pct", "sim. surface max |dD| (%)", "{:.1f}"),
-        ("verdict", "verdict", "{}"),
-    ]
-    rows = [[c[1] for c in cols]]
-    rows += [[_fmt(row.get(k), f) for k, _, f in cols] for row in batch.summary.to_dict("records")]
+    header, rows = batch_summary_rows(batch)
     w = layout.FRAME_WIDTH
     story += [
         heading("Summary", 1),
-        grid_table(rows, [0.3 * w, *([0.7 * w / 6] * 6)]),
+        para(
+            "Distances and dose differences as the verdicts judge them: against the registered "
+            "reference path where the run registered it (column reg.), reference positions "
+            "outside the channel left out; the same numbers as the boxes above and each "
+            "applicator's report. Input: the file commissioned (summary.csv input).",
+            "small",
+        ),
+        grid_table([header, *rows], [f * w for f in BATCH_WIDTHS]),
     ]
     t2 = table2_rows(results)
     if t2:

@@ -18,9 +18,13 @@ import pandas as pd
 
 from ringqa.jsonio import csv_encoding, to_jsonable, write_json
 from ringqa.pipeline import BatchResult, CommissioningResult
+from ringqa.provenance import input_folder, relative_paths
 
 SCHEMA = "ringqa.commission/1"
 FLOAT_FORMAT = "%.6g"
+#: results.json ``files``: what a run writes into its folder (report.pdf and report.html unless
+#: --no-pdf)
+FILES = ("dwells.csv", "doses.csv", "plan_dwells.csv", "summary.csv", "report.pdf", "report.html")
 
 
 def results_dict(result: CommissioningResult) -> dict:
@@ -32,16 +36,17 @@ def results_dict(result: CommissioningResult) -> dict:
         if not result.doses.empty
         else []
     )
-    return to_jsonable(
+    base = input_base(result)
+    data = to_jsonable(
         {
             "schema": SCHEMA,
             "applicator": result.applicator,
-            "input": result.input,
+            "input": result.input_label,
             "input_kind": result.input_kind,
             "reference": result.reference,
             "passed": result.passed,
             "verdicts": [v.as_dict() for v in result.verdicts],
-            "summary": {**result.summary.as_row(), "channel": channel_of_result(result)},
+            "summary": {**result.summary_row(), "channel": channel_of_result(result)},
             "notes": list(result.notes),
             "warnings": result.warning_records(),
             "settings": result.settings.as_dict(),
@@ -52,7 +57,7 @@ def results_dict(result: CommissioningResult) -> dict:
             "geometry": result.geometry.as_dict(),
             "timings_s": result.timings.as_dict(),
             "provenance": result.provenance.as_dict(),
-            "files": ["dwells.csv", "doses.csv", "plan_dwells.csv", "summary.csv", "report.pdf"],
+            "files": FILES,
             "conclusion": result.conclusion,
             "reference_check": (
                 result.reference_check.as_dict() if result.reference_check is not None else None
@@ -60,6 +65,19 @@ def results_dict(result: CommissioningResult) -> dict:
             "numerical_check": result.numerics.as_dict() if result.numerics is not None else None,
         }
     )
+    out = relative_paths(data, base)
+    # the input as given (two inputs of one batch stay apart), as summary.csv names it
+    out["input"] = out["summary"]["input"] = result.input_label
+    return out
+
+
+def input_base(result: CommissioningResult) -> Path | None:
+    """The folder a result's own files are named relative to in its outputs (the input's
+    folder; None for a shipped input or a Python object)."""
+    p = Path(result.input)
+    if result.input_kind in ("shipped", "object") or not p.exists():
+        return None
+    return input_folder(p)
 
 
 def channel_of_result(result: CommissioningResult) -> str:
@@ -93,7 +111,7 @@ def write_tables(result: CommissioningResult, folder: Path) -> list[Path]:
         ("dwells.csv", with_channel(result, result.dwells)),
         ("doses.csv", with_channel(result, result.doses)),
         ("plan_dwells.csv", result.plan_dwells),
-        ("summary.csv", with_channel(result, pd.DataFrame([result.summary.as_row()]))),
+        ("summary.csv", with_channel(result, pd.DataFrame([result.summary_row()]))),
     ):
         df.to_csv(folder / name, index=False, float_format=FLOAT_FORMAT, encoding=csv_encoding(df))
         out.append(folder / name)

@@ -22,10 +22,11 @@ from collections.abc import Callable, Mapping
 
 import pandas as pd
 
+from ringqa.pipeline.numbers import SIGNED_PCT, fmt
 from ringqa.report import layout
 from ringqa.report.layout import grid_table, heading, para
 
-__all__ = ["interval_verdicts", "uncertainty_section"]
+__all__ = ["interval_verdicts", "judged_points", "left_out_dwells", "uncertainty_section"]
 
 
 def _rows(summary: pd.DataFrame, key: str, quantity: str) -> pd.DataFrame:
@@ -33,8 +34,34 @@ def _rows(summary: pd.DataFrame, key: str, quantity: str) -> pd.DataFrame:
     return sub.reset_index(drop=True)
 
 
+def _dwell_key(value) -> str:
+    try:
+        return str(int(float(value)))
+    except (TypeError, ValueError):
+        return str(value)
+
+
+def left_out_dwells(result) -> set[str]:
+    """The dwells the result's verdicts leave out (reference position outside the channel), as
+    the sweep's ``dwell`` column names them."""
+    d = result.dwells
+    if "reference_flag" not in d:
+        return set()
+    out = d[(d["path"] == "simulated") & (d["reference_flag"].astype(str) == "outside_channel")]
+    return {_dwell_key(x) for x in out["dwell"]}
+
+
+def judged_points(result) -> set[str] | None:
+    """The dose points the result's dose verdicts judge (the standard points; the RT Plan's own
+    points, kind ``tps``, are an input check against the TPS, not judged here)."""
+    d = result.doses
+    if "kind" not in d:
+        return None
+    return {str(p) for p in d[d["kind"] != "tps"]["point"]}
+
+
 def interval_verdicts(
-    summary: pd.DataFrame, required_mm: float, action_pct: float
+    summary: pd.DataFrame, required_mm: float, action_pct: float, left_out=(), points=None
 ) -> dict[str, list[tuple[str, float, float, bool]]]:
     """Per dwell and per dose point: the 95 % interval and whether the verdict holds across it.
 
@@ -46,6 +73,10 @@ def interval_verdicts(
         Required position tolerance, mm.
     action_pct : float
         Dose-difference action level, %.
+    left_out : collection of str
+        Dwells the verdicts leave out (:func:`left_out_dwells`): left out here too.
+    points : collection of str, optional
+        The dose points the verdicts judge (:func:`judged_points`; default: every point).
 
     Returns
     -------
@@ -55,15 +86,21 @@ def interval_verdicts(
         without successful samples (NaN bounds) never holds.
     """
     dwells = []
+    skip = {_dwell_key(x) for x in left_out}
     for row in _rows(summary, "dwell", "deviation_mm").itertuples():
+        if _dwell_key(row.dwell) in skip:
+            continue
         hi = float(row.p97_5)
-        dwells.append((str(row.dwell), float(row.mean), hi, bool(hi <= required_mm)))
-    points = []
+        dwells.append((_dwell_key(row.dwell), float(row.mean), hi, bool(hi <= required_mm)))
+    judged = None if points is None else {str(p) for p in points}
+    rows = []
     for row in _rows(summary, "point", "dose_diff_pct").itertuples():
+        if judged is not None and str(row.point) not in judged:
+            continue
         lo, hi = float(row.p2_5), float(row.p97_5)
         ok = math.isfinite(lo) and math.isfinite(hi) and max(abs(lo), abs(hi)) <= action_pct
-        points.append((str(row.point), lo, hi, bool(ok)))
-    return {"dwells": dwells, "points": points}
+        rows.append((str(row.point), lo, hi, bool(ok)))
+    return {"dwells": dwells, "points": rows}
 
 
 def _png(data: bytes, width: float):
@@ -77,10 +114,6 @@ def _png(data: bytes, width: float):
     reader = ImageReader(BytesIO(data))
     w, h = reader.getSize()
     return PixelImage(reader, width, width * h / w)
-
-
-def _fmt(x: float, fmt: str) -> str:
-    return fmt.format(x) if math.isfinite(x) else "-"
 
 
 def uncertainty_section(
@@ -108,7 +141,8 @@ def uncertainty_section(
         s = result.settings
         required = float(s.position_limits_mm[1])
         action = float(s.dose_action_pct)
-        v = interval_verdicts(summary, required, action)
+        skip = left_out_dwells(result)
+        v = interval_verdicts(summary, required, action, skip, judged_points(result))
         n_ok, n_runs = record.get("n_ok", "?"), record.get("n_runs", "?")
         bad_dwells = [d for d, _, _, ok in v["dwells"] if not ok]
         bad_points = [p for p, _, _, ok in v["points"] if not ok]
@@ -120,7 +154,16 @@ def uncertainty_section(
                 "docs/sweeps.md). Intervals are the 2.5th-97.5th percentiles of the samples. "
                 f"Position holds when the 97.5th percentile of a dwell's deviation is within "
                 f"{required:g} mm (required); dose holds when the whole interval is within "
-                f"+/-{action:g} %."
+                f"+/-{action:g} %. The same comparison as the verdicts: registration "
+                f"{result.summary.registration}, dose differences to the registered reference "
+                "plan at the standard dose points (the RT Plan's own points are in "
+                "uncertainty.csv)"
+                + (
+                    f", dwell(s) {', '.join(sorted(skip, key=float))} left out (reference "
+                    "position outside the channel)."
+                    if skip
+                    else "."
+                )
             ),
             para(
                 "Position: "
@@ -142,7 +185,7 @@ def uncertainty_section(
             out.append(_png(figure_png, layout.FRAME_WIDTH * 0.9))
         rows = [["point", "dose difference p2.5 (%)", "p97.5 (%)", f"within +/-{action:g} %"]]
         rows += [
-            [p, _fmt(lo, "{:+.2f}"), _fmt(hi, "{:+.2f}"), "yes" if ok else "NO"]
+            [p, fmt(lo, SIGNED_PCT), fmt(hi, SIGNED_PCT), "yes" if ok else "NO"]
             for p, lo, hi, ok in v["points"]
         ]
         out.append(grid_table(rows))

@@ -86,7 +86,8 @@ class Prepared:
     points_mm : (k, 3) ndarray
         Every dose point, mm.
     reference_dose_gy : (k,) ndarray
-        The reference plan's doses at them.
+        The doses at them of the plan the verdicts judge against (the registered reference plan
+        where the run registers, else the reference plan).
     dwell_ids : tuple of int
     point_names : tuple of str
     s_ref_mm : float
@@ -251,7 +252,9 @@ def prepare(job: Job) -> Prepared:
         sk_u=float(src.sk_U),
         prescription_gy=float(cfg.prescription_gy),
         points_mm=pts,
-        reference_dose_gy=np.asarray(plans.reference.dose_gy(pts), dtype=float),
+        # the plan the verdicts judge against: the registered reference where registered
+        # (doses.csv diff_registered_pct), as record_of's full samples
+        reference_dose_gy=np.asarray(plans.compared_reference.dose_gy(pts), dtype=float),
         dwell_ids=tuple(range(1, len(rel) + 1)),
         point_names=tuple(str(p.name) for p in points.all),
         s_ref_mm=float(s_ref_mm),

@@ -162,7 +162,9 @@ def record_of(res, index: int, values: tuple, seconds: float, worker: str) -> Sa
     }
     point = {
         "dose_gy": doses["dose_gy"].to_numpy(float),
-        "dose_diff_pct": doses["diff_pct"].to_numpy(float),
+        # the difference the verdicts judge: to the registered reference plan (= diff_pct
+        # without registration)
+        "dose_diff_pct": doses["diff_registered_pct"].to_numpy(float),
     }
     return SampleRecord(
         int(index),

@@ -31,6 +31,7 @@ import pandas as pd
 
 from ringqa.errors import RingQAError
 from ringqa.outdir import check_writable, staged_output
+from ringqa.provenance import display_path
 from ringqa.sweep.analysis import failure_report, sensitivity, sensitivity_reason, summary
 from ringqa.sweep.execute import auto_batch_size
 from ringqa.sweep.fast import NumericalBound, calibrate, cheap_sample, run_cheap_batch
@@ -295,6 +296,11 @@ def run_sweep(
             "values": dict(zip(spec.names, nominal, strict=True)),
             "max_deviation_mm": float(np.max(nom_rec.dwell["deviation_mm"])),
             "max_numerical_error_mm": float(np.max(nom_rec.dwell["numerical_error_mm"])),
+            # the nominal run's dose differences as the report's verdicts judge them (to the
+            # registered reference plan): the uncertainty page's intervals are of these
+            "dose_diff_pct": dict(
+                zip(nom_rec.point_names, map(float, nom_rec.point["dose_diff_pct"]), strict=True)
+            ),
         },
         "spread_vs_numerics": _spread_vs_numerics(summ),
         "numerical_check": bound.as_dict()
@@ -329,7 +335,7 @@ def run_sweep(
         samples,
         nom_rec.positions_mm,
         reference_mm,
-        f"{nom_res.applicator}: {spec.path}"
+        f"{nom_res.applicator}: {display_path(spec.path)}"  # never an install path
         + (
             f" ({failed_report['n_failed']} of {failed_report['n']} samples failed: intervals "
             "conditional on success)"
@@ -440,7 +446,7 @@ class _AppendGuard:
 
 
 def _bar(total: int, done: int, show: bool):
-    from tqdm import tqdm
+    from ringqa.progress import progress_bar as tqdm  # plain lines when not a terminal
 
     return tqdm(
         total=total,

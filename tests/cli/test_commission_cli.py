@@ -67,17 +67,19 @@ def test_single(fake_world, tmp_path, capsys):
 
 
 @pytest.mark.parametrize(
-    ("name", "message"),
+    ("name", "message", "status"),
     [
-        ("jam", "jammed after advance"),
-        ("narrow", "cannot pass"),
-        ("nopath", "no measured source path"),
-        ("missing", "no such applicator"),
+        ("jam", "jammed after advance", 3),  # the simulation failed: exit status 3
+        ("narrow", "cannot pass", 2),  # bad input: 2
+        ("nopath", "no measured source path", 2),
+        ("missing", "no such applicator", 2),
     ],
 )
-def test_failures_are_one_line_and_leave_nothing(fake_world, tmp_path, capsys, name, message):
+def test_failures_are_one_line_and_leave_nothing(
+    fake_world, tmp_path, capsys, name, message, status
+):
     out = tmp_path / "out"
-    assert main(["commission", name, "--out", str(out)]) == 2
+    assert main(["commission", name, "--out", str(out)]) == status
     err = capsys.readouterr().err.strip()
     assert message in err and len(err.splitlines()) == 1 and "Traceback" not in err
     assert list(tmp_path.iterdir()) == []  # no report, no staging folder
@@ -100,7 +102,7 @@ def test_batch_completes_around_a_failure(fake_world, tmp_path, capsys):
     out = tmp_path / "all"
     code = main(["commission", "fake26", "jam", "nopath", "--out", str(out), "--quiet",
                  "--centreline-reference"])  # fmt: skip
-    assert code == 2
+    assert code == 3  # one simulation jammed (the others' files are written)
     captured = capsys.readouterr()
     assert "2 of 3 applicators" in captured.out
     assert "jam" in captured.err and "jammed" in captured.err
@@ -168,12 +170,12 @@ def test_empty_folder_is_refused(tmp_path, capsys):
 
 
 def test_real_jam_is_clean(tmp_path, capsys):
-    """The real engine with a 0.05 N jam threshold jams on the way into ring26x60: exit 2, one
-    line naming the jam, and no output folder."""
+    """The real engine with a 0.05 N jam threshold jams on the way into ring26x60: exit 3 (a
+    simulation failure), one line naming the jam, and no output folder."""
     out = tmp_path / "out"
     args = ["commission", "ring26x60", "--out", str(out), "--set", "solver.jam_force_n=0.05"]
     code = main([*args, "--quiet"])
-    assert code == 2
+    assert code == 3
     err = capsys.readouterr().err.strip()
     assert "jammed" in err and len(err.splitlines()) == 1
     assert list(tmp_path.iterdir()) == []
@@ -276,3 +278,111 @@ def test_labels_must_be_one_per_input(fake_world, tmp_path, capsys):
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "1 label(s) for 2 input(s)" in err
     assert not out.exists()
+
+
+def test_strict_exit_status(fake_world, tmp_path, capsys):
+    """A verdict ACTION (a 0.0001 % dose action level, which any dose difference exceeds):
+    exit status 0 without --strict, 1 with it or with report.strict = true; the files are
+    written either way. --help documents the statuses."""
+    args = ["commission", "fake26", "--dose-action-pct", "0.0001", "--quiet", "--no-pdf"]
+    assert main([*args, "--out", str(tmp_path / "a")]) == 0
+    data = json.loads((tmp_path / "a" / "results.json").read_text())
+    assert any(v["status"] == "ACTION" for v in data["verdicts"]) and not data["passed"]
+    assert main([*args, "--strict", "--out", str(tmp_path / "b")]) == 1
+    assert (tmp_path / "b" / "results.json").is_file()
+    site = tmp_path / "site.toml"
+    site.write_text("[report]\nstrict = true\n")
+    assert main([*args, "--config", str(site), "--out", str(tmp_path / "c")]) == 1
+    # all PASS/WARN (a 50 % action level) with --strict: 0
+    assert main(["commission", "fake26", "--strict", "--quiet", "--no-pdf", "--dose-action-pct",
+                 "50", "--out", str(tmp_path / "d")]) == 0  # fmt: skip
+    capsys.readouterr()
+    with pytest.raises(SystemExit):
+        main(["commission", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    for line in ("0 every verdict PASS or WARN", "1 a verdict FAIL or ACTION with --strict",
+                 "2 bad input", "3 the simulation", "130", "143"):  # fmt: skip
+        assert line in text, line
+
+
+def test_log_file_is_an_audit_trail(fake_world, tmp_path):
+    """--log-file: the input, every setting with its origin, every verdict of results.json,
+    every file written with its SHA-256 (computed here with hashlib), the exit status and the
+    wall time."""
+    import hashlib
+
+    out, log = tmp_path / "out", tmp_path / "audit.log"
+    assert main(["--log-file", str(log), "commission", "fake26", "--out", str(out),
+                 "--quiet", "--dose-action-pct", "4"]) == 0  # fmt: skip
+    text = log.read_text(encoding="utf-8")
+    assert "input: fake26 (shipped" in text
+    assert "setting: tolerances.dose_action_pct = 4.0 (command line)" in text
+    assert "setting: tolerances.position_required_mm = 2.0 (default)" in text
+    data = json.loads((out / "results.json").read_text())
+    for v in data["verdicts"]:
+        assert f"verdict: fake26: {v['status']} {v['check']}: " in text, v["check"]
+    files = sorted(p for p in out.rglob("*") if p.is_file())
+    assert len(files) >= 6
+    for p in files:
+        digest = hashlib.sha256(p.read_bytes()).hexdigest()
+        assert f"file written: {p.relative_to(out).as_posix()} (" in text
+        assert digest in text, p.name
+    assert "exit status 0 (" in text and "wall time" in text
+
+
+@pytest.mark.slow
+def test_example_is_the_readme_quick_start(tmp_path):
+    """``ringqa commission --example`` gives README's quick start (its command read from
+    README.md, the example plan registered with plane-height): the same verdicts, values and
+    summary numbers."""
+    import re
+    import shlex
+    from pathlib import Path
+
+    readme = (Path(__file__).resolve().parents[2] / "README.md").read_text()
+    section = readme.split("## Quick start", 1)[1].split("\n## ", 1)[0]
+    job = next(m.group(1) for m in re.finditer(r"^ {4}(\S.*)$", section, re.M)
+               if "ringqa commission" in m.group(1))  # fmt: skip
+    words = shlex.split(job)[1:]  # without .venv/bin/ringqa
+    words[words.index("--out") + 1] = str(tmp_path / "readme")
+    assert words[0] == "commission" and "--register" in words
+    root = Path(__file__).resolve().parents[2]
+    words = [str(root / w) if w.endswith(".dcm") else w for w in words]
+    assert main([*words, "--no-pdf", "--quiet"]) == 0
+    assert main(["commission", "--example", "--out", str(tmp_path / "ex"), "--no-pdf",
+                 "--quiet"]) == 0  # fmt: skip
+    a = json.loads((tmp_path / "readme" / "results.json").read_text())
+    b = json.loads((tmp_path / "ex" / "results.json").read_text())
+    assert [(v["check"], v["status"]) for v in a["verdicts"]] == [
+        (v["check"], v["status"]) for v in b["verdicts"]
+    ]
+    for va, vb in zip(a["verdicts"], b["verdicts"], strict=True):
+        assert va["value"] == pytest.approx(vb["value"], abs=1e-9), va["check"]
+    assert a["summary"]["registration"] == b["summary"]["registration"] == "plane-height"
+    for key, value in a["summary"].items():
+        if isinstance(value, float) and key != "solve_time_s":
+            assert b["summary"][key] == pytest.approx(value, abs=1e-9, nan_ok=True), key
+    assert a["conclusion"] == b["conclusion"]
+
+
+@pytest.mark.parametrize(
+    "command",
+    ["tg43-demo", "import", "simulate", "accuracy", "commission", "needle", "config", "sweep",
+     "warmup"],
+)  # fmt: skip
+def test_help_has_no_markup(command, capsys):
+    """Every command's --help reads as text: no reST markup (``x``, :func:, **x**) and no
+    developer history ("contract of issue 3")."""
+    with pytest.raises(SystemExit):
+        main([command, "--help"])
+    text = capsys.readouterr().out
+    for word in ("``", ":func:", ":class:", ":mod:", "**", "contract of issue"):
+        assert word not in text, (command, word)
+
+
+def test_unknown_scene_lists_the_shipped_ones(tmp_path, capsys):
+    """``ringqa simulate ring99``: exit 2, one line naming the shipped scenes."""
+    assert main(["simulate", "ring99", "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1
+    assert "ring26-flexitron" in err and "ring13-push100" in err

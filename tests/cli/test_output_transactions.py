@@ -52,7 +52,8 @@ def _dead_pid() -> int:
 @pytest.mark.usefixtures("fake_world")
 def test_rerun_replaces_an_earlier_batch_output_completely(tmp_path, capsys):
     """A batch, then one applicator into the same --out: no applicator folder, batch.json or
-    summary.pdf of the batch survives; then a --no-pdf run removes the earlier report.pdf."""
+    summary.pdf of the batch survives; then a --no-pdf run removes the earlier report.pdf and
+    report.html."""
     out = tmp_path / "out"
     args = ["--out", str(out), "--quiet", "--centreline-reference"]
     assert main(["commission", "fake26", "nopath", *args]) == 0
@@ -62,7 +63,7 @@ def test_rerun_replaces_an_earlier_batch_output_completely(tmp_path, capsys):
     assert "report.pdf" in single and MARKER in single
     assert not {"fake26", "nopath", "batch.json", "summary.pdf"} & set(single)
     assert main(["commission", "nopath", "--no-pdf", *args]) == 0
-    assert set(_names(out)) == set(single) - {"report.pdf"}
+    assert set(_names(out)) == set(single) - {"report.pdf", "report.html"}  # both with the PDF
     assert json.loads((out / MARKER).read_text())["command"] == "commission"
     assert _names(tmp_path) == ["out"]  # nothing hidden left beside it
     capsys.readouterr()

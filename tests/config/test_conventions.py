@@ -13,7 +13,12 @@ import pandas as pd
 from ringqa.cli import main
 from ringqa.datasets import example_plan
 from ringqa.jsonio import csv_encoding
-from ringqa.provenance import Provenance, dependency_versions, tg43_data_files
+from ringqa.provenance import (
+    Provenance,
+    dependency_versions,
+    display_path,
+    tg43_data_files,
+)
 
 
 def test_example_plan_is_the_shipped_plan(repo_root):
@@ -96,7 +101,7 @@ def test_provenance_versions_and_tg43_hashes(repo_root):
     assert {f.name for f in files} >= {"meta.json", "gL.csv", "F_r_theta.csv"}
     prov = Provenance.now(data=files).as_dict()
     for f in files:
-        assert prov["data"][str(f)] == hashlib.sha256(f.read_bytes()).hexdigest()
+        assert prov["data"][display_path(f)] == hashlib.sha256(f.read_bytes()).hexdigest()
     assert prov["dependencies"]["numpy"] == metadata.version("numpy")
 
 

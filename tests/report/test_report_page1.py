@@ -223,11 +223,11 @@ def test_dose_table_registered_differences(registered, unregistered):
 
 def test_dwell_table_flags_and_numerical_error(flagged, registered):
     table = dwell_table(flagged)
-    flags = table["reference\nposition"].tolist()
+    flags = table["ref.\nposition"].tolist()
     assert flags[3] == "infeasible" and set(flags[:3] + flags[4:]) == {""}
-    assert set(table["simulated\nnumerical\nerror (mm)"]) == {"0.030"}
+    assert set(table["sim.\nnum.\nerror\n(mm)"]) == {"0.030"}
     table = dwell_table(registered)  # registered: the flags as supplied and as registered
-    assert {"reference\nas\nsupplied", "reference\nregistered"} <= set(table.columns)
+    assert {"ref. as\nsupplied", "ref.\nregistered"} <= set(table.columns)
 
 
 def test_transform_text():

@@ -44,7 +44,10 @@ def test_interval_verdicts_against_the_tolerances():
 def test_the_report_gains_the_uncertainty_page(fake_result, tmp_path):
     """The section is the report's last page, with the sample count, what does not hold (the
     stand-in run's required tolerance and action level from its settings) and the dose table."""
-    section = uncertainty_section(_summary(), None, {"n_ok": 7, "n_runs": 8})
+    # the stand-in's standard points; "deep" is no dose point of the run: not judged
+    names = {"A_left": "point_a_left", "surface": "surface_left"}
+    summary = _summary().replace({"point": names})
+    section = uncertainty_section(summary, None, {"n_ok": 7, "n_runs": 8})
     write_report(fake_result, tmp_path / "out", sections=[section],
                  extra_files={"uncertainty.csv": b"dwell\n"})  # fmt: skip
     last = pdf_pages_text(tmp_path / "out" / "report.pdf")[-1]
@@ -53,5 +56,5 @@ def test_the_report_gains_the_uncertainty_page(fake_result, tmp_path):
     required = fake_result.settings.position_limits_mm[1]
     expect = "holds at all 2 dwells" if required >= 2.1 else "does NOT hold at 1 of 2 dwells"
     assert expect in last
-    assert "surface" in last and "A_left" in last
+    assert "surface_left" in last and "point_a_left" in last and "deep" not in last
     assert (tmp_path / "out" / "uncertainty.csv").read_bytes() == b"dwell\n"

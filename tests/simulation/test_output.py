@@ -12,6 +12,7 @@ import pytest
 
 import ringqa.simulation as sim
 from ringqa.cli import main
+from ringqa.provenance import display_path
 from ringqa.simulation.output import write_outputs
 from ringqa.simulation.scenefile import load_scene, scene_to_dict
 
@@ -69,7 +70,7 @@ def test_outputs_follow_the_contract(tmp_path):
     for key in ("status", "solve_time_s", "n_elements", "settings", "scene", "provenance"):
         assert key in run
     assert run["status"] == 0 and run["n_elements"] == 120 and run["newton_iters_total"] > 0
-    assert str(SCENE) in run["provenance"]["inputs"]
+    assert display_path(SCENE) in run["provenance"]["inputs"]  # ringqa:data/scenes/...
     again = load_scene(run["scene"])
     assert scene_to_dict(again) == scene_to_dict(scene)
     with h5py.File(tmp_path / "trajectory.h5") as h5:

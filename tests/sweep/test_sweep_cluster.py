@@ -184,7 +184,9 @@ def test_interrupted_sweep_resumes_without_recomputing(tmp_path, spec_writer):
         "--set",
         "calibration_samples=2",
     ]
-    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[2])}
+    # a progress line per sample into the pipe (not a terminal: plain lines, ringqa.progress)
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[2]),
+           "RINGQA_PROGRESS_INTERVAL_S": "0"}  # fmt: skip
     proc = subprocess.Popen(cmd, stderr=subprocess.PIPE, stdout=subprocess.PIPE, env=env)
     seen = b""
     # the bar moves per sample finished on the worker, a little ahead of samples.h5: wait

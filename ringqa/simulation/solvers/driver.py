@@ -374,7 +374,7 @@ def _result(scene, model, integrator, monitor, recorder, status, message, v, tim
 
 def _progress_bar(scene, schedule, u_start: float):
     """A tqdm bar over the input length (mm)."""
-    from tqdm import tqdm
+    from ringqa.progress import progress_bar as tqdm  # plain lines when not a terminal
 
     path = schedule.path
     total = sum(
