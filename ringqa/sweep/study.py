@@ -30,7 +30,7 @@ import numpy as np
 import pandas as pd
 
 from ringqa.errors import RingQAError
-from ringqa.outdir import check_writable, staged_output
+from ringqa.outdir import HANDLED_SIGNALS, check_writable, staged_output
 from ringqa.provenance import display_path
 from ringqa.sweep.analysis import failure_report, sensitivity, sensitivity_reason, summary
 from ringqa.sweep.execute import auto_batch_size
@@ -400,9 +400,9 @@ class _Shown:
 
 
 class _AppendGuard:
-    """SIGINT/SIGTERM while samples stream: stop the sweep (KeyboardInterrupt), but never in the
-    middle of appending a batch to samples.h5 (a signal then waits for the append to finish),
-    so an interrupted sweep keeps a readable file with every finished sample."""
+    """SIGINT/SIGTERM/SIGHUP while samples stream: stop the sweep (KeyboardInterrupt), but never
+    in the middle of appending a batch to samples.h5 (a signal then waits for the append to
+    finish), so an interrupted sweep keeps a readable file with every finished sample."""
 
     def __init__(self) -> None:
         self.busy = False
@@ -425,14 +425,14 @@ class _AppendGuard:
 
     @contextlib.contextmanager
     def installed(self):
-        """The handler for SIGINT and SIGTERM (main thread only; restored after)."""
+        """The handler for SIGINT, SIGTERM and SIGHUP (main thread only; restored after)."""
         import threading
 
         if threading.current_thread() is not threading.main_thread():
             yield
             return
         previous = {}
-        for sig in (signal.SIGINT, signal.SIGTERM):
+        for sig in HANDLED_SIGNALS:
             old = signal.getsignal(sig)
             if old is None or old is signal.SIG_IGN:
                 continue
