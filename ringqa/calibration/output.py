@@ -23,7 +23,6 @@ on the rings measured so far, there is no correlation to lose; with more, the fi
 from __future__ import annotations
 
 import csv
-import hashlib
 import io
 import math
 from pathlib import Path
@@ -303,14 +302,9 @@ def _pdf(cal: Calibration, data: dict, path: Path, provenance: Provenance, field
 
     f = cal.fit
     names = ", ".join(m.label for m in cal.measured)
-    digests = list(provenance.inputs.values())
-    if len(digests) == 1:
-        inputs = f"input SHA-256 {digests[0][: layout.SHA_PREFIX]}"
-    elif digests:
-        joined = hashlib.sha256("".join(sorted(digests)).encode()).hexdigest()
-        inputs = f"{len(digests)} inputs, combined SHA-256 {joined[: layout.SHA_PREFIX]}"
-    else:
-        inputs = "inputs: shipped applicators"
+    inputs = layout.inputs_digest_text(
+        list(provenance.inputs.values()), "inputs: shipped applicators"
+    )
     stamp = layout.PageStamp(
         title=f"ringqa cable calibration: {names}",
         software=provenance.software,

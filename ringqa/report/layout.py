@@ -341,3 +341,30 @@ def build_pdf(path, story: list, stamp: PageStamp, *, title: str, subject: str =
     finally:
         rl_config.useA85 = a85
     return path
+
+
+def inputs_digest_text(digests: list[str], none_text: str) -> str:
+    """The inputs' SHA-256 as a page stamp prints it (one place for the report and the
+    calibration PDF).
+
+    Parameters
+    ----------
+    digests : list of str
+        The inputs' SHA-256 hex digests (``Provenance.inputs`` values).
+    none_text : str
+        What to print when there is no input file.
+
+    Returns
+    -------
+    str
+        ``"input SHA-256 <prefix>"`` for one input, ``"<n> inputs, combined SHA-256 <prefix>"``
+        (the SHA-256 of the sorted digests joined) for several, else ``none_text``.
+    """
+    import hashlib
+
+    if len(digests) == 1:
+        return f"input SHA-256 {digests[0][:SHA_PREFIX]}"
+    if digests:
+        joined = hashlib.sha256("".join(sorted(digests)).encode()).hexdigest()
+        return f"{len(digests)} inputs, combined SHA-256 {joined[:SHA_PREFIX]}"
+    return none_text

@@ -993,14 +993,9 @@ def _date(created_utc: str) -> str:
 def page_stamp(result) -> layout.PageStamp:
     """The running header/footer of one applicator's report."""
     prov = result.provenance
-    digests = list(prov.inputs.values())
-    if len(digests) == 1:
-        inputs = f"input SHA-256 {digests[0][: layout.SHA_PREFIX]}"
-    elif digests:
-        joined = hashlib.sha256("".join(sorted(digests)).encode()).hexdigest()
-        inputs = f"{len(digests)} inputs, combined SHA-256 {joined[: layout.SHA_PREFIX]}"
-    else:
-        inputs = "input: applicator object given in Python (no file)"
+    inputs = layout.inputs_digest_text(
+        list(prov.inputs.values()), "input: applicator object given in Python (no file)"
+    )
     return layout.PageStamp(
         title=f"ringqa commissioning report: {result.applicator}",
         software=prov.software,
