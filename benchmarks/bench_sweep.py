@@ -29,7 +29,6 @@ steadier number.
 from __future__ import annotations
 
 import argparse
-import logging
 import os
 import sys
 import tempfile
@@ -42,6 +41,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from ringqa.sweep import load_spec, run_sweep  # noqa: E402
+from ringqa.sweep.execute import connect  # noqa: E402
 
 DEFAULT_SPEC = ROOT / "data" / "sweeps" / "ring26-uncertainty.toml"
 
@@ -50,35 +50,16 @@ def _noop(x):
     return x
 
 
-def _cluster(n_workers: int):
-    from distributed import Client, LocalCluster
-
-    from ringqa.sweep.execute import ONE_THREAD
-
-    cluster = LocalCluster(
-        n_workers=n_workers,
-        threads_per_worker=1,
-        processes=True,
-        dashboard_address=":0",
-        silence_logs=logging.ERROR,
-        env=dict(ONE_THREAD),
-    )
-    return cluster, Client(cluster)
-
-
 def _run(spec_path: Path, sets: dict, n_workers: int, out: Path) -> dict:
     spec = load_spec(spec_path, sets)
     t0 = time.perf_counter()
-    cluster, client = _cluster(n_workers)
-    start_s = time.perf_counter() - t0
-    try:
+    # the same local cluster `ringqa sweep --workers N` starts (one thread a worker)
+    with connect(None, n_workers) as client:
+        start_s = time.perf_counter() - t0
         res = run_sweep(spec, out, client=client)
         t1 = time.perf_counter()
         client.gather(client.map(_noop, range(200), pure=False))
         noop_s = (time.perf_counter() - t1) / 200
-    finally:
-        client.close()
-        cluster.close()
     t = res.record["timings_s"]
     s = res.samples
     return {
