@@ -489,7 +489,13 @@ def _run(args: argparse.Namespace) -> int:
 
         wanted = channels_wanted(items[0], settings, args.channel)
         if wanted is not None:
-            return run_channels(items[0], settings, wanted, args, fields)
+            runs = run_channels(items[0], settings, wanted, args, fields, named=bool(args.channel),
+                                audit=lambda rs: audit_inputs_and_settings(config, rs))  # fmt: skip
+            for res in runs.results:
+                audit_verdicts(res)
+                print_warnings(res, prefix=f"channel {res.channel}: ")
+            audit_files(args.out)
+            return EXIT_FAIL if strict and not runs.passed else EXIT_OK
     if single:
         if labels:
             fields = dataclasses.replace(fields, label=labels[0])

@@ -474,6 +474,11 @@ class CommissioningResult:
     channel : str
         The channel commissioned, as the CSV tables' ``channel`` column names it: the plan's
         channel number, or the channel's name for file inputs (``""``: ``settings.channel``).
+    family : str
+        The channel's applicator family (:mod:`ringqa.geometry.families`: its report words).
+    frame_family : str
+        The applicator's family, whose frame the positions are projected in (its words name
+        the frame's plane and axis: a ring applicator's tandem is shown in the ring plane).
     """
 
     applicator: str
@@ -497,6 +502,8 @@ class CommissioningResult:
     settings_origin: dict[str, str] = field(default_factory=dict)
     warnings: tuple[str, ...] = ()
     channel: str = ""
+    family: str = "ring"
+    frame_family: str = "ring"
 
     def warning_records(self) -> list[dict]:
         """The results.json ``warnings``: ``name``, ``severity`` (``note`` for

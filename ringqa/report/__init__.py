@@ -24,7 +24,7 @@ from ringqa.errors import InputFileError
 from ringqa.jsonio import write_json
 from ringqa.outdir import MARKER_NAME, marker_record, staged_output
 from ringqa.report.fields import ReportFields
-from ringqa.report.pdf import write_batch_pdf, write_pdf
+from ringqa.report.pdf import write_batch_pdf, write_channels_pdf, write_pdf
 from ringqa.report.tables import SCHEMA, results_dict, write_batch_tables, write_tables
 from ringqa.textio import read_csv_table
 
@@ -36,6 +36,7 @@ __all__ = [
     "results_dict",
     "write_batch",
     "write_batch_pdf",
+    "write_channels_pdf",
     "write_pdf",
     "write_report",
     "write_tables",
@@ -107,6 +108,7 @@ def write_report(
     export: bool = False,
     sections: Sequence = (),
     extra_files: Mapping[str, bytes] | None = None,
+    html: bool | None = None,
 ) -> Path:
     """Write one applicator's files into ``out_dir`` (staged: all or nothing).
 
@@ -117,7 +119,7 @@ def write_report(
     ``sections``: extra report pages, callables ``section(result) -> list of reportlab
     flowables`` (see :func:`ringqa.report.pdf.write_pdf`). ``extra_files``: more files of the
     run (name -> bytes, e.g. the uncertainty sweep's ``uncertainty.csv``), written in the same
-    staged folder (all or nothing).
+    staged folder (all or nothing). ``html``: write report.html (default: when ``pdf``).
 
     Returns
     -------
@@ -127,7 +129,7 @@ def write_report(
     accuracy = None if accuracy_csv is None else read_accuracy_csv(accuracy_csv)
     (checked,) = _checked_exports([result], export)
     with staged_output(out_dir) as stage:
-        _write_one(result, stage, pdf, accuracy, fields, checked, sections, extra_files)
+        _write_one(result, stage, pdf, accuracy, fields, checked, sections, extra_files, html)
     return Path(out_dir)
 
 

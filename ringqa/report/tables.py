@@ -160,3 +160,44 @@ def write_batch_tables(batch: BatchResult, folder: Path) -> list[Path]:
     }
     write_json(folder / "batch.json", info, indent=2)
     return [folder / "summary.csv", folder / "batch.json"]
+
+
+#: results.json of a several-channel run (issue 30): the one conclusion and a section per channel
+CHANNELS_SCHEMA = "ringqa.commission-channels/2"
+
+
+def channels_results_dict(results, not_simulated, conclusion: str, folders, *, files=FILES) -> dict:
+    """The results.json of several channels of one input: ``conclusion`` (one for every
+    channel), ``passed``, ``not_simulated`` (one sentence per channel with dwells left out) and
+    ``channels``: per channel its ``channel`` (the tables' column), ``name``, ``family``,
+    ``folder`` (its files), ``passed``, ``conclusion``, ``max_numerical_error_mm``,
+    ``solve_time_s`` and ``results`` (that channel's whole results.json, :func:`results_dict`).
+    """
+    channels = []
+    for res, folder in zip(results, folders, strict=True):
+        channels.append(
+            {
+                "channel": channel_of_result(res),
+                "name": res.settings.channel,
+                "family": getattr(res, "family", "ring"),
+                "folder": folder,
+                "passed": res.passed,
+                "conclusion": res.conclusion,
+                "max_numerical_error_mm": None if res.numerics is None else res.numerics.max_mm,
+                "solve_time_s": res.timings.as_dict().get("simulation_s"),
+                "results": results_dict(res),
+            }
+        )
+    first = results[0]
+    return to_jsonable(
+        {
+            "schema": CHANNELS_SCHEMA,
+            "applicator": first.applicator,
+            "input": first.input_label,
+            "passed": not not_simulated and all(r.passed for r in results),
+            "conclusion": conclusion,
+            "not_simulated": list(not_simulated),
+            "channels": channels,
+            "files": list(files),
+        }
+    )
