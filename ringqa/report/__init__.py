@@ -23,6 +23,7 @@ import pandas as pd
 from ringqa.errors import InputFileError
 from ringqa.jsonio import write_json
 from ringqa.outdir import MARKER_NAME, marker_record, staged_output
+from ringqa.pipeline.result import register_report_writer
 from ringqa.report.fields import ReportFields
 from ringqa.report.pdf import write_batch_pdf, write_channels_pdf, write_pdf
 from ringqa.report.tables import SCHEMA, results_dict, write_batch_tables, write_tables
@@ -44,6 +45,18 @@ __all__ = [
 
 
 ACCURACY_COLUMNS = ("time_s", "max_err_mm", "status")
+
+
+def _write_html(result, path):
+    """report.html of ``result`` (:func:`ringqa.report.html.write_html`, imported when used)."""
+    from ringqa.report.html import write_html
+
+    return write_html(result, path)
+
+
+# the pipeline's named seam (CommissioningResult.publish_pdf / publish_html)
+register_report_writer("pdf", write_pdf)
+register_report_writer("html", _write_html)
 
 
 def read_accuracy_csv(path) -> pd.DataFrame:
