@@ -10,8 +10,8 @@ Steps (issue 5; Straathof et al. 2024, section 2.4):
 3. Simulate the source cable at the advances ``s_ref - p`` (the cable length that would put the
    source centre at arc length ``s_ref - p`` if the cable followed the centreline).
 4. Centreline dwells: the same relative positions at arc length ``s_ref - p``, direction = tangent.
-5. Distances per dwell to the reference (3D, and split into along-channel, radial in the ring
-   plane and out of the ring plane) and angles between source directions.
+5. Distances per dwell to the reference (3D, and split into along-channel, radial and
+   out-of-plane parts in the applicator frame) and angles between source directions.
 6. Standard plan on the reference dwells every 5 mm (+ the tandem where the applicator has one,
    identical in all three plans), equal times scaled to the prescription at Point A; the times are
    transferred unchanged to the simulated and centreline dwells; TG-43 doses at the dose points.

@@ -64,9 +64,9 @@ class FamilyWords:
         The part simulated without a measured path ("the circular part of the ring").
     plane : str
         The plane across the applicator frame's cranial axis, in which positions are projected
-        and the radial deviation lies ("ring plane"; default "transverse plane").
+        and the radial deviation lies (default "transverse plane"; a ring names its own).
     axis : str
-        The frame's cranial axis through its origin ("ring axis"; Point A is lateral of it).
+        The frame's cranial axis through its origin (Point A is lateral of it).
     origin : str
         What the frame's origin lies in (Point A's height is above it: "ring channel plane").
     """
