@@ -65,7 +65,7 @@ def combined_tables(results) -> dict[str, pd.DataFrame]:
         [r.plan_dwells.assign(channel=r.channel or r.settings.channel) for r in results],
         ignore_index=True,
     )
-    return {
+    tables = {
         "dwells.csv": pd.concat([with_channel(r, r.dwells) for r in results], ignore_index=True),
         "doses.csv": doses,
         "plan_dwells.csv": plan_dwells,
@@ -74,6 +74,10 @@ def combined_tables(results) -> dict[str, pd.DataFrame]:
             ignore_index=True,
         ),
     }
+    # the channel column last (a column only some channels have, e.g. the registered numbers,
+    # would otherwise follow it)
+    return {name: t[[c for c in t.columns if c != "channel"] + ["channel"]]
+            for name, t in tables.items()}  # fmt: skip
 
 
 def run_channels(item, settings, wanted, args, fields, *, named: bool = True, audit=None):
