@@ -533,11 +533,6 @@ def commission_ahead(item, settings, progress: bool, report: bool = True):
         call.cancel()
 
 
-#: the commissioning settings a --sweep / --uncertainty run takes over from the command (so
-#: the uncertainty page judges the same comparison as the report's verdicts)
-SWEEP_SETTINGS = ("register", "cable", "source", "prescription_gy", "dose_action_pct", "stem_mm")
-
-
 def sweep_spec_for(args, item, settings=None):
     """The sweep spec of --sweep / --uncertainty N, its input set to the commissioned one and
     its commissioning settings (registration, cable, source, prescription, action level, stem)
@@ -551,13 +546,22 @@ def sweep_spec_for(args, item, settings=None):
     sets = {"input": str(Path(item).resolve()) if Path(item).exists() else str(item)}
     if args.uncertainty is not None:
         sets["samples"] = args.uncertainty
-    for name in SWEEP_SETTINGS if settings is not None else ():
-        value = getattr(settings, name, None)
-        if value is not None and (name != "source" or isinstance(value, str)):
-            sets[f"settings.{name}"] = value
-    if settings is not None and settings.sk_U is not None:
-        sets["settings.sk_u"] = settings.sk_U
+    for row in sweep_setting_rows() if settings is not None else ():
+        value = getattr(settings, row.field, None)
+        if value is not None and (row.field != "source" or isinstance(value, str)):
+            sets[f"settings.{row.key.split('.')[-1]}"] = value
     return load_spec(path, sets)
+
+
+def sweep_setting_rows():
+    """The rows of the settings table a --sweep / --uncertainty run takes over from the command
+    (registration, cable, source, S_K, prescription, action level, stem: so the uncertainty
+    page judges the same comparison as the report's verdicts; the samples vary only the spec's
+    parameters)."""
+    from ringqa.pipeline.settings import SETTINGS
+    from ringqa.sweep.spec import SWEEP_SETTING_FIELDS
+
+    return [s for s in SETTINGS if s.field in SWEEP_SETTING_FIELDS and s.kind != "flag"]
 
 
 def _run_uncertainty(spec, args, res=None) -> tuple[tuple, dict[str, bytes]]:
