@@ -255,29 +255,27 @@ class EffectiveConfig:
             A combination the settings refuse, named with the file the values came from.
         """
         v = self.values
+        # a field with one key in the settings table takes its value as it is; the fields of
+        # several keys (dose points, the tolerance pair, the stem) are put together below
+        rows = [k for k in KEYS if k.field]
+        single = {k.field: v[k.key] for k in rows if [r.field for r in rows].count(k.field) == 1}
+        single["source"] = single["source"] or None
+        single["cross_check"] = bool(single["cross_check"])
         try:
             return CommissionSettings(
                 scene_overrides=self.scene_overrides,
-                source=v["simulation.source"] or None,
-                prescription_gy=v["plan.prescription_gy"],
-                sk_U=v["simulation.sk_u"],
-                cable=v["simulation.cable"],
+                **single,
                 point_spec=DosePointSpec(
                     point_a_height_mm=v["dose_points.point_a_height_mm"],
                     point_a_lateral_mm=v["dose_points.point_a_lateral_mm"],
                     surface_offset_mm=v["dose_points.surface_offset_mm"],
                     depth_mm=v["dose_points.depth_mm"],
                 ),
-                plan_step_mm=v["plan.step_mm"],
-                tandem_dwells=v["plan.tandem_dwells"],
                 position_limits_mm=(
                     v["tolerances.position_recommended_mm"],
                     v["tolerances.position_required_mm"],
                 ),
-                dose_action_pct=v["tolerances.dose_action_pct"],
-                register=v["simulation.register"],
                 stem_mm=None if v["simulation.whole_channel"] else v["simulation.stem_mm"],
-                cross_check=bool(v["simulation.cross_check"]),
                 settings_origin=dict(self.origins),
                 **self.extra,
             )
