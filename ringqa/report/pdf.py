@@ -1283,6 +1283,9 @@ def channels_front_flowables(
     first = results[0]
     w = layout.FRAME_WIDTH
     status = worst_verdict(results, not_simulated)
+    rows = channel_verdict_rows(results)
+    for row in rows:  # the status on its colour, as on page 1 of a one-channel report
+        row[-1] = para(badge(row[-1]), "cell", markup=True)
     story = [
         heading("Commissioning report", 0),
         para(first.applicator, "h1"),
@@ -1290,11 +1293,19 @@ def channels_front_flowables(
         layout.spacer(2),
         heading(f"Conclusion over all {len(results)} channels commissioned", 1),
         _conclusion_box(TextItem("conclusion", conclusion, status)),
+        *(
+            para(
+                f"{badge(r.summary.verdict)}&nbsp; {escape(channel_title(r).split(':')[0])}: "
+                f"{escape(r.conclusion)}",
+                markup=True,
+            )
+            for r in results
+        ),
         layout.spacer(1.5),
         heading("Verdicts per channel", 1),
         grid_table(
-            [["channel", "family", "check", "value", "status"], *channel_verdict_rows(results)],
-            [0.2 * w, 0.16 * w, 0.38 * w, 0.14 * w, 0.12 * w],
+            [["channel", "family", "check", "value", "status"], *rows],
+            [0.2 * w, 0.16 * w, 0.38 * w, 0.13 * w, 0.13 * w],
             align="LEFT",
         ),
         para(
