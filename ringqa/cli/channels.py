@@ -101,16 +101,20 @@ def run_channels(item, settings, wanted, args, fields, *, named: bool = True, au
     text = conclusion(runs)
     folders = [_folder_name(r.channel or r.settings.channel) for r in results]
     with staged_output(args.out) as stage:
+        own = ["dwells.csv", "doses.csv", "plan_dwells.csv", "summary.csv"]
+        own += [] if args.no_pdf else ["report.html"]  # the channel's PDF is a section of ours
         for res, folder in zip(results, folders, strict=True):
             write_report(res, stage / folder, pdf=False, fields=fields, export=args.export,
-                         html=not args.no_pdf)  # fmt: skip
+                         html=not args.no_pdf, files=own)  # fmt: skip
         for name, table in combined_tables(results).items():
             table.to_csv(
                 stage / name, index=False, float_format=FLOAT_FORMAT, encoding=csv_encoding(table)
             )
         files = ["dwells.csv", "doses.csv", "plan_dwells.csv", "summary.csv"]
         files += [] if args.no_pdf else ["report.pdf"]
-        record = channels_results_dict(results, runs.not_simulated, text, folders, files=files)
+        record = channels_results_dict(
+            results, runs.not_simulated, text, folders, files=files, channel_files=own
+        )
         write_json(stage / "results.json", record, indent=2)
         if not args.no_pdf:
             write_channels_pdf(results, stage / "report.pdf", conclusion=text,

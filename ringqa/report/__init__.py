@@ -75,9 +75,12 @@ def read_accuracy_csv(path) -> pd.DataFrame:
 
 def _write_one(
     result, folder: Path, pdf: bool, accuracy=None, fields=None, export=None, sections=(),
-    extra_files=None, html: bool | None = None,
+    extra_files=None, html: bool | None = None, files=None,
 ) -> None:  # fmt: skip
-    write_tables(result, folder)
+    if files is None:
+        write_tables(result, folder)
+    else:
+        write_tables(result, folder, files)
     if pdf if html is None else html:
         from ringqa.report.html import write_html
 
@@ -122,6 +125,7 @@ def write_report(
     sections: Sequence = (),
     extra_files: Mapping[str, bytes] | None = None,
     html: bool | None = None,
+    files: Sequence[str] | None = None,
 ) -> Path:
     """Write one applicator's files into ``out_dir`` (staged: all or nothing).
 
@@ -133,6 +137,8 @@ def write_report(
     flowables`` (see :func:`ringqa.report.pdf.write_pdf`). ``extra_files``: more files of the
     run (name -> bytes, e.g. the uncertainty sweep's ``uncertainty.csv``), written in the same
     staged folder (all or nothing). ``html``: write report.html (default: when ``pdf``).
+    ``files``: results.json's list of the files written (default
+    :data:`ringqa.report.tables.FILES`).
 
     Returns
     -------
@@ -142,7 +148,8 @@ def write_report(
     accuracy = None if accuracy_csv is None else read_accuracy_csv(accuracy_csv)
     (checked,) = _checked_exports([result], export)
     with staged_output(out_dir) as stage:
-        _write_one(result, stage, pdf, accuracy, fields, checked, sections, extra_files, html)
+        _write_one(result, stage, pdf, accuracy, fields, checked, sections, extra_files, html,
+                   files)  # fmt: skip
     return Path(out_dir)
 
 

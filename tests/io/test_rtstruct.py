@@ -255,6 +255,8 @@ def test_commission_every_channel_end_to_end(pair, tmp_path):
     for c in record["channels"]:
         res = c["results"]  # the channel's whole results.json, also in its folder
         assert res == json.loads((out / c["folder"] / "results.json").read_text())
+        assert "report.pdf" not in res["files"] and "report.html" in res["files"]  # as written
+        assert {f for f in res["files"]} <= {p.name for p in (out / c["folder"]).iterdir()}
         assert res["simulation"]["status"] == 0
         assert res["simulation"]["settings"]["n_stabilised_steps"] == 0
         assert res["numerical_check"]["max_numerical_error_mm"] < 0.1
