@@ -22,27 +22,36 @@ import pandas as pd
 __all__ = ["channels_wanted", "conclusion", "run_channels"]
 
 
-def channels_wanted(item, settings, channel_args) -> list[str] | None:
-    """The channels to commission one by one, or None for the one-channel run (one
-    ``--channel``, or an input whose default choice is one channel: its files as before, with
-    the plan's other channels named in its warnings).
+def channels_wanted(item, settings, channel_args) -> tuple[list[str] | None, object, float]:
+    """The channels to commission one by one (None for the one-channel run: one ``--channel``,
+    or an input whose default choice is one channel: its files as before, with the plan's other
+    channels named in its warnings), the input as loaded for the choice (None when not
+    loaded; :func:`ringqa.pipeline.commission` takes it, so it is read once) and the seconds
+    the loading took.
 
     Without ``--channel``: an RT Plan's channels with dwells and a centreline (those without a
     reference source path where one is required are named, not commissioned:
     :func:`ringqa.pipeline.commission.channel_choice`); other inputs: the family's default (a
     ring applicator: its ring)."""
     if channel_args:
-        return None if len(channel_args) == 1 else [str(c) for c in channel_args]
+        return (None if len(channel_args) == 1 else [str(c) for c in channel_args]), None, 0.0
+    import time
+
     from ringqa.errors import RingQAError
     from ringqa.pipeline.commission import channel_choice
     from ringqa.pipeline.inputs import load_input
 
+    t0 = time.perf_counter()
     try:
-        loaded = load_input(item, settings.structures, settings.lumen_mm)
+        if settings.structures is None and settings.lumen_mm is None:
+            loaded = load_input(item)  # as commission() loads it
+        else:
+            loaded = load_input(item, settings.structures, settings.lumen_mm)
     except RingQAError:
-        return None  # the single run says what is wrong
+        return None, None, 0.0  # the single run says what is wrong
+    load_s = time.perf_counter() - t0
     names = channel_choice(loaded, settings.require_measured).names
-    return None if len(names) <= 1 else list(names)
+    return (None if len(names) <= 1 else list(names)), loaded, load_s
 
 
 def _folder_name(label: str) -> str:

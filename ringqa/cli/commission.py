@@ -427,10 +427,11 @@ def _run(args: argparse.Namespace) -> int:
             "the other)"
         )
     settings = _with_channel_settings(settings, args)
+    loaded, load_s = None, 0.0  # the input as the channel choice read it, and how long
     if single and sweep_spec is None:
         from ringqa.cli.channels import channels_wanted, run_channels
 
-        wanted = channels_wanted(items[0], settings, args.channel)
+        wanted, loaded, load_s = channels_wanted(items[0], settings, args.channel)
         if wanted is not None:
             runs = run_channels(items[0], settings, wanted, args, fields, named=bool(args.channel),
                                 audit=lambda rs: audit_inputs_and_settings(config, rs))  # fmt: skip
@@ -443,7 +444,7 @@ def _run(args: argparse.Namespace) -> int:
         if labels:
             fields = dataclasses.replace(fields, label=labels[0])
         ahead = sweep_spec is None and not args.no_pdf  # the report is prepared meanwhile
-        res = commission_ahead(items[0], settings, not args.quiet, ahead)
+        res = commission_ahead(items[0], settings, not args.quiet, ahead, loaded=(loaded, load_s))
         audit_inputs_and_settings(config, [res])
         sections, extra = (), None
         if sweep_spec is not None:
@@ -506,7 +507,7 @@ def _real_std_streams() -> bool:
         return False
 
 
-def commission_ahead(item, settings, progress: bool, report: bool = True):
+def commission_ahead(item, settings, progress: bool, report: bool = True, *, loaded=(None, 0.0)):
     """:func:`ringqa.pipeline.commission` of one input, in a forked child process while this
     one loads the report's libraries and fonts (:func:`ringqa.report.prepare_report`: about
     0.5 s of the warm example otherwise spent after the commissioning). The result (or the
@@ -518,8 +519,8 @@ def commission_ahead(item, settings, progress: bool, report: bool = True):
     from ringqa.pipeline.simulate import second_core_worthwhile
     from ringqa.report import prepare_report
 
-    def run():
-        return commission(item, settings, progress=progress)
+    def run():  # ``loaded``: the input as the channel choice read it (not read twice)
+        return commission(item, settings, progress=progress, loaded=loaded[0], load_s=loaded[1])
 
     # a first run (numba compiling, with its helper process) stays as it was
     # ... and so does a machine whose cores are busy (the fork would only add its overhead)

@@ -311,6 +311,8 @@ def commission(
     *,
     engine: Engine | None = None,
     progress: bool = False,
+    loaded=None,
+    load_s: float = 0.0,
 ) -> CommissioningResult:
     """Commission one channel of an applicator (see the module docstring for the steps):
     ``settings.channel`` (a name or a plan channel number; the default ``"ring"`` means the
@@ -328,6 +330,10 @@ def commission(
         and other engines give their own).
     progress : bool
         Show the engine's progress bar (tqdm, on stderr).
+    loaded : LoadedInput, optional
+        ``input`` already loaded (:func:`~ringqa.pipeline.inputs.load_input` with the settings'
+        structure set and lumen; e.g. when the command line has chosen its channels from it);
+        ``load_s``: the seconds that took (the result's ``timings``).
 
     Returns
     -------
@@ -342,9 +348,10 @@ def commission(
     import dataclasses
 
     cfg = CommissionSettings() if settings is None else settings
-    t_start = time.perf_counter()
-    loaded = _load(input, cfg)
-    load_s = time.perf_counter() - t_start
+    t_start = time.perf_counter() - (0.0 if loaded is None else load_s)  # total_s counts it
+    if loaded is None:
+        loaded = _load(input, cfg)
+        load_s = time.perf_counter() - t_start
     others: tuple[str, ...] = ()
     if cfg.channel == "ring":  # no channel named: the default choice's first channel
         choice = channel_choice(loaded, cfg.require_measured)
