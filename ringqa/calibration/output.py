@@ -12,12 +12,12 @@
 - ``calibration.png``: measured vs simulated before/after, and the residuals;
 - ``calibration.pdf``: the same on signed pages with the report's header, footer and fields;
 
-and beside them ``calibration_sweep.toml``: a sweep spec (docs/sweeps.md) that varies each
-identifiable fitted key as a normal distribution (mean the fitted value, sd its standard error)
-with the other fitted values held, so that ``ringqa commission INPUT --config
-calibrated_cable.toml --sweep calibration_sweep.toml`` propagates the fit's uncertainty to every
-dwell with the existing sweep machinery (the keys independently: with one identifiable key, as
-on the rings measured so far, there is no correlation to lose; with more, the file says so).
+and beside them ``calibration_sweep.toml``: a sweep spec (docs/sweeps.md) that varies the
+identifiable fitted keys as one multivariate normal (means the fitted values, sds their standard
+errors, and with two or more keys the fit's correlation matrix in its ``[correlation]`` table),
+the other fitted values held, so that ``ringqa commission INPUT --config calibrated_cable.toml
+--sweep calibration_sweep.toml`` propagates the fit's uncertainty, correlations kept, to every
+dwell with the existing sweep machinery.
 """
 
 from __future__ import annotations
@@ -196,8 +196,8 @@ def sweep_spec_text(cal: Calibration) -> str:
         "# (ringqa commission sets the input and the commissioning settings)",
     ]
     if len(varied) > 1:
-        lines.append("# the keys are varied independently: their correlation "
-                     "(calibration.json) is not kept")  # fmt: skip
+        lines.append("# the keys are drawn together from one multivariate normal with the fit's "
+                     "correlation ([correlation], calibration.json)")  # fmt: skip
     first = cal.measured[0]
     lines += [
         'description = "the calibrated cable\'s parameter uncertainty (ringqa calibrate)"',
@@ -212,6 +212,15 @@ def sweep_spec_text(cal: Calibration) -> str:
         lines += ["", f'[parameters."{k}"]', 'distribution = "normal"',
                   f"mean = {f.values[k]:.6g}", f"sd = {f.se[k]:.6g}",
                   'source = "ringqa calibrate: fitted value and its standard error"']  # fmt: skip
+    if len(varied) > 1:
+        idx = [f.keys.index(k) for k in varied]
+        corr = np.asarray(f.correlation, dtype=float)[np.ix_(idx, idx)]
+        corr = 0.5 * (corr + corr.T)
+        np.fill_diagonal(corr, 1.0)
+        rows = ", ".join("[" + ", ".join(f"{x:.12g}" for x in row) + "]" for row in corr)
+        lines += ["", "[correlation]", "keys = [" + ", ".join(json_str(k) for k in varied) + "]",
+                  f"matrix = [{rows}]",
+                  'source = "ringqa calibrate: the fit\'s correlation matrix"']  # fmt: skip
     return "\n".join(lines) + "\n"
 
 
