@@ -4,8 +4,10 @@
   key (and the rule), residual median / max before and after (mm), number of points, the
   leave-one-out predictions, the inputs with their SHA-256, the settings;
 - ``calibrated_cable.toml``: a configuration file (``[simulation] cable`` and ``[scene]`` with
-  the identifiable fitted keys) that ``ringqa commission --config`` reads; its first lines give
-  the same values as ``--set`` arguments for ``ringqa simulate``;
+  the identifiable fitted keys, and ``[calibration]``: the command, the date and the SHA-256 of
+  calibration.json, which ``ringqa commission --config`` names in its report with the file's own
+  SHA-256) that ``ringqa commission --config`` reads; its first lines give the same values as
+  ``--set`` arguments for ``ringqa simulate``;
 - ``residuals.csv``: ``applicator, point, relative_position_mm, measured_x_mm, measured_y_mm,
   measured_z_mm, simulated_before_x_mm, ..., simulated_after_z_mm, residual_before_mm,
   residual_after_mm, sd_mm`` and ``flag`` (empty, or why the point was left out of the fit);
@@ -32,7 +34,7 @@ import numpy as np
 from ringqa.calibration.fit import MAX_DELTA_SE_MM, MAX_RELATIVE_SE, RCOND
 from ringqa.calibration.run import Calibration
 from ringqa.jsonio import csv_encoding, write_json
-from ringqa.provenance import Provenance
+from ringqa.provenance import Provenance, sha256_of
 
 __all__ = [
     "FILES",
@@ -145,7 +147,8 @@ def calibration_dict(cal: Calibration, provenance: Provenance | None = None) -> 
     return out
 
 
-def cable_toml(cal: Calibration, command: str = "") -> str:
+def cable_toml(cal: Calibration, command: str = "", created_utc: str = "",
+               json_sha256: str = "") -> str:  # fmt: skip
     """``calibrated_cable.toml``: a configuration with the identifiable fitted values (the
     others stay at the cable's own values and are named in a comment)."""
     f = cal.fit
@@ -170,6 +173,16 @@ def cable_toml(cal: Calibration, command: str = "") -> str:
     for k, v in cal.overrides.items():
         if k not in kept and isinstance(v, int | float) and not isinstance(v, bool):
             lines.append(f"{k} = {v!r}")
+    lines += [
+        "",
+        "# the commissioning report names this file (with its SHA-256) and these",
+        "[calibration]",
+        f"command = {json_str(command or 'ringqa calibrate')}",
+    ]
+    if created_utc:
+        lines.append(f"created_utc = {json_str(created_utc)}")
+    if json_sha256:
+        lines.append(f"calibration_json_sha256 = {json_str(json_sha256)}")
     return "\n".join(lines) + "\n"
 
 
@@ -374,7 +387,10 @@ def write_outputs(stage: Path, cal: Calibration, provenance: Provenance, *, comm
     stage = Path(stage)
     data = calibration_dict(cal, provenance)
     write_json(stage / "calibration.json", data)
-    (stage / "calibrated_cable.toml").write_text(cable_toml(cal, command), encoding="utf-8")
+    (stage / "calibrated_cable.toml").write_text(
+        cable_toml(cal, command, provenance.created_utc, sha256_of(stage / "calibration.json")),
+        encoding="utf-8",
+    )
     buf = io.StringIO(newline="")
     w = csv.writer(buf)
     w.writerow(RESIDUAL_COLUMNS)

@@ -27,7 +27,6 @@ from __future__ import annotations
 
 import argparse
 import shlex
-import sys
 from pathlib import Path
 
 from ringqa.cli._options import add_set_option
@@ -121,7 +120,7 @@ def run(args: argparse.Namespace) -> int:
         "measured": [{"applicator": m.label, "file": m.file, "method": m.method}
                      for m in measured],
     })  # fmt: skip
-    command = "ringqa calibrate " + shlex.join(sys.argv[2:] if len(sys.argv) > 2 else [])
+    command = command_line(args)
     with staged_output(args.out) as stage:
         write_outputs(stage, cal, prov, command=command, fields=fields)
     f = cal.fit
@@ -141,6 +140,27 @@ def run(args: argparse.Namespace) -> int:
         print(f"  left out {lo.label}: predicted within median {lo.median_mm:.2f} / max "
               f"{lo.max_mm:.2f} mm")  # fmt: skip
     return 0
+
+
+def command_line(args: argparse.Namespace) -> str:
+    """The ``ringqa calibrate`` command of ``args`` (as it would be typed; recorded in
+    calibrated_cable.toml and named by the commissioning report)."""
+    words = ["ringqa", "calibrate", str(args.input)]
+    if args.measured:
+        words += ["--measured", *map(str, args.measured)]
+    if args.fit:
+        words += ["--fit", *args.fit]
+    for flag, value in (("--config", args.config), ("--register", args.register),
+                        ("--cable", args.cable), ("--sd-mm", args.sd_mm),
+                        ("--method", args.method)):  # fmt: skip
+        if value is not None:
+            words += [flag, str(value)]
+    for item in getattr(args, "overrides", None) or ():
+        words += ["--set", str(item)]
+    if args.no_leave_one_out:
+        words.append("--no-leave-one-out")
+    words += ["--out", str(args.out)]
+    return shlex.join(words)
 
 
 def _median(x):
