@@ -32,6 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from ringqa.calibration.fit import MAX_DELTA_SE_MM, MAX_RELATIVE_SE, RCOND
+from ringqa.calibration.model import applicator_of, base_key
 from ringqa.calibration.run import Calibration
 from ringqa.jsonio import csv_encoding, write_json
 from ringqa.provenance import Provenance, sha256_of
@@ -79,13 +80,18 @@ def calibration_dict(cal: Calibration, provenance: Provenance | None = None) -> 
     f = cal.fit
     keys = list(f.keys)
     params = {}
+    own: dict[str, dict] = {}  # per applicator: its own keys (the lumen), by scene key
     for k in keys:
-        params[k] = {
+        entry = {
             "value": f.values[k],
             "standard_error": f.se[k] if math.isfinite(f.se[k]) else None,
             "start": f.start[k],
             "identifiable": f.identifiable[k],
         }
+        if applicator_of(k):
+            own.setdefault(applicator_of(k), {})[base_key(k)] = entry
+        else:
+            params[k] = entry
     moved = {k: v for k, v in f.values.items() if k not in keys}
     per_app = []
     before, after = cal.distances("before"), cal.distances("after")
@@ -107,11 +113,14 @@ def calibration_dict(cal: Calibration, provenance: Provenance | None = None) -> 
             "residual_after": _stats(a[m.used]),
             "max_numerical_error_mm": float(np.max(e)) if e.size else None,
             "notes": list(m.notes),
+            "parameters": own.get(m.label, {}),
+            "use": applicator_use(cal, m.label),
         })  # fmt: skip
     out = {
         "cable": cal.cable,
         "fitted_keys": keys,
         "parameters": params,
+        "per_applicator_keys": sorted({base_key(k) for k in keys if applicator_of(k)}),
         "also_changed": moved,
         "correlation": {"keys": keys, "matrix": np.asarray(f.correlation).tolist()},
         "identifiable_rule": IDENTIFIABLE_RULE,
@@ -167,6 +176,10 @@ def cable_toml(cal: Calibration, command: str = "", created_utc: str = "",
     ]
     for k in left:
         lines.append(f"# {k}: not identifiable from these measurements; left at the cable's value")
+    for m in cal.measured:  # each applicator's own lumen (not the cable's: not in [scene])
+        use = applicator_use(cal, m.label)
+        if use:
+            lines.append(f"# {m.label}: its own fitted lumen; commission it with: {use}")
     lines += ["", "[simulation]", f'cable = "{cal.cable}"', "", "[scene]"]
     for k, v in kept.items():
         lines.append(f"{k} = {v:.6g}")
@@ -186,10 +199,23 @@ def cable_toml(cal: Calibration, command: str = "", created_utc: str = "",
     return "\n".join(lines) + "\n"
 
 
+def applicator_use(cal: Calibration, label: str) -> str:
+    """How to commission applicator ``label`` with its own fitted (identifiable) per-applicator
+    keys: ``ringqa commission INPUT --config calibrated_cable.toml --set KEY=VALUE``; ``""``
+    when it has none."""
+    f = cal.fit
+    sets = [f"--set {base_key(k)}={f.values[k]:.6g}" for k in f.keys
+            if applicator_of(k) == label and f.identifiable[k]]  # fmt: skip
+    if not sets:
+        return ""
+    item = next((m.input for m in cal.measured if m.label == label), label)
+    return f"ringqa commission {item} --config calibrated_cable.toml {' '.join(sets)}"
+
+
 def _kept(cal: Calibration) -> dict[str, float]:
     """The values calibrated_cable.toml sets (identifiable keys, mu_s raised to mu_k)."""
     f = cal.fit
-    kept = {k: f.values[k] for k in f.keys if f.identifiable[k]}
+    kept = {k: f.values[k] for k in f.keys if f.identifiable[k] and not applicator_of(k)}
     if "contact.mu_k" in kept and "contact.mu_s" not in kept:
         mu_s = f.start.get("contact.mu_s", f.values.get("contact.mu_s"))
         if mu_s is not None and mu_s < kept["contact.mu_k"]:
@@ -201,7 +227,11 @@ def sweep_spec_text(cal: Calibration) -> str:
     """``calibration_sweep.toml`` (module docstring)."""
     f = cal.fit
     kept = _kept(cal)
-    varied = [k for k in f.keys if f.identifiable[k] and math.isfinite(f.se[k]) and f.se[k] > 0]
+    first = cal.measured[0]
+    # the spec commissions the first applicator: its own lumen key varies as the scene key
+    varied = [k for k in f.keys if f.identifiable[k] and math.isfinite(f.se[k]) and f.se[k] > 0
+              and applicator_of(k) in ("", first.label)]  # fmt: skip
+    name = {k: base_key(k) for k in varied}
     lines = [
         "# ringqa calibrate: the fitted cable's uncertainty as a sweep (docs/sweeps.md):",
         "#   ringqa commission INPUT --config calibrated_cable.toml "
@@ -211,7 +241,6 @@ def sweep_spec_text(cal: Calibration) -> str:
     if len(varied) > 1:
         lines.append("# the keys are drawn together from one multivariate normal with the fit's "
                      "correlation ([correlation], calibration.json)")  # fmt: skip
-    first = cal.measured[0]
     lines += [
         'description = "the calibrated cable\'s parameter uncertainty (ringqa calibrate)"',
         f"input = {json_str(_resolved(first.input))}",
@@ -222,7 +251,7 @@ def sweep_spec_text(cal: Calibration) -> str:
     ]
     lines += [f'"{k}" = {v:.6g}' for k, v in kept.items() if k not in varied]
     for k in varied:
-        lines += ["", f'[parameters."{k}"]', 'distribution = "normal"',
+        lines += ["", f'[parameters."{name[k]}"]', 'distribution = "normal"',
                   f"mean = {f.values[k]:.6g}", f"sd = {f.se[k]:.6g}",
                   'source = "ringqa calibrate: fitted value and its standard error"']  # fmt: skip
     if len(varied) > 1:
@@ -231,7 +260,8 @@ def sweep_spec_text(cal: Calibration) -> str:
         corr = 0.5 * (corr + corr.T)
         np.fill_diagonal(corr, 1.0)
         rows = ", ".join("[" + ", ".join(f"{x:.12g}" for x in row) + "]" for row in corr)
-        lines += ["", "[correlation]", "keys = [" + ", ".join(json_str(k) for k in varied) + "]",
+        lines += ["", "[correlation]",
+                  "keys = [" + ", ".join(json_str(name[k]) for k in varied) + "]",
                   f"matrix = [{rows}]",
                   'source = "ringqa calibrate: the fit\'s correlation matrix"']  # fmt: skip
     return "\n".join(lines) + "\n"

@@ -14,9 +14,11 @@ cannot lie in the lumen after that are left out of the fit and named.
 
 The fit (weighted least squares, scipy.optimize.least_squares with bounds; docs/calibration.md)
 varies --fit KEYS (default contact.mu_k, contact.mu_s, instrument.ei_scale; also
-lumen.diameter_delta_mm), each point weighted by its uncertainty and the simulation's numerical
-error, and reports every key's standard error and whether the measurement determines it at all
-(identifiable). With two or more applicators each is also predicted by the fit on the others.
+lumen.diameter_delta_mm, fitted per applicator when there are several: the cable's friction and
+stiffness are shared, the lumen belongs to each applicator), each point weighted by its
+uncertainty and the simulation's numerical error, and reports every key's standard error and
+whether the measurement determines it at all (identifiable). With two or more applicators each
+is also predicted by the fit on the others.
 
 Writes DIR/calibration.json, calibrated_cable.toml (give it to ringqa commission --config),
 residuals.csv, calibration.png and calibration.pdf, all at once at the end; a fit that does not
@@ -83,7 +85,7 @@ def add_parser(subparsers) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from ringqa.calibration.measured import CalibrationError, measured_applicators
-    from ringqa.calibration.output import write_outputs
+    from ringqa.calibration.output import applicator_use, write_outputs
     from ringqa.calibration.run import calibrate, check_keys
     from ringqa.config import effective_config
     from ringqa.outdir import check_writable, staged_output
@@ -136,6 +138,10 @@ def run(args: argparse.Namespace) -> int:
         shown = f"± {se:.2g}" if se != float("inf") else "± undetermined"
         flag = "" if f.identifiable[k] else "  (NOT identifiable from these measurements)"
         print(f"  {k} = {f.values[k]:.4g} {shown}{flag}")
+    for m in measured:  # each applicator's own lumen (calibration.json applicators[].use)
+        use = applicator_use(cal, m.label)
+        if use:
+            print(f"  {m.label}: its own lumen; commission it with: {use}")
     for lo in cal.left_out:
         print(f"  left out {lo.label}: predicted within median {lo.median_mm:.2f} / max "
               f"{lo.max_mm:.2f} mm")  # fmt: skip
