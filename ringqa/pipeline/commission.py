@@ -38,7 +38,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ringqa.errors import named_warning, split_warning
+from ringqa.errors import RingQAError, named_warning, split_warning
 from ringqa.geometry.frame import frame_of
 from ringqa.pipeline.deviations import (
     DwellColumns,
@@ -195,6 +195,11 @@ def commission_channels(
     names = tuple(dict.fromkeys(_channel_name(app, w) for w in wanted))
     for n in names:
         channel_of(app, n)  # refuses an unknown channel, naming those there are
+    if cfg.measured is not None and len(names) > 1:
+        raise RingQAError(
+            f"--measured {cfg.measured}: {len(names)} channels ({', '.join(names)}) are "
+            "commissioned; a measured path belongs to one: name it with --channel"
+        )
     results = tuple(
         _commission_loaded(input, loaded, dataclasses.replace(cfg, channel=n), engine=engine,
                            progress=progress, t_start=time.perf_counter(), load_s=load_s)
