@@ -151,3 +151,21 @@ def test_measured_file_refusals_name_file_field_and_fix(tmp_path, kwargs, match)
     film, _ = _film_subset(tmp_path, **kwargs)
     with pytest.raises(RingQAError, match=match):
         commission(example_plan(), CommissionSettings(measured=film))
+
+
+def test_dense_measured_file_is_the_reference(tmp_path):
+    """``measured = FILE`` holding every library position (a dense path, sd 0.3 mm): it is the
+    reference itself (no subset: no measured-points verdict), and the dwell table is the plan's
+    own up to the file's 4 decimals (<= 0.9e-4 mm per coordinate)."""
+    from ringqa.datasets import example_plan
+
+    film, rel = _film_subset(tmp_path, every=1)
+    plan = example_plan()
+    dense = commission(plan)
+    own = commission(plan, CommissionSettings(measured=film))
+    assert own.measured_points is None and own.reference == "measured"
+    assert CHECK_MEASURED_POINTS not in [v.check for v in own.verdicts]
+    a = dense.dwells["dist_to_measured_mm"].to_numpy()
+    b = own.dwells["dist_to_measured_mm"].to_numpy()
+    assert np.allclose(a, b, atol=2e-4)
+    assert "film.csv" in " ".join(own.notes)
