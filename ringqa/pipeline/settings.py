@@ -91,6 +91,15 @@ class CommissionSettings:
     lumen_mm : float or None
         Lumen diameter (mm) of the channels read from a structure set (``--lumen-mm``; None:
         the per-applicator lumen table).
+    measured : str or Path or None
+        A measured source path file (CSV/JSON, mm; any subset of relative positions with
+        ``sd_mm`` and ``method``: :mod:`ringqa.pipeline.measured_points`) of the channel, in
+        place of the input's own (``--measured``); the input's own dense path (an RT Plan's
+        library path) then carries the standard plan.
+    calibration : mapping or None
+        The cable calibration file the scene keys came from (``[calibration]`` of a
+        ``ringqa calibrate`` calibrated_cable.toml given as configuration): ``file``,
+        ``sha256`` and its ``[calibration]`` keys; named in results.json and the report.
 
     Raises
     ------
@@ -117,6 +126,8 @@ class CommissionSettings:
     settings_origin: Mapping[str, str] = field(default_factory=dict)
     structures: str | Path | None = None
     lumen_mm: float | None = None
+    measured: str | Path | None = None
+    calibration: Mapping[str, Any] | None = None
 
     def __post_init__(self) -> None:
         def keep(name: str, value) -> None:
@@ -182,6 +193,11 @@ class CommissionSettings:
             raise RingQAError(
                 f"--stem-mm {self.stem_mm!r}: must be a length in mm > 0 (the straight channel "
                 "simulated before the first bend, e.g. 60), or None for the whole channel"
+            )
+        if self.measured is not None and not isinstance(self.measured, str | Path):
+            raise RingQAError(
+                f"--measured {self.measured!r}: give the path of a measured source path file "
+                "(CSV/JSON, mm)"
             )
         corr = self.centreline_correction
         if corr is not None and not isinstance(corr, str | Path):
@@ -283,4 +299,11 @@ SETTING_NAMES: tuple[SettingNames, ...] = (
                  "the file is in the provenance's inputs"),
     SettingNames("lumen_mm", (), ("--lumen-mm",), None,
                  "said in the notes (each channel's lumen and where it comes from)"),
+    SettingNames("measured", (), ("--measured",), None,
+                 "the file is in the provenance's inputs; its points in results.json "
+                 "measured_points"),
+    SettingNames("calibration", ("calibration.command", "calibration.created_utc",
+                                 "calibration.calibration_json_sha256"), (), None,
+                 "the [calibration] table of a calibrated_cable.toml; results.json settings."
+                 "calibration (only when one is used) adds the file and its SHA-256"),
 )  # fmt: skip
