@@ -7,6 +7,7 @@ expected number is a sum of those heights."""
 
 from __future__ import annotations
 
+import os
 from types import SimpleNamespace
 
 import numpy as np
@@ -109,3 +110,44 @@ def test_a_whole_channel_run_that_jams_is_said_not_hidden():
     assert n.stem is not None and not n.stem.ok
     assert n.max_mm == pytest.approx(0.03, abs=1e-5)
     assert any("does NOT include it" in t and "did not reach every dwell" in t for t in n.text)
+
+
+@pytest.mark.skipif(not hasattr(os, "fork"), reason="needs fork")
+def test_the_stem_check_is_bit_identical_with_its_run_forked(monkeypatch):
+    """ring26x60 (the real engine) with a 30 mm stem, so that 30 mm of its 60 mm straight stem
+    is cut: the whole channel's refined run in a forked child while the probes and its other
+    run go here gives exactly the errors of running everything in turn (tolerance 0)."""
+    from ringqa.io.applicator_file import load_applicator
+    from ringqa.pipeline import forked as forked_mod
+    from ringqa.pipeline import simulate
+    from ringqa.pipeline.dwells import reference_dwells
+    from ringqa.pipeline.forked import ForkedCall
+
+    app = load_applicator("ring26x60")
+    ring = app.channel("ring")
+    rel = reference_dwells(app, ring, 5.0).relative_position_mm
+    forked = []
+    real_init = ForkedCall.__init__
+
+    def spy(self, fn, fork=True):
+        real_init(self, fn, fork)
+        forked.append(self.forked)
+
+    def run():
+        return simulate.simulate_dwells(app, ring, rel, cable="flexitron", scene_overrides={},
+                                        stem_mm=30.0)  # fmt: skip
+
+    monkeypatch.setattr(ForkedCall, "__init__", spy)
+    monkeypatch.setattr(simulate, "kernels_cached", lambda: True)
+    monkeypatch.setattr(forked_mod, "second_core_free", lambda: True)
+    together = run()
+    assert together.numerics.stem is not None and together.numerics.stem.ok
+    assert forked[:2] == [True, True]  # the refined run, then the whole channel's refined run
+    monkeypatch.setattr(simulate, "CONCURRENT_RUNS", False)
+    forked.clear()
+    in_turn = run()
+    assert not any(forked)
+    np.testing.assert_array_equal(together.dwells.positions_mm, in_turn.dwells.positions_mm)
+    np.testing.assert_array_equal(together.numerics.error_mm, in_turn.numerics.error_mm)
+    np.testing.assert_array_equal(together.numerics.stem.added_mm, in_turn.numerics.stem.added_mm)
+    assert together.numerics.n_runs == in_turn.numerics.n_runs
