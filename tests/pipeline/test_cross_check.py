@@ -54,7 +54,7 @@ def test_agreement_within_the_limit_passes():
     xc = _check(_engine(0.05))
     assert xc.ok and not xc.fails
     assert xc.max_mm == pytest.approx(0.05)
-    assert xc.limit_mm == CROSS_CHECK_MIN_MM  # 2 x (0.01 + 0.05) = 0.12 < 0.2
+    assert xc.limit_mm == CROSS_CHECK_MIN_MM  # 2 x (0.01 + 0.06) = 0.14 < 0.2
     assert "agree to 0.050 mm" in xc.text and "within the 0.20 mm" in xc.text
     assert xc.solve_time_s == 0.5
     assert numerics_verdict(0.01, 0.1, xc).status == "PASS"
