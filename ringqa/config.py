@@ -270,9 +270,10 @@ KEYS: tuple[ConfigKey, ...] = (
     ConfigKey(
         "simulation.cross_check",
         "",
-        False,
+        True,
         "flag",
-        "also run the flexible-element engine and compare its dwells (the cross-check)",
+        "also run the flexible-element engine and compare its dwells (the cross-check; "
+        "--no-cross-check turns it off)",
         option="--cross-check",
     ),
     ConfigKey("report.institution", "", "", "text", "hospital / department"),

@@ -160,7 +160,7 @@ def add_parser(subparsers) -> None:
         default=None,
         help="also run the flexible-element engine (model.formulation = flexible) and compare its "
         "dwells; a disagreement above max(0.2 mm, 2 x the numerical errors) fails the numerics "
-        "(off by default: it adds ~1-2 s)",
+        "(on by default; --no-cross-check turns it off and the report says so)",
     )
     p.add_argument(
         "--centreline-correction",

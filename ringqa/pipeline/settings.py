@@ -72,7 +72,7 @@ class CommissionSettings:
         stem; None: the whole channel). See :mod:`ringqa.geometry.stem`.
     cross_check : bool
         Also run the flexible-element engine and compare its dwells with the reported ones
-        (``--cross-check``; :func:`ringqa.pipeline.simulate.cross_check_run`).
+        (on by default; ``--no-cross-check``; :func:`ringqa.pipeline.simulate.start_cross_check`).
     centreline_correction : str, Path or None
         A CT/film centreline segment (CSV/JSON, mm, proximal -> distal, in the applicator's frame)
         spliced over the channel's library centreline (``--centreline-correction``;
@@ -120,7 +120,7 @@ class CommissionSettings:
     dose_action_pct: float = DOSE_ACTION_PCT
     register: str = "none"
     stem_mm: float | None = DEFAULT_STEM_MM
-    cross_check: bool = False
+    cross_check: bool = True
     centreline_correction: str | Path | None = None
     require_measured: bool | None = None
     settings_origin: Mapping[str, str] = field(default_factory=dict)

@@ -68,6 +68,7 @@ from ringqa.pipeline.plots import (
     reference_name,
 )
 from ringqa.report import layout
+from ringqa.report.cross_check import cross_check_figure, cross_check_page, failed_cross_check
 from ringqa.report.fields import ReportFields
 from ringqa.report.layout import badge, grid_table, heading, para
 from ringqa.units import m_to_mm
@@ -1017,6 +1018,7 @@ def report_story(
     pages = [
         summary_flowables(result, fields, notes),
         positions_flowables(result),
+        *([page] if (page := cross_check_page(result)) else []),  # a failed cross-check
         deviations_flowables(result),
         doses_flowables(result),
         dwell_table_flowables(result),
@@ -1037,6 +1039,8 @@ def report_figures(result, accuracy: pd.DataFrame | None = None) -> list:
     """The report's figures of one CommissioningResult (positions, deviations, dose points,
     accuracy when given), as :class:`matplotlib.figure.Figure` (no pyplot state to close)."""
     figs = [positions_figure(result), deviations_figure(result), dose_points_figure(result)]
+    if failed_cross_check(result) is not None:
+        figs.append(cross_check_figure(result))
     if accuracy is not None:
         figs.append(accuracy_figure(result, accuracy))
     return figs
