@@ -531,7 +531,7 @@ class _Run:
 
 def _run_engine(simulate, scene, advances, progress: bool = False):
     res = simulate(scene, advances_mm=advances, progress=progress)
-    status = int(getattr(res, "status", 0))
+    status = int(res.status)
     pos_m = np.asarray(res.source_pos_m, dtype=float).reshape(-1, 3)
     ok = status == 0 and pos_m.shape[0] >= advances.size and bool(np.all(np.isfinite(pos_m)))
     return res, status, pos_m, ok
@@ -545,7 +545,7 @@ def _run_with_retries(engine: Engine, scene, advances, progress: bool) -> _Run:
     inc_m = getattr(getattr(scene, "solver", None), "increment_m", None)
     note = ""
     if not ok and status == -1 and inc_m:
-        first_message = str(getattr(res, "message", ""))
+        first_message = str(res.message)
         for factor in RETRY_INCREMENT_FACTORS:
             inc_mm = m_to_mm(float(inc_m)) * factor
             retry = engine.scene_with_overrides(scene, {"solver.increment_mm": inc_mm})
@@ -611,7 +611,7 @@ def _run_two(
 
 
 def _jammed(app, run: _Run, advances, s_ref_mm: float) -> SimulationJammedError:
-    got_adv = np.asarray(getattr(run.res, "advances_mm", advances), dtype=float).reshape(-1)
+    got_adv = np.asarray(run.res.advances_mm, dtype=float).reshape(-1)
     n = min(run.pos_m.shape[0], got_adv.size)
     finite = np.all(np.isfinite(run.pos_m[:n]), axis=1)
     reached = got_adv[:n][finite]
@@ -624,14 +624,14 @@ def _jammed(app, run: _Run, advances, s_ref_mm: float) -> SimulationJammedError:
     kind = "jammed" if run.status == 1 else "failed"
     return SimulationJammedError(
         f"applicator {app.name}: the simulated source cable {kind} {where}: "
-        f"{getattr(run.res, 'message', '') or 'no message'} (check the lumen and the scene "
+        f"{run.res.message or 'no message'} (check the lumen and the scene "
         "settings, e.g. --set solver.increment_mm=0.25 or --set effects.friction=coulomb)"
     )
 
 
 def _dwell_rows(run: _Run, advances, wanted_mm) -> np.ndarray:
     """Row of each wanted advance (mm) in the run's output."""
-    got_adv = np.asarray(getattr(run.res, "advances_mm", advances), dtype=float).reshape(-1)
+    got_adv = np.asarray(run.res.advances_mm, dtype=float).reshape(-1)
     lookup = {round(float(a), 6): i for i, a in enumerate(got_adv)}
     idx = []
     for a in wanted_mm:
@@ -683,7 +683,7 @@ def commission_scene(engine: Engine, channel, cable: str, scene_overrides: Mappi
 
 def _stabilised(run: _Run) -> int:
     """Load steps of a run that needed the fallback stabilisation."""
-    settings = getattr(run.res, "settings", {}) or {}
+    settings = run.res.settings or {}
     return int(settings.get("n_stabilised_steps", 0) or 0)
 
 
@@ -978,9 +978,9 @@ def simulate_dwells(
             "increment halved each time); the numbers below come from the last two runs."
         )
     res = fine.res
-    run_settings = dict(getattr(res, "settings", {}) or {})
+    run_settings = dict(res.settings or {})
     stabilised = _stabilised(fine)
-    n_steps = getattr(getattr(res, "stats", None), "n_steps", None)
+    n_steps = res.stats.n_steps
     coarse_dict, fine_dict = _scene_dict(engine, coarse.scene), _scene_dict(engine, fine.scene)
     xcheck = None
     if xpending is not None:  # both engines share the stem: its share left out
@@ -998,15 +998,15 @@ def simulate_dwells(
         median_mm=float(np.median(error_mm)),
         settings=_numeric_settings(coarse_dict),
         refined_settings=_numeric_settings(fine_dict),
-        solve_time_s=float(getattr(coarse.res, "solve_time_s", coarse.wall_s)),
-        refined_solve_time_s=float(getattr(res, "solve_time_s", fine.wall_s)),
+        solve_time_s=float(coarse.res.solve_time_s),
+        refined_solve_time_s=float(res.solve_time_s),
         stabilised_steps=stabilised,
         text=text if xcheck is None else (*text, xcheck.text),
         n_runs=len(runs),
         n_probes=len(probes),
         branch_mm=branch_mm,
         resolved=resolved,
-        total_solve_time_s=sum(float(getattr(r.res, "solve_time_s", r.wall_s)) for r in runs),
+        total_solve_time_s=sum(float(r.res.solve_time_s) for r in runs),
         cross_check=xcheck,
         stem=stem_result,
     )
@@ -1014,11 +1014,11 @@ def simulate_dwells(
     dirs = np.asarray(res.source_dir, dtype=float).reshape(-1, 3)[idx_f]
     info = SimulationInfo(
         status=fine.status,
-        message=str(getattr(res, "message", "")),
-        warnings=tuple(str(w) for w in getattr(res, "warnings", ())),
+        message=str(res.message),
+        warnings=tuple(str(w) for w in res.warnings),
         solve_time_s=numerics.total_solve_time_s,
         wall_time_s=sum(r.wall_s for r in runs),
-        n_elements=int(getattr(res, "n_elements", 0) or 0),
+        n_elements=int(res.n_elements or 0),
         settings=run_settings,
     )
     afterloader = getattr(getattr(fine.scene, "instrument", None), "afterloader", "") or cable
@@ -1245,9 +1245,9 @@ class PendingCrossCheck:
 
         if isinstance(run, str):  # a scene the flexible engine does not model: said, not failed
             return not_compared(run, 0.0)
-        solve = float(getattr(run.res, "solve_time_s", run.wall_s))
+        solve = float(run.res.solve_time_s)
         if not run.ok:
-            msg = getattr(run.res, "message", "")
+            msg = run.res.message
             return not_compared(f"its run did not reach every dwell ({msg}).", solve)
         d = np.asarray(distance(run), dtype=float)
         worst = float(np.max(d))
