@@ -93,7 +93,7 @@ from ringqa.pipeline.verdicts import (
     conclusion,
     verdict_meanings,
 )
-from ringqa.provenance import Provenance, tg43_data_files
+from ringqa.provenance import Provenance, display_path, tg43_data_files
 from ringqa.units import m_to_mm
 
 __all__ = [
@@ -374,7 +374,8 @@ def _commission_loaded(input, loaded, cfg, *, engine, progress, t_start, load_s,
     ``others``: sentences on the plan's channels this run leaves out (named warnings
     ``plan.channel_not_commissioned``)."""
     app = loaded.applicator
-    log.info("%s: loaded %s (%s) in %.2f s", input, app.name, loaded.kind, load_s)
+    shown = display_path(input) if isinstance(input, str | Path) else input  # no install path
+    log.info("%s: loaded %s (%s) in %.2f s", shown, app.name, loaded.kind, load_s)
     files = loaded.files
     correction_notes: tuple[str, ...] = ()
     if cfg.centreline_correction is not None:
