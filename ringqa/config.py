@@ -62,7 +62,7 @@ class ConfigError(RingQAError):
 
 
 _BY_KEY = {k.key: k for k in KEYS}
-TABLES = ("tolerances", "plan", "dose_points", "simulation", "scene", "report")
+TABLES = ("tolerances", "plan", "dose_points", "simulation", "scene", "report", "calibration")
 _SCENE_DOTTED = {k.dotted for k in SCENE_KEYS}
 #: scene keys whose value is a table keyed by names (``element_length_mm = {thin = 1.5}``)
 _SCENE_TABLE_KEYS = {"discretisation.element_length_mm"}
@@ -276,7 +276,12 @@ class EffectiveConfig:
                     v["tolerances.position_required_mm"],
                 ),
                 stem_mm=None if v["simulation.whole_channel"] else v["simulation.stem_mm"],
-                settings_origin=dict(self.origins),
+                calibration=self.calibration_record(),
+                settings_origin={  # [calibration] only when a calibration file set it
+                    k: o
+                    for k, o in self.origins.items()
+                    if not (k.startswith("calibration.") and o == DEFAULT)
+                },
                 **self.extra,
             )
         except ConfigError:
@@ -291,6 +296,29 @@ class EffectiveConfig:
                     "required tolerance must be >= the recommended one"
                 ) from None
             raise
+
+    def calibration_record(self) -> dict[str, Any] | None:
+        """The cable calibration file in use (a configuration layer with a ``[calibration]``
+        table, from ``ringqa calibrate``): ``file``, ``sha256`` and the table's keys; None
+        when no layer has one."""
+        keys = [k.key for k in KEYS if k.field == "calibration"]
+        origins = {self.origins[k] for k in keys if self.origins.get(k, DEFAULT) != DEFAULT}
+        if not origins:
+            return None
+        origin = sorted(origins)[-1]
+        path = ""
+        for prefix in ("--config ", "user config "):
+            if origin.startswith(prefix):
+                path = origin[len(prefix) :]
+        from ringqa.provenance import sha256_of
+
+        record: dict[str, Any] = {"file": path}
+        if path and Path(path).is_file():
+            record["sha256"] = sha256_of(path)
+        for k in keys:
+            if self.origins.get(k) == origin:
+                record[k.split(".", 1)[1]] = self.values[k]
+        return record
 
     def report_fields(self) -> ReportFields:
         """The report's free-text fields (``[report]``)."""

@@ -109,6 +109,16 @@ def add_parser(subparsers) -> None:
         "entry to tip, in the plan's coordinates) that replaces the library's there (one "
         "applicator only)",
     )
+    p.add_argument(
+        "--measured",
+        type=Path,
+        default=None,
+        metavar="FILE",
+        help="the clinic's measured source path of the channel (CSV/JSON, mm; any subset of "
+        "relative positions, optional sd_mm and method: film, ct, panel, vendor) in place of "
+        "the input's own; the standard plan stays on the input's library path (one applicator "
+        "only)",
+    )
     add_set_option(p)
     p.add_argument(
         "--centreline-reference",
@@ -286,6 +296,8 @@ def effective(args: argparse.Namespace):
         extra["centreline_correction"] = args.centreline_correction
     if getattr(args, "centreline_reference", False):
         extra["require_measured"] = False
+    if getattr(args, "measured", None) is not None:
+        extra["measured"] = args.measured
     return effective_config(args.config, command_line_settings(args), extra=extra)
 
 
@@ -413,6 +425,11 @@ def _run(args: argparse.Namespace) -> int:
         raise RingQAError(
             "--centreline-correction: give one applicator (each applicator has its own frame; "
             "a correction segment belongs to one)"
+        )
+    if getattr(args, "measured", None) is not None and not single:
+        raise RingQAError(
+            f"--measured {args.measured}: give one applicator (a measured path belongs to one "
+            "applicator's channel; commission the others without --measured)"
         )
     sweep_spec = None
     if args.sweep is not None or args.uncertainty is not None:

@@ -38,7 +38,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ringqa.errors import named_warning, split_warning
+from ringqa.errors import RingQAError, named_warning, split_warning
 from ringqa.geometry.families import family_name_of
 from ringqa.geometry.frame import frame_of
 from ringqa.pipeline.deviations import (
@@ -66,7 +66,13 @@ from ringqa.pipeline.inputs import (
     load_input,
     loaded_text,
 )
-from ringqa.pipeline.measured_points import centreline_grid, compare_measured_points, is_sparse
+from ringqa.pipeline.measured_points import (
+    attach_measured,
+    centreline_grid,
+    compare_measured_points,
+    has_dense_path,
+    is_sparse,
+)
 from ringqa.pipeline.reference import review_reference
 from ringqa.pipeline.result import CommissioningResult, RunSettings, Timings
 from ringqa.pipeline.settings import CommissionSettings
@@ -87,7 +93,7 @@ from ringqa.pipeline.verdicts import (
     conclusion,
     verdict_meanings,
 )
-from ringqa.provenance import Provenance, tg43_data_files
+from ringqa.provenance import Provenance, display_path, tg43_data_files
 from ringqa.units import m_to_mm
 
 __all__ = [
@@ -273,6 +279,11 @@ def commission_channels(
     names = tuple(dict.fromkeys(_channel_name(app, w) for w in wanted))
     for n in names:
         channel_of(app, n)  # refuses an unknown channel, naming those there are
+    if cfg.measured is not None and len(names) > 1:
+        raise RingQAError(
+            f"--measured {cfg.measured}: {len(names)} channels ({', '.join(names)}) are "
+            "commissioned; a measured path belongs to one: name it with --channel"
+        )
     results = tuple(
         _commission_loaded(input, loaded, dataclasses.replace(cfg, channel=n), engine=engine,
                            progress=progress, t_start=time.perf_counter(), load_s=load_s)
@@ -370,7 +381,8 @@ def _commission_loaded(input, loaded, cfg, *, engine, progress, t_start, load_s,
     ``others``: sentences on the plan's channels this run leaves out (named warnings
     ``plan.channel_not_commissioned``)."""
     app = loaded.applicator
-    log.info("%s: loaded %s (%s) in %.2f s", input, app.name, loaded.kind, load_s)
+    shown = display_path(input) if isinstance(input, str | Path) else input  # no install path
+    log.info("%s: loaded %s (%s) in %.2f s", shown, app.name, loaded.kind, load_s)
     files = loaded.files
     correction_notes: tuple[str, ...] = ()
     if cfg.centreline_correction is not None:
@@ -382,6 +394,11 @@ def _commission_loaded(input, loaded, cfg, *, engine, progress, t_start, load_s,
         files = (*files, Path(correction.path))
         correction_notes = (correction_note(correction),)
     ring = channel_of(app, cfg.channel)
+    own = (app, ring)  # the input's own channel (a library path that can carry the plan)
+    if cfg.measured is not None:  # --measured FILE: the clinic's path in place of the input's
+        attached = attach_measured(app, ring, cfg.measured)
+        app, ring = attached.applicator, attached.channel
+        files = (*files, Path(cfg.measured))
     check_measured_path(input, ring, cfg.channel, loaded.kind, cfg.require_measured)
     src = choose_source(cfg.source, cfg.sk_U, loaded.rtplan)
     cable = choose_cable(cfg.cable, src.source.name)
@@ -389,9 +406,17 @@ def _commission_loaded(input, loaded, cfg, *, engine, progress, t_start, load_s,
     check_clearance(app, ring, cable_r_m)
     reference = reference_dwells(app, ring, cfg.plan_step_mm)
     sparse = None  # a measured subset: compared at its own positions (pipeline.measured_points)
+    plan_path = ""
+    sparse_ring = ring
     if is_sparse(reference, cfg.plan_step_mm):
         sparse = (reference, review_reference(app, ring, reference, cfg.register, capsule_r_m))
-        reference = centreline_grid(app, ring, cfg.plan_step_mm)
+        if cfg.measured is not None and has_dense_path(*own, cfg.plan_step_mm):
+            app, ring = own  # the plan on the input's own (vendor/library) path
+            reference = reference_dwells(app, ring, cfg.plan_step_mm)
+            plan_path = "library"
+        else:
+            reference = centreline_grid(app, ring, cfg.plan_step_mm)
+            plan_path = "simulated"
     review = review_reference(app, ring, reference, cfg.register, capsule_r_m)
     compared_ref = review.registered
     registered = compared_ref.dwells if cfg.register != "none" and reference.kind == "measured" \
@@ -438,6 +463,7 @@ def _commission_loaded(input, loaded, cfg, *, engine, progress, t_start, load_s,
     plans = standard_plans(
         reference, registered, selection, simulated.dwells, centreline, tandem, points,
         src.source, prescription_gy=cfg.prescription_gy, sk_U=src.sk_U,
+        times_from=simulated.dwells if plan_path == "simulated" else None,
     )  # fmt: skip
     tables = dose_tables(app, loaded.rtplan, plans, points, src.source, src.sk_U, src.sk_given)
     dose_s = time.perf_counter() - t0
@@ -454,8 +480,10 @@ def _commission_loaded(input, loaded, cfg, *, engine, progress, t_start, load_s,
         measured_points = compare_measured_points(
             app, ring, *sparse, cable=cable.preset, scene_overrides=cfg.scene_overrides,
             limits_mm=cfg.position_limits_mm, engine=engine, stem_mm=cfg.stem_mm,
-            sd_mm=None if getattr(ring, "measured_sd_m", None) is None
-            else m_to_mm(ring.measured_sd_m), method=getattr(ring, "measured_method", ""),
+            sd_mm=None if getattr(sparse_ring, "measured_sd_m", None) is None
+            else m_to_mm(sparse_ring.measured_sd_m),
+            method=getattr(sparse_ring, "measured_method", ""), plan_path=plan_path,
+            plan_source=reference.source if plan_path == "library" else "",
         )  # fmt: skip
         verdicts = (*verdicts, measured_points.verdict())
     n_tandem = 0 if tandem is None else len(tandem.relative_position_mm)
@@ -484,7 +512,8 @@ def _commission_loaded(input, loaded, cfg, *, engine, progress, t_start, load_s,
         *getattr(loaded, "notes", ()),
         *correction_notes,
         *kink_notes(app, ring),
-        *((reference_note(reference),) if measured_points is None else measured_points.lines()),
+        *((reference_note(reference),) if plan_path != "simulated" else ()),
+        *(() if measured_points is None else measured_points.lines()),
         *simulated.notes,
         *simulation_notes(simulated.info, cable),
         *tables.notes,
@@ -500,7 +529,11 @@ def _commission_loaded(input, loaded, cfg, *, engine, progress, t_start, load_s,
         scene=simulated.scene,
         centreline_correction=None if cfg.centreline_correction is None
         else str(cfg.centreline_correction),
+        calibration=None if cfg.calibration is None else dict(cfg.calibration),
     )  # fmt: skip
+    if cfg.calibration is not None and cfg.calibration.get("file"):
+        if Path(cfg.calibration["file"]).is_file():  # its SHA-256 in the provenance too
+            files = (*files, Path(cfg.calibration["file"]))
     folder = getattr(src.source, "folder", None)
     provenance = Provenance.now(
         inputs=files, settings=used.as_dict(),
@@ -528,6 +561,7 @@ def _commission_loaded(input, loaded, cfg, *, engine, progress, t_start, load_s,
         settings_origin=dict(cfg.settings_origin),
         warnings=warnings,
         channel=label,
+        measured_points=None if measured_points is None else measured_points.as_dict(),
         family=family_name_of(app, ring),
         frame_family=str(getattr(app, "family", "ring") or "ring"),
     )

@@ -185,6 +185,10 @@ class RunSettings:
         The simulated scene in user units (empty if it could not be written).
     centreline_correction : str or None
         The centreline correction file spliced over the channel, if any.
+    calibration : dict or None
+        The cable calibration file whose values the scene uses (``file``, ``sha256``,
+        ``command``, ...; :attr:`CommissionSettings.calibration`); in ``as_dict`` only when
+        there is one.
     """
 
     source: str
@@ -202,10 +206,11 @@ class RunSettings:
     scene_overrides: dict[str, Any]
     scene: dict[str, Any]
     centreline_correction: str | None = None
+    calibration: dict[str, Any] | None = None
 
     def as_dict(self) -> dict:
         """The ``results.json`` ``settings`` section (also the provenance's settings)."""
-        return {
+        out = {
             "source": self.source,
             "sk_U": self.sk_U,
             "prescription_gy": self.prescription_gy,
@@ -222,6 +227,9 @@ class RunSettings:
             "stem_mm": self.stem_mm,
             "centreline_correction": self.centreline_correction,
         }
+        if self.calibration is not None:
+            out["calibration"] = dict(self.calibration)
+        return out
 
 
 @dataclass(frozen=True)
@@ -505,6 +513,10 @@ class CommissioningResult:
     channel : str
         The channel commissioned, as the CSV tables' ``channel`` column names it: the plan's
         channel number, or the channel's name for file inputs (``""``: ``settings.channel``).
+    measured_points : dict or None
+        A measured path that is a subset (:mod:`ringqa.pipeline.measured_points`): which path
+        the standard plan was built on and each measured position with its distance, sd and
+        status (results.json ``measured_points``); None for a dense reference.
     family : str
         The channel's applicator family (:mod:`ringqa.geometry.families`: its report words).
     frame_family : str
@@ -533,6 +545,7 @@ class CommissioningResult:
     settings_origin: dict[str, str] = field(default_factory=dict)
     warnings: tuple[str, ...] = ()
     channel: str = ""
+    measured_points: dict | None = None
     family: str = "ring"
     frame_family: str = "ring"
 

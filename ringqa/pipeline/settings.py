@@ -72,7 +72,7 @@ class CommissionSettings:
         stem; None: the whole channel). See :mod:`ringqa.geometry.stem`.
     cross_check : bool
         Also run the flexible-element engine and compare its dwells with the reported ones
-        (``--cross-check``; :func:`ringqa.pipeline.simulate.cross_check_run`).
+        (on by default; ``--no-cross-check``; :func:`ringqa.pipeline.simulate.start_cross_check`).
     centreline_correction : str, Path or None
         A CT/film centreline segment (CSV/JSON, mm, proximal -> distal, in the applicator's frame)
         spliced over the channel's library centreline (``--centreline-correction``;
@@ -91,6 +91,15 @@ class CommissionSettings:
     lumen_mm : float or None
         Lumen diameter (mm) of the channels read from a structure set (``--lumen-mm``; None:
         the per-applicator lumen table).
+    measured : str or Path or None
+        A measured source path file (CSV/JSON, mm; any subset of relative positions with
+        ``sd_mm`` and ``method``: :mod:`ringqa.pipeline.measured_points`) of the channel, in
+        place of the input's own (``--measured``); the input's own dense path (an RT Plan's
+        library path) then carries the standard plan.
+    calibration : mapping or None
+        The cable calibration file the scene keys came from (``[calibration]`` of a
+        ``ringqa calibrate`` calibrated_cable.toml given as configuration): ``file``,
+        ``sha256`` and its ``[calibration]`` keys; named in results.json and the report.
 
     Raises
     ------
@@ -111,12 +120,14 @@ class CommissionSettings:
     dose_action_pct: float = DOSE_ACTION_PCT
     register: str = "none"
     stem_mm: float | None = DEFAULT_STEM_MM
-    cross_check: bool = False
+    cross_check: bool = True
     centreline_correction: str | Path | None = None
     require_measured: bool | None = None
     settings_origin: Mapping[str, str] = field(default_factory=dict)
     structures: str | Path | None = None
     lumen_mm: float | None = None
+    measured: str | Path | None = None
+    calibration: Mapping[str, Any] | None = None
 
     def __post_init__(self) -> None:
         def keep(name: str, value) -> None:
@@ -182,6 +193,11 @@ class CommissionSettings:
             raise RingQAError(
                 f"--stem-mm {self.stem_mm!r}: must be a length in mm > 0 (the straight channel "
                 "simulated before the first bend, e.g. 60), or None for the whole channel"
+            )
+        if self.measured is not None and not isinstance(self.measured, str | Path):
+            raise RingQAError(
+                f"--measured {self.measured!r}: give the path of a measured source path file "
+                "(CSV/JSON, mm)"
             )
         corr = self.centreline_correction
         if corr is not None and not isinstance(corr, str | Path):
@@ -516,15 +532,16 @@ SETTINGS: tuple[Setting, ...] = (
     Setting(
         "simulation.cross_check",
         "",
-        False,
+        True,
         "flag",
-        "also run the flexible-element engine and compare its dwells (the cross-check)",
+        "also run the flexible-element engine and compare its dwells (the cross-check; "
+        "--no-cross-check turns it off)",
         option="--cross-check",
         field="cross_check",
         negatable=True,
         help="also run the flexible-element engine (model.formulation = flexible) and compare "
         "its dwells; a disagreement above max(0.2 mm, 2 x the numerical errors) fails the "
-        "numerics (off by default: it adds ~1-2 s)",
+        "numerics (on by default; --no-cross-check turns it off and the report says so)",
     ),
     Setting("report.institution", "", "", "text", "hospital / department"),
     Setting("report.physicist", "", "", "text", "the physicist who signs"),
@@ -548,6 +565,33 @@ SETTINGS: tuple[Setting, ...] = (
         option="--strict",
         help="exit status 1 when a verdict is FAIL or ACTION (the files are written either "
         "way; configuration key report.strict)",
+    ),
+    # the [calibration] table ringqa calibrate writes into calibrated_cable.toml: the
+    # commissioning report names the file (with its SHA-256) and these (CommissionSettings
+    # .calibration)
+    Setting(
+        "calibration.command",
+        "",
+        "",
+        "text",
+        "the ringqa calibrate command that wrote this file (a calibrated cable)",
+        field="calibration",
+    ),
+    Setting(
+        "calibration.created_utc",
+        "",
+        "",
+        "text",
+        "when the calibration was made (UTC)",
+        field="calibration",
+    ),
+    Setting(
+        "calibration.calibration_json_sha256",
+        "",
+        "",
+        "text",
+        "SHA-256 of the calibration.json written beside this file (the fit's record)",
+        field="calibration",
     ),
 )
 
@@ -622,4 +666,8 @@ SETTING_NAMES: tuple[SettingNames, ...] = (
     _names("structures", None, "the file is in the provenance's inputs", flags=("--structures",)),
     _names("lumen_mm", None, "said in the notes (each channel's lumen and where it comes from)",
            flags=("--lumen-mm",)),
+    _names("measured", None, "the file is in the provenance's inputs; its points in results.json "
+           "measured_points", flags=("--measured",)),
+    _names("calibration", None, "the [calibration] table of a calibrated_cable.toml; results.json "
+           "settings.calibration (only when one is used) adds the file and its SHA-256"),
 )  # fmt: skip

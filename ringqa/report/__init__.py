@@ -25,7 +25,7 @@ from ringqa.jsonio import write_json
 from ringqa.outdir import MARKER_NAME, marker_record, staged_output
 from ringqa.pipeline.result import register_report_writer
 from ringqa.report.fields import ReportFields
-from ringqa.report.pdf import write_batch_pdf, write_channels_pdf, write_pdf
+from ringqa.report.pdf import draw_ahead, write_batch_pdf, write_channels_pdf, write_pdf
 from ringqa.report.tables import SCHEMA, results_dict, write_batch_tables, write_tables
 from ringqa.textio import read_csv_table
 
@@ -75,8 +75,21 @@ def read_accuracy_csv(path) -> pd.DataFrame:
 
 def _write_one(
     result, folder: Path, pdf: bool, accuracy=None, fields=None, export=None, sections=(),
-    extra_files=None, html: bool | None = None, files=None,
+    extra_files=None, html: bool | None = None, files=None, ahead: bool = False,
 ) -> None:  # fmt: skip
+    # ahead: the PDF's costliest figures are drawn in a forked process (when a core is free)
+    # while the tables, report.html and the rest of the PDF are made here
+    drawn = draw_ahead(result) if pdf and ahead else None
+    try:
+        _write_files(result, folder, pdf, accuracy, fields, export, sections, extra_files, html,
+                     drawn, files)  # fmt: skip
+    finally:
+        if drawn is not None:
+            drawn.cancel()
+
+
+def _write_files(result, folder, pdf, accuracy, fields, export, sections, extra_files, html,
+                 drawn, files=None) -> None:  # fmt: skip
     if files is None:
         write_tables(result, folder)
     else:
@@ -94,7 +107,7 @@ def _write_one(
     if pdf:
         write_pdf(
             result, folder / "report.pdf", accuracy=accuracy, fields=fields, sections=sections,
-            notes=_export_note(export),
+            notes=_export_note(export), drawn=drawn,
         )  # fmt: skip
 
 
@@ -149,7 +162,7 @@ def write_report(
     (checked,) = _checked_exports([result], export)
     with staged_output(out_dir) as stage:
         _write_one(result, stage, pdf, accuracy, fields, checked, sections, extra_files, html,
-                   files)  # fmt: skip
+                   files, ahead=True)  # fmt: skip
     return Path(out_dir)
 
 

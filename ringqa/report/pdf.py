@@ -55,8 +55,10 @@ from ringqa.pipeline.numbers import (
 )
 from ringqa.pipeline.numbers import fmt as _fmt_number
 from ringqa.pipeline.plots import (
+    DEVIATIONS_SIZE,
     FLAG_COLOURS,
     FLAG_NAMES,
+    POSITIONS_SIZE,
     accuracy_caption,
     accuracy_figure,
     batch_distances_figure,
@@ -70,6 +72,7 @@ from ringqa.pipeline.plots import (
     reference_name,
 )
 from ringqa.report import layout
+from ringqa.report.cross_check import cross_check_figure, cross_check_page, failed_cross_check
 from ringqa.report.fields import ReportFields
 from ringqa.report.layout import badge, grid_table, heading, para
 from ringqa.units import m_to_mm
@@ -773,6 +776,88 @@ def summary_flowables(result, fields: ReportFields | None = None, notes=()) -> l
 
 
 # ---------------------------------------------------------------------------------------------
+# Figures drawn ahead, in a forked process (the second core), while this one lays out the rest
+# ---------------------------------------------------------------------------------------------
+
+#: the report's figures :func:`draw_ahead` can draw in another process: maker, size (inches)
+AHEAD_FIGURES: dict[str, tuple[Callable, tuple[float, float]]] = {
+    "positions": (positions_figure, POSITIONS_SIZE),
+    "deviations": (deviations_figure, DEVIATIONS_SIZE),
+}
+
+
+class DrawnAhead:
+    """The report figures of one result (:data:`AHEAD_FIGURES`) being drawn in a forked child
+    process (:class:`ringqa.pipeline.forked.ForkedCall`) while this process writes the tables,
+    report.html and the rest of the PDF; the PDF waits for their pixels only when it draws
+    their page. Without a free core (or ``os.fork``) they are drawn here when first needed:
+    the pixels, and so the PDF, are the same either way (the child is a copy of this process,
+    matplotlib's state included). Give it to :func:`write_pdf` (``drawn=``)."""
+
+    def __init__(self, result, fork: bool | None = None) -> None:
+        from ringqa.pipeline.forked import ForkedCall, second_core_free
+
+        self.result = result
+        fork = second_core_free() if fork is None else fork
+        self._call = ForkedCall(lambda: _draw_figures(result, tuple(AHEAD_FIGURES)), fork)
+        self._pixels: dict | None = None
+
+    @property
+    def forked(self) -> bool:
+        """The figures are being drawn in a child process (until their pixels arrive)."""
+        return self._call.forked
+
+    def pixels(self, name: str):
+        """``(rgb, size_in)`` of figure ``name`` (waits for the child the first time)."""
+        if self._pixels is None:
+            self._pixels = self._call.result()
+        return self._pixels[name]
+
+    def cancel(self) -> None:
+        """Stop the child if its figures are no longer needed."""
+        self._call.cancel()
+
+
+def draw_ahead(result, fork: bool | None = None) -> DrawnAhead:
+    """Start drawing ``result``'s costliest report figures in a forked process (see
+    :class:`DrawnAhead`; ``fork``: None = when a core is free)."""
+    return DrawnAhead(result, fork)
+
+
+def _draw_figures(result, names) -> dict:
+    return {name: layout.figure_pixels(AHEAD_FIGURES[name][0](result)) for name in names}
+
+
+class _AheadImage(layout.PixelImage):
+    """A figure of :class:`DrawnAhead`: its size is known at once (the figure's size), its
+    pixels are fetched when its page is drawn."""
+
+    def __init__(self, drawn: DrawnAhead, name: str, width: float) -> None:
+        w_in, h_in = (float(x) for x in AHEAD_FIGURES[name][1])
+        super().__init__(None, width, width * h_in / w_in)
+        self._drawn, self._name = drawn, name
+
+    def draw(self):
+        if self.reader is None:
+            rgb, size_in = self._drawn.pixels(self._name)
+            self.reader = layout.pixel_image(rgb, size_in, self.width).reader
+        super().draw()
+
+
+#: the figures being drawn ahead for the report being written (set by :func:`write_pdf`)
+_AHEAD: list[DrawnAhead] = []
+
+
+def _figure(name: str, res, width: float):
+    """Report figure ``name`` of ``res``, ``width`` points wide: drawn ahead when
+    :func:`write_pdf` was given it for ``res``, else drawn now."""
+    for drawn in _AHEAD:
+        if drawn.result is res:
+            return _AheadImage(drawn, name, width)
+    return layout.figure_image(AHEAD_FIGURES[name][0](res), width)
+
+
+# ---------------------------------------------------------------------------------------------
 # The other pages
 # ---------------------------------------------------------------------------------------------
 
@@ -786,7 +871,7 @@ def positions_flowables(res) -> list:
             "position, mm) and orthogonal to it. Reference as supplied and registered, "
             "simulated, centreline; circled: flagged reference positions."
         ),
-        layout.figure_image(positions_figure(res), 0.95 * layout.FRAME_WIDTH),
+        _figure("positions", res, 0.95 * layout.FRAME_WIDTH),
         *_references(PAPER_REFERENCE),
     ]
 
@@ -796,7 +881,7 @@ def deviations_flowables(res) -> list:
     return [
         heading(f"Deviations from the {reference_name(res)}", 1),
         para(deviation_caption(res)),
-        layout.figure_image(deviations_figure(res), 0.86 * layout.FRAME_WIDTH),
+        _figure("deviations", res, 0.86 * layout.FRAME_WIDTH),
     ]
 
 
@@ -1028,6 +1113,7 @@ def detail_pages(result) -> list[list]:
     the dwell table and the settings (one list of flowables per page)."""
     return [
         positions_flowables(result),
+        *([page] if (page := cross_check_page(result)) else []),  # a failed cross-check
         deviations_flowables(result),
         doses_flowables(result),
         dwell_table_flowables(result),
@@ -1049,6 +1135,8 @@ def report_figures(result, accuracy: pd.DataFrame | None = None) -> list:
     """The report's figures of one CommissioningResult (positions, deviations, dose points,
     accuracy when given), as :class:`matplotlib.figure.Figure` (no pyplot state to close)."""
     figs = [positions_figure(result), deviations_figure(result), dose_points_figure(result)]
+    if failed_cross_check(result) is not None:
+        figs.append(cross_check_figure(result))
     if accuracy is not None:
         figs.append(accuracy_figure(result, accuracy))
     return figs
@@ -1062,6 +1150,7 @@ def write_pdf(
     notes: Sequence[str] | str = (),
     accuracy: pd.DataFrame | None = None,
     sections: Sequence[Section] = (),
+    drawn: DrawnAhead | None = None,
 ) -> Path:
     """Write the report PDF of one CommissioningResult.
 
@@ -1081,6 +1170,8 @@ def write_pdf(
     sections : sequence of callables, optional
         Extra pages: each ``section(result)`` returns reportlab flowables (build them with
         :mod:`ringqa.report.layout`); each starts on a new page after the standard pages.
+    drawn : DrawnAhead, optional
+        ``result``'s figures already being drawn in another process (:func:`draw_ahead`).
 
     Returns
     -------
@@ -1088,7 +1179,17 @@ def write_pdf(
     """
     if isinstance(notes, str):
         notes = (notes,)
-    story = report_story(result, fields=fields, notes=notes, accuracy=accuracy, sections=sections)
+    if drawn is not None and drawn.result is not result:
+        drawn = None
+    if drawn is not None:
+        _AHEAD.append(drawn)
+    try:
+        story = report_story(
+            result, fields=fields, notes=notes, accuracy=accuracy, sections=sections
+        )
+    finally:
+        if drawn is not None:
+            _AHEAD.remove(drawn)
     return layout.build_pdf(
         path,
         story,

@@ -66,6 +66,8 @@ def results_dict(result: CommissioningResult, files=FILES) -> dict:
             "numerical_check": result.numerics.as_dict() if result.numerics is not None else None,
         }
     )
+    if getattr(result, "measured_points", None) is not None:  # a measured subset
+        data["measured_points"] = to_jsonable(result.measured_points)
     out = relative_paths(data, base)
     # the input as given (two inputs of one batch stay apart), as summary.csv names it
     out["input"] = out["summary"]["input"] = result.input_label
