@@ -38,15 +38,11 @@ def channels_wanted(item, settings, channel_args) -> tuple[list[str] | None, obj
     import time
 
     from ringqa.errors import RingQAError
-    from ringqa.pipeline.commission import channel_choice
-    from ringqa.pipeline.inputs import load_input
+    from ringqa.pipeline.commission import channel_choice, load_commission_input
 
     t0 = time.perf_counter()
     try:
-        if settings.structures is None and settings.lumen_mm is None:
-            loaded = load_input(item)  # as commission() loads it
-        else:
-            loaded = load_input(item, settings.structures, settings.lumen_mm)
+        loaded = load_commission_input(item, settings)  # as commission() loads it
     except RingQAError:
         return None, None, 0.0  # the single run says what is wrong
     load_s = time.perf_counter() - t0

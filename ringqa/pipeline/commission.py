@@ -104,6 +104,7 @@ __all__ = [
     "commission",
     "commission_channels",
     "default_channels",
+    "load_commission_input",
 ]
 
 log = logging.getLogger(__name__)
@@ -290,6 +291,12 @@ def commission_channels(
         for n in names
     )  # fmt: skip
     return ChannelRuns(results, (*unsimulated_channels(loaded), *skipped))
+
+
+def load_commission_input(input, settings: CommissionSettings | None = None):
+    """``input`` loaded as :func:`commission` loads it (:func:`load_input` with the settings'
+    structure set and lumen); hand it back as ``commission(..., loaded=)``."""
+    return _load(input, CommissionSettings() if settings is None else settings)
 
 
 def _load(input, cfg):

@@ -1122,10 +1122,10 @@ class _WholeChannel:
         finally:
             self._ahead = None
         self.runs = [coarse, fine]
-        solve = sum(float(getattr(r.res, "solve_time_s", r.wall_s)) for r in self.runs)
+        solve = sum(float(r.res.solve_time_s) for r in self.runs)
         if not (coarse.ok and fine.ok):
             bad = fine if coarse.ok else coarse
-            msg = getattr(bad.res, "message", "") or "no message"
+            msg = bad.res.message or "no message"
             return not_measured(f"the whole channel's run did not reach every dwell: {msg}", solve)
         want = np.asarray(wanted, dtype=float) + dropped_mm
         pos = {id(r): r.pos_m[_dwell_rows(r, self.advances, want)] for r in self.runs}
