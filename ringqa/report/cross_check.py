@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ringqa.pipeline.plots import COLOURS, new_figure, project
+from ringqa.pipeline.plots import COLOURS, frame_words, new_figure, project
 from ringqa.report.layout import FRAME_WIDTH, figure_image, heading, para
 
 #: the figure's size (inches): an A4 page's frame width
@@ -96,9 +96,10 @@ def cross_check_figure(res, title: str | None = None):
     ax1.set_ylim(-lim, lim)
     ax1.set_aspect("equal")
     ax1.set_anchor("W")
-    ax1.set_xlabel("patient left (mm), in the ring plane")
-    ax1.set_ylabel("in the ring plane, perpendicular (mm)")
-    ax1.set_title("both engines' source positions, projected onto the ring plane", fontsize=9)
+    plane = frame_words(res).plane  # the family's words ("ring plane" for a ring)
+    ax1.set_xlabel(f"patient left (mm), in the {plane}")
+    ax1.set_ylabel(f"in the {plane}, perpendicular (mm)")
+    ax1.set_title(f"both engines' source positions, projected onto the {plane}", fontsize=9)
     ax1.legend(fontsize=6.5, loc="lower left", bbox_to_anchor=(1.02, 0.0), borderaxespad=0.0)
     ax1.grid(alpha=0.3)
     ax2.plot(rel, dis, "o-", color="0.25", ms=3.5, lw=0.8, label="disagreement")
