@@ -159,7 +159,7 @@ def test_dense_measured_file_is_the_reference(tmp_path):
     own up to the file's 4 decimals (<= 0.9e-4 mm per coordinate)."""
     from ringqa.datasets import example_plan
 
-    film, rel = _film_subset(tmp_path, every=1)
+    film, _rel = _film_subset(tmp_path, every=1)
     plan = example_plan()
     dense = commission(plan)
     own = commission(plan, CommissionSettings(measured=film))
