@@ -45,7 +45,7 @@ __all__ = [
     "FD_STEP",
     "MAX_DELTA_SE_MM",
     "MAX_RELATIVE_SE",
-    "MAX_SLOPE_CHANGE",
+    "MAX_SLOPE_RATIO",
     "RCOND",
     "FitResult",
     "fit_parameters",
@@ -66,10 +66,11 @@ MAX_DELTA_SE_MM = 0.1
 MAX_NFEV = 40
 #: A fitted theta this close to a bound is on it (trust-region reflective stays strictly inside).
 BOUND_TOL = 1.0e-3
-#: Largest relative change of the positions' slope between one step below and one above a
-#: fitted value (:func:`_slope_change`) for the parameter to count as identifiable: beyond it the
-#: positions jump (two equilibria) and a Jacobian standard error means nothing.
-MAX_SLOPE_CHANGE = 0.5
+#: A fitted key is not identifiable when the positions' slope one step above and one below its
+#: fitted value (:func:`_slopes`) differ by more than this factor, or point in opposite
+#: directions (cosine < 0): the positions jump there (two equilibria) and a Jacobian standard
+#: error means nothing.
+MAX_SLOPE_RATIO = 3.0
 #: Extra points (beyond one per fitted parameter) a fit needs.
 EXTRA_POINTS = 2
 
@@ -115,9 +116,10 @@ class FitResult:
     notes : tuple of str
     covariance : (n, n) ndarray or None
         Of the fitted keys' values.
-    slope_change : dict
-        Per fitted key, the relative change of the positions' slope between one step below and
-        one above the fitted value (:func:`_slope_change`; NaN where a step leaves the range).
+    slope_ratio, slope_cosine : dict
+        Per fitted key, the ratio (larger / smaller) and the cosine of the positions' slopes one
+        step above and one below the fitted value (:func:`_slopes`; NaN where a step leaves the
+        searched range).
     """
 
     keys: tuple[str, ...]
@@ -137,7 +139,8 @@ class FitResult:
     seconds: float
     notes: tuple[str, ...] = field(default=())
     covariance: np.ndarray | None = None
-    slope_change: dict = field(default_factory=dict)
+    slope_ratio: dict = field(default_factory=dict)
+    slope_cosine: dict = field(default_factory=dict)
 
 
 def _residuals(model: ForwardModel, positions: list, sigma: list) -> np.ndarray:
@@ -267,8 +270,7 @@ def fit_parameters(
             x_scale=1.0, xtol=1e-4, ftol=1e-8, gtol=1e-8, max_nfev=MAX_NFEV,
         )  # fmt: skip
         jac_opt = sol.jac if sol.jac is not None else jac(sol.x)
-        slope_change = _slope_change(np.asarray(sol.x, dtype=float), par, fun, cache, pool,
-                                     model)  # fmt: skip
+        ratio, cosine = _slopes(np.asarray(sol.x, dtype=float), par, fun, cache, pool, model)
     finally:
         if pool_cm is not None:
             pool_cm.__exit__(None, None, None)
@@ -312,12 +314,12 @@ def fit_parameters(
     near = (theta - par.lower < BOUND_TOL) | (par.upper - theta < BOUND_TOL)
     on_bound = [k for j, k in enumerate(keys) if sol.active_mask[j] != 0 or near[j]]
     for j, k in enumerate(keys):
-        if slope_change[j] > MAX_SLOPE_CHANGE:
+        if ratio[j] > MAX_SLOPE_RATIO or cosine[j] < 0.0:
             notes.append(
                 f"{k}: the simulated positions do not change smoothly with it at the fitted "
-                f"values (their slope one {FD_STEP:g} step below and one above differs by "
-                f"{100 * slope_change[j]:.0f} %: the solution jumps between equilibria); its "
-                "standard error means nothing (identifiable: false)"
+                f"values (their slopes one {FD_STEP:g} step above and one below differ by a "
+                f"factor {ratio[j]:.3g}, cosine {cosine[j]:.2f}: the solution jumps between "
+                "equilibria); its standard error means nothing (identifiable: false)"
             )
             ident[k] = False
     for k in on_bound:
@@ -350,18 +352,20 @@ def fit_parameters(
         seconds=time.perf_counter() - t0,
         notes=tuple(notes),
         covariance=cov,
-        slope_change={k: float(slope_change[j]) for j, k in enumerate(keys)},
+        slope_ratio={k: float(ratio[j]) for j, k in enumerate(keys)},
+        slope_cosine={k: float(cosine[j]) for j, k in enumerate(keys)},
     )
 
 
-def _slope_change(theta, par, fun, cache, pool, model) -> np.ndarray:
-    """Per parameter, ``|J+ - J-| / max(|J+|, |J-|)`` of the weighted residuals' forward and
-    backward difference columns (step :data:`FD_STEP` in theta) at the fitted ``theta``: about
-    ``FD_STEP`` times the relative curvature where the positions are smooth in it (measured on
-    ring26x60: 0.02-0.04), 1 or more where the solution jumps between equilibria within a step
-    (ring26x60 with gravity and the real cable mass, fitted from mu_k 0.2 / EI 1: 1.7-2.0, the
-    dwells jumping by 0.6 mm). 0 for a parameter that moves nothing; NaN where the backward
-    step leaves the searched range."""
+def _slopes(theta, par, fun, cache, pool, model) -> tuple[np.ndarray, np.ndarray]:
+    """Per parameter, the ratio ``max(|J+|, |J-|) / min(|J+|, |J-|)`` and the cosine of the
+    weighted residuals' forward and backward difference columns (step :data:`FD_STEP` in theta)
+    at the fitted ``theta``. Where the positions are smooth in it the ratio is about
+    ``1 + FD_STEP`` times the relative curvature and the cosine about 1 (measured on ring26x60:
+    1.02-1.05); a jump between equilibria within a step makes one side many times the other or
+    turns it round (ring26x60 with gravity and the real cable mass, fitted from mu_k 0.2 / EI 1:
+    the dwells jump by 0.6 mm). A parameter that moves nothing: 1 and 1; one side still, the
+    other not: inf. NaN where the backward step leaves the searched range."""
     n = theta.size
     r0 = fun(theta)
     trial, where = [], []
@@ -386,13 +390,20 @@ def _slope_change(theta, par, fun, cache, pool, model) -> np.ndarray:
         key = np.asarray(t, dtype=float).tobytes()
         if key in cache:
             cols[(j, sign)] = sign * (fun(t) - r0) / h
-    out = np.full(n, np.nan)
+    ratio, cosine = np.full(n, np.nan), np.full(n, np.nan)
     for j in range(n):
         if (j, 1.0) in cols and (j, -1.0) in cols:
             a, b = cols[(j, 1.0)], cols[(j, -1.0)]
-            big = max(float(np.linalg.norm(a)), float(np.linalg.norm(b)))
-            out[j] = float(np.linalg.norm(a - b)) / big if big > 1e-12 else 0.0
-    return out
+            na, nb = float(np.linalg.norm(a)), float(np.linalg.norm(b))
+            tiny = 1e-12 * max(1.0, na, nb)
+            if na <= tiny and nb <= tiny:
+                ratio[j], cosine[j] = 1.0, 1.0
+            elif min(na, nb) <= tiny:
+                ratio[j], cosine[j] = np.inf, 0.0
+            else:
+                ratio[j] = max(na, nb) / min(na, nb)
+                cosine[j] = float(a @ b) / (na * nb)
+    return ratio, cosine
 
 
 def _try(model: ForwardModel, par: Parametrisation, theta):

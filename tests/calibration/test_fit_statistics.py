@@ -92,20 +92,21 @@ class _Jumping(_Linear):
 def test_a_parameter_the_positions_jump_with_is_not_identifiable(b, jump, smooth):
     """EI fitted beside mu_k; data made at EI = 1 (the start). Smooth (y = 0.5 ln EI, SE of
     ln EI = 0.2 / (0.5 sqrt(10)) = 0.13: identifiable): its forward and backward slopes agree,
-    slope change 0. With a 0.6 mm jump just above EI = 1, the forward difference sees a slope of
-    0.6 / 0.05 = 12 mm per unit ln EI (a precise-looking SE of 0.2 / (12 sqrt(10)) = 0.005),
-    the backward one 0.5: slope change (12 - 0.5) / 12 = 0.96 > 0.5 -> identifiable false, and
-    the notes say why; mu_k (smooth) stays identifiable either way."""
-    from ringqa.calibration.fit import MAX_SLOPE_CHANGE
+    ratio 1. With a 0.6 mm jump just above EI = 1, the forward difference sees a slope of
+    0.6 / 0.05 + 0.5 = 12.5 mm per unit ln EI (a precise-looking SE of 0.2 / (12.5 sqrt(10)) =
+    0.005), the backward one 0.5: ratio 25 > 3 -> identifiable false, and the notes say why;
+    mu_k (smooth) stays identifiable either way."""
+    from ringqa.calibration.fit import MAX_SLOPE_RATIO
 
     a = np.arange(2.0, 21.0, 2.0)
     model = _Jumping(a, a * (0.15 - 0.2), 0.2, b=b, jump=jump)
     res = fit_parameters(model, ("contact.mu_k", "instrument.ei_scale"), model.sigma, workers=1)
-    change = res.slope_change["instrument.ei_scale"]
+    ratio = res.slope_ratio["instrument.ei_scale"]
     assert res.identifiable["contact.mu_k"]
-    assert res.slope_change["contact.mu_k"] < 0.1
+    assert res.slope_ratio["contact.mu_k"] < 1.1 and res.slope_cosine["contact.mu_k"] > 0.99
     if smooth:
-        assert change < 0.05 and res.identifiable["instrument.ei_scale"]
+        assert ratio < 1.01 and res.identifiable["instrument.ei_scale"]
     else:
-        assert change > MAX_SLOPE_CHANGE and not res.identifiable["instrument.ei_scale"]
+        assert ratio == pytest.approx(25.0, rel=0.01) and ratio > MAX_SLOPE_RATIO
+        assert not res.identifiable["instrument.ei_scale"]
         assert any("do not change smoothly" in n for n in res.notes)
