@@ -10,8 +10,8 @@ Steps (issue 5; Straathof et al. 2024, section 2.4):
 3. Simulate the source cable at the advances ``s_ref - p`` (the cable length that would put the
    source centre at arc length ``s_ref - p`` if the cable followed the centreline).
 4. Centreline dwells: the same relative positions at arc length ``s_ref - p``, direction = tangent.
-5. Distances per dwell to the reference (3D, and split into along-channel, radial in the ring
-   plane and out of the ring plane) and angles between source directions.
+5. Distances per dwell to the reference (3D, and split into along-channel, radial and
+   out-of-plane parts in the applicator frame) and angles between source directions.
 6. Standard plan on the reference dwells every 5 mm (+ the tandem where the applicator has one,
    identical in all three plans), equal times scaled to the prescription at Point A; the times are
    transferred unchanged to the simulated and centreline dwells; TG-43 doses at the dose points.
@@ -39,6 +39,7 @@ from pathlib import Path
 import numpy as np
 
 from ringqa.errors import RingQAError, named_warning, split_warning
+from ringqa.geometry.families import family_name_of
 from ringqa.geometry.frame import frame_of
 from ringqa.pipeline.deviations import (
     DwellColumns,
@@ -92,10 +93,18 @@ from ringqa.pipeline.verdicts import (
     conclusion,
     verdict_meanings,
 )
-from ringqa.provenance import Provenance, tg43_data_files
+from ringqa.provenance import Provenance, display_path, tg43_data_files
 from ringqa.units import m_to_mm
 
-__all__ = ["ChannelRuns", "channel_label", "commission", "commission_channels", "default_channels"]
+__all__ = [
+    "ChannelChoice",
+    "ChannelRuns",
+    "channel_choice",
+    "channel_label",
+    "commission",
+    "commission_channels",
+    "default_channels",
+]
 
 log = logging.getLogger(__name__)
 
@@ -130,6 +139,76 @@ def default_channels(app) -> tuple[str, ...]:
     if getattr(app, "family", "ring") == "ring" and "ring" in names:
         return ("ring",)
     return names
+
+
+@dataclass(frozen=True)
+class ChannelChoice:
+    """The channels a run commissions when none is named (:func:`channel_choice`).
+
+    Attributes
+    ----------
+    names : tuple of str
+        The applicator's channel names to commission, in the applicator's order.
+    skipped : tuple of str
+        One sentence per channel with dwells that is NOT commissioned, and why (no reference
+        source path where one is required); the channels without a centreline are
+        :func:`unsimulated_channels`.
+    """
+
+    names: tuple[str, ...]
+    skipped: tuple[str, ...] = ()
+
+
+def _needs_reference(kind: str, require_measured) -> bool:
+    """A channel of an input of ``kind`` must have a reference (measured) source path
+    (:func:`~ringqa.pipeline.inputs.check_measured_path`'s rule)."""
+    if require_measured is None:
+        return kind in ("folder", "file", "rtplan", "rtplan+rtstruct")
+    return bool(require_measured)
+
+
+def channel_choice(loaded, require_measured=None) -> ChannelChoice:
+    """The channels commissioned by default (issue 30): for an RT Plan, every plan channel with
+    dwells that has a centreline in the applicator (the plan's own channels: the example's ring
+    AND its tandem); without a plan, :func:`default_channels`. A channel without a reference
+    source path where one is required (user files, unless ``require_measured`` is False: the
+    command line's ``--centreline-reference``) is not commissioned but named in ``skipped``,
+    never dropped.
+
+    Parameters
+    ----------
+    loaded : LoadedInput
+    require_measured : bool or None
+        As :attr:`CommissionSettings.require_measured`.
+
+    Returns
+    -------
+    ChannelChoice
+    """
+    app = loaded.applicator
+    plan = getattr(loaded, "rtplan", None)
+    with_dwells = {
+        str(ch.number): ch
+        for ch in (getattr(plan, "channels", ()) or ())
+        if len(np.asarray(ch.positions_mm).reshape(-1, 3))
+    }
+    candidates = [c for c in app.channels if str(getattr(c, "label", "")) in with_dwells]
+    if not candidates:
+        return ChannelChoice(default_channels(app))
+    needs = _needs_reference(loaded.kind, require_measured)
+    names, skipped = [], []
+    for c in candidates:
+        if needs and getattr(c, "measured_path_m", None) is None:
+            ch = with_dwells[str(c.label)]
+            skipped.append(
+                f"Channel {c.label} ({ch.name or c.name}) has "
+                f"{len(np.asarray(ch.positions_mm).reshape(-1, 3))} dwells and a centreline but "
+                "no reference source path: NOT COMMISSIONED (--centreline-reference compares it "
+                f"with its centreline; --channel {c.label} names it)."
+            )
+        else:
+            names.append(c.name)
+    return ChannelChoice(tuple(names), tuple(skipped))
 
 
 def channel_label(channel) -> str:
@@ -191,7 +270,12 @@ def commission_channels(
     loaded = _load(input, cfg)
     load_s = time.perf_counter() - t_start
     app = loaded.applicator
-    wanted = default_channels(app) if not channels else tuple(str(c) for c in channels)
+    skipped: tuple[str, ...] = ()
+    if channels:
+        wanted = tuple(str(c) for c in channels)
+    else:
+        choice = channel_choice(loaded, cfg.require_measured)
+        wanted, skipped = choice.names or default_channels(app), choice.skipped
     names = tuple(dict.fromkeys(_channel_name(app, w) for w in wanted))
     for n in names:
         channel_of(app, n)  # refuses an unknown channel, naming those there are
@@ -205,7 +289,7 @@ def commission_channels(
                            progress=progress, t_start=time.perf_counter(), load_s=load_s)
         for n in names
     )  # fmt: skip
-    return ChannelRuns(results, unsimulated_channels(loaded))
+    return ChannelRuns(results, (*unsimulated_channels(loaded), *skipped))
 
 
 def _load(input, cfg):
@@ -272,17 +356,26 @@ def commission(
     t_start = time.perf_counter()
     loaded = _load(input, cfg)
     load_s = time.perf_counter() - t_start
+    others: tuple[str, ...] = ()
+    if cfg.channel == "ring":  # no channel named: the default choice's first channel
+        choice = channel_choice(loaded, cfg.require_measured)
+        if choice.names and "ring" not in choice.names:
+            cfg = dataclasses.replace(cfg, channel=choice.names[0])
+        others = choice.skipped
     name = _channel_name(loaded.applicator, cfg.channel)
     if name != cfg.channel:
         cfg = dataclasses.replace(cfg, channel=name)
     return _commission_loaded(input, loaded, cfg, engine=engine, progress=progress,
-                              t_start=t_start, load_s=load_s)  # fmt: skip
+                              t_start=t_start, load_s=load_s, others=others)  # fmt: skip
 
 
-def _commission_loaded(input, loaded, cfg, *, engine, progress, t_start, load_s):
-    """:func:`commission` of an input already loaded, for the channel ``cfg.channel``."""
+def _commission_loaded(input, loaded, cfg, *, engine, progress, t_start, load_s, others=()):
+    """:func:`commission` of an input already loaded, for the channel ``cfg.channel``;
+    ``others``: sentences on the plan's channels this run leaves out (named warnings
+    ``plan.channel_not_commissioned``)."""
     app = loaded.applicator
-    log.info("%s: loaded %s (%s) in %.2f s", input, app.name, loaded.kind, load_s)
+    shown = display_path(input) if isinstance(input, str | Path) else input  # no install path
+    log.info("%s: loaded %s (%s) in %.2f s", shown, app.name, loaded.kind, load_s)
     files = loaded.files
     correction_notes: tuple[str, ...] = ()
     if cfg.centreline_correction is not None:
@@ -399,6 +492,7 @@ def _commission_loaded(input, loaded, cfg, *, engine, progress, t_start, load_s)
         "the tandem is not simulated, so its dwells are the same in all plans."
     )
     warnings = collect_warnings(loaded, app, cfg, src, cable.preset, verdicts)
+    warnings += tuple(named_warning("plan.channel_not_commissioned", t) for t in others)
     warnings += tuple(  # the engine's work balance (issue 25): on the terminal and page 1
         named_warning("simulation.work_balance", w)
         for w in simulated.info.warnings
@@ -461,6 +555,8 @@ def _commission_loaded(input, loaded, cfg, *, engine, progress, t_start, load_s)
         warnings=warnings,
         channel=label,
         measured_points=None if measured_points is None else measured_points.as_dict(),
+        family=family_name_of(app, ring),
+        frame_family=str(getattr(app, "family", "ring") or "ring"),
     )
 
 

@@ -421,6 +421,37 @@ class Timings:
 #: named input checks that are notes (the file was read correctly; shown, not alarming)
 NOTE_CHECKS = ("csv.encoding",)
 
+#: The report's writers of a result, by kind (``"pdf"``: ``writer(result, path, fields=,
+#: notes=, accuracy=, sections=)``; ``"html"``: ``writer(result, path)``). The pipeline names
+#: this seam and the report layer fills it when imported (:mod:`ringqa.report` registers its
+#: writers), so the data still flows one way and no module is looked up by its name.
+REPORT_WRITERS: dict[str, Any] = {}
+
+
+def register_report_writer(kind: str, writer) -> None:
+    """Register the report layer's writer of ``kind`` (``"pdf"``, ``"html"``) in
+    :data:`REPORT_WRITERS` (replacing an earlier one)."""
+    REPORT_WRITERS[str(kind)] = writer
+
+
+def report_writer(kind: str):
+    """The registered writer of ``kind``.
+
+    Raises
+    ------
+    RingQAError
+        None registered: ``ringqa.report`` has not been imported (the message says so).
+    """
+    writer = REPORT_WRITERS.get(kind)
+    if writer is None:
+        from ringqa.errors import RingQAError
+
+        raise RingQAError(
+            f"no {kind} report writer registered: import ringqa.report first (it registers its "
+            f"writers), or call ringqa.report.write_{kind}(result, path)"
+        )
+    return writer
+
 
 @dataclass(frozen=True, eq=False)
 class CommissioningResult:
@@ -486,6 +517,11 @@ class CommissioningResult:
         A measured path that is a subset (:mod:`ringqa.pipeline.measured_points`): which path
         the standard plan was built on and each measured position with its distance, sd and
         status (results.json ``measured_points``); None for a dense reference.
+    family : str
+        The channel's applicator family (:mod:`ringqa.geometry.families`: its report words).
+    frame_family : str
+        The applicator's family, whose frame the positions are projected in (its words name
+        the frame's plane and axis: a ring applicator's tandem is shown in the ring plane).
     """
 
     applicator: str
@@ -510,6 +546,8 @@ class CommissioningResult:
     warnings: tuple[str, ...] = ()
     channel: str = ""
     measured_points: dict | None = None
+    family: str = "ring"
+    frame_family: str = "ring"
 
     def warning_records(self) -> list[dict]:
         """The results.json ``warnings``: ``name``, ``severity`` (``note`` for
@@ -631,11 +669,9 @@ class CommissioningResult:
         -------
         pathlib.Path
         """
-        # The report layer sits after the pipeline (DEVELOPERS.md): it is looked up when called,
-        # so the pipeline never imports it at module level and the data still flows one way.
-        import importlib
-
-        writer = importlib.import_module("ringqa.report.pdf").write_pdf
+        # The report layer sits after the pipeline (DEVELOPERS.md): it registers its writer in
+        # REPORT_WRITERS when imported (ringqa.report), so the data still flows one way.
+        writer = report_writer("pdf")
         return writer(
             self, path, fields=fields, notes=notes or (), accuracy=accuracy, sections=sections
         )
@@ -652,6 +688,4 @@ class CommissioningResult:
         -------
         pathlib.Path
         """
-        import importlib
-
-        return importlib.import_module("ringqa.report.html").write_html(self, path)
+        return report_writer("html")(self, path)

@@ -18,6 +18,7 @@ from pathlib import Path
 from typing import Any
 
 from ringqa.errors import RingQAError
+from ringqa.pipeline.settings import SETTINGS
 from ringqa.pipeline.uncertainty import PERTURBATION_KEYS
 from ringqa.textio import read_toml
 
@@ -48,17 +49,18 @@ METHODS = ("random", "sobol")
 NUMERICS = ("calibrated", "full")
 #: default number of calibration samples of a calibrated sweep
 CALIBRATION_SAMPLES = 6
-#: CommissionSettings fields a spec may set in its [settings] table
+#: The commissioning settings (CommissionSettings fields) a spec's [settings] table may set.
+SWEEP_SETTING_FIELDS = (
+    "source", "cable", "prescription_gy", "dose_action_pct", "register", "stem_mm", "sk_U",
+)  # fmt: skip
+#: Their names in a spec's [settings] table: the configuration keys' names (the settings table,
+#: :data:`ringqa.pipeline.settings.SETTINGS`: ``sk_u``), and ``centreline_reference`` (the
+#: option --centreline-reference, which has no configuration key).
 SETTINGS_KEYS = (
-    "source",
-    "cable",
-    "prescription_gy",
-    "dose_action_pct",
-    "register",
-    "stem_mm",
-    "sk_u",
+    *(s.key.split(".")[-1] for s in SETTINGS if s.field in SWEEP_SETTING_FIELDS
+      and s.kind != "flag"),
     "centreline_reference",
-)
+)  # fmt: skip
 TOP_KEYS = (
     "description",
     "input",
