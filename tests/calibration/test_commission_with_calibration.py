@@ -25,6 +25,7 @@ def calibrated(tmp_path_factory):
     return out
 
 
+@pytest.mark.slow
 def test_report_names_the_calibration_file_and_its_sha256(calibrated, tmp_path):
     """--config calibrated_cable.toml: results.json settings.calibration gives the file, its
     SHA-256 (recomputed here), the calibrate command and the SHA-256 of calibration.json (also
@@ -60,6 +61,7 @@ def test_a_plain_configuration_names_no_calibration(tmp_path):
     assert "calibration" not in data["settings"] and "measured_points" not in data
 
 
+@pytest.mark.slow
 def test_commission_rt_plan_with_measured_subset(tmp_path, capsys):
     """``ringqa commission PLAN.dcm --measured film.csv``: results.json measured_points names
     the plan's path (library) and the measured positions with their sd and status; the PDF's
