@@ -31,7 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ringqa.calibration.fit import MAX_DELTA_SE_MM, MAX_RELATIVE_SE, RCOND
+from ringqa.calibration.fit import MAX_DELTA_SE_MM, MAX_RELATIVE_SE, MAX_SLOPE_RATIO, RCOND
 from ringqa.calibration.model import applicator_of, base_key
 from ringqa.calibration.run import Calibration
 from ringqa.jsonio import csv_encoding, write_json
@@ -67,7 +67,10 @@ IDENTIFIABLE_RULE = (
     f"identifiable when the standard error is finite and at most {MAX_RELATIVE_SE:g} of the "
     f"value (lumen.diameter_delta_mm: at most {MAX_DELTA_SE_MM:g} mm); a direction of the "
     f"weighted Jacobian with a singular value below {RCOND:g} of the largest has an infinite "
-    "error; a key that ends on the edge of its searched range is not identifiable"
+    "error; a key that ends on the edge of its searched range is not identifiable, nor one whose "
+    f"positions' slopes one step above and one below the fitted value differ by more than a "
+    f"factor {MAX_SLOPE_RATIO:g} or point in opposite directions (slope_ratio, slope_cosine: "
+    "the solution jumps between equilibria)"
 )
 
 
@@ -87,6 +90,8 @@ def calibration_dict(cal: Calibration, provenance: Provenance | None = None) -> 
             "standard_error": f.se[k] if math.isfinite(f.se[k]) else None,
             "start": f.start[k],
             "identifiable": f.identifiable[k],
+            "slope_ratio": f.slope_ratio.get(k),
+            "slope_cosine": f.slope_cosine.get(k),
         }
         if applicator_of(k):
             own.setdefault(applicator_of(k), {})[base_key(k)] = entry

@@ -25,6 +25,7 @@ def calibrated(tmp_path_factory):
     return out
 
 
+@pytest.mark.slow
 def test_report_names_the_calibration_file_and_its_sha256(calibrated, tmp_path):
     """--config calibrated_cable.toml: results.json settings.calibration gives the file, its
     SHA-256 (recomputed here), the calibrate command and the SHA-256 of calibration.json (also
@@ -60,20 +61,26 @@ def test_a_plain_configuration_names_no_calibration(tmp_path):
     assert "calibration" not in data["settings"] and "measured_points" not in data
 
 
+@pytest.mark.slow
 def test_commission_rt_plan_with_measured_subset(tmp_path, capsys):
     """``ringqa commission PLAN.dcm --measured film.csv``: results.json measured_points names
-    the plan's path (library) and the measured positions with their sd and status."""
+    the plan's path (library) and the measured positions with their sd and status; the PDF's
+    first page says the same in words."""
     from ringqa.datasets import example_plan
     from tests.pipeline.test_measured_points import _film_subset
 
     film, rel = _film_subset(tmp_path)
     out = tmp_path / "site"
-    code = main(["commission", str(example_plan()), "--measured", str(film), "--no-pdf",
+    code = main(["commission", str(example_plan()), "--measured", str(film),
                  "--out", str(out)])  # fmt: skip
     assert code == 0, capsys.readouterr().err
     mp = json.loads((out / "results.json").read_text())["measured_points"]
     assert mp["plan_path"] == "library" and mp["relative_position_mm"] == rel.tolist()
     assert set(mp["status"]) <= {"PASS", "WARN", "FAIL", "NOT RESOLVABLE", "-"}
+    first = " ".join(pdf_pages_text(out / "report.pdf")[0].split())
+    shown = ", ".join(f"{r:g}" for r in rel)
+    assert f"subset of {rel.size} positions ({shown} mm" in first
+    assert "built on the input's own dense source path (the vendor/library path)" in first
 
 
 @pytest.mark.parametrize(

@@ -70,3 +70,43 @@ def test_identifiable_key_on_a_bound_is_refused():
     model = _Linear(a, a * (0.005 - 0.2), 0.2)
     with pytest.raises(CalibrationError, match=r"bound of contact\.mu_k"):
         fit_parameters(model, ("contact.mu_k",), model.sigma, workers=1)
+
+
+class _Jumping(_Linear):
+    """The linear mu_k model plus an EI term: smooth (``x += b ln EI``, slopes equal on both
+    sides) or with the solution jumping by ``jump`` mm in y at the fitted EI (EI > 1 + 1e-9),
+    as a model with two equilibria does (measured with gravity on a soft ring: 0.6 mm)."""
+
+    def __init__(self, a, measured_x, sd, b=0.0, jump=0.0):
+        super().__init__(a, measured_x, sd)
+        self.b, self.jump = b, jump
+
+    def positions(self, values):
+        (pos,) = super().positions(values)
+        ei = values.get("instrument.ei_scale", 1.0)
+        pos[:, 1] = self.b * np.log(ei) + (self.jump if ei > 1.0 + 1e-9 else 0.0)
+        return [pos]
+
+
+@pytest.mark.parametrize(("b", "jump", "smooth"), [(0.5, 0.0, True), (0.5, 0.6, False)])
+def test_a_parameter_the_positions_jump_with_is_not_identifiable(b, jump, smooth):
+    """EI fitted beside mu_k; data made at EI = 1 (the start). Smooth (y = 0.5 ln EI, SE of
+    ln EI = 0.2 / (0.5 sqrt(10)) = 0.13: identifiable): its forward and backward slopes agree,
+    ratio 1. With a 0.6 mm jump just above EI = 1, the forward difference sees a slope of
+    0.6 / 0.05 + 0.5 = 12.5 mm per unit ln EI (a precise-looking SE of 0.2 / (12.5 sqrt(10)) =
+    0.005), the backward one 0.5: ratio 25 > 3 -> identifiable false, and the notes say why;
+    mu_k (smooth) stays identifiable either way."""
+    from ringqa.calibration.fit import MAX_SLOPE_RATIO
+
+    a = np.arange(2.0, 21.0, 2.0)
+    model = _Jumping(a, a * (0.15 - 0.2), 0.2, b=b, jump=jump)
+    res = fit_parameters(model, ("contact.mu_k", "instrument.ei_scale"), model.sigma, workers=1)
+    ratio = res.slope_ratio["instrument.ei_scale"]
+    assert res.identifiable["contact.mu_k"]
+    assert res.slope_ratio["contact.mu_k"] < 1.1 and res.slope_cosine["contact.mu_k"] > 0.99
+    if smooth:
+        assert ratio < 1.01 and res.identifiable["instrument.ei_scale"]
+    else:
+        assert ratio == pytest.approx(25.0, rel=0.01) and ratio > MAX_SLOPE_RATIO
+        assert not res.identifiable["instrument.ei_scale"]
+        assert any("do not change smoothly" in n for n in res.notes)

@@ -153,6 +153,7 @@ def test_measured_file_refusals_name_file_field_and_fix(tmp_path, kwargs, match)
         commission(example_plan(), CommissionSettings(measured=film))
 
 
+@pytest.mark.slow
 def test_dense_measured_file_is_the_reference(tmp_path):
     """``measured = FILE`` holding every library position (a dense path, sd 0.3 mm): it is the
     reference itself (no subset: no measured-points verdict), and the dwell table is the plan's
