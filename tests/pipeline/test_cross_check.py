@@ -16,6 +16,7 @@ from ringqa.pipeline.simulate import (
     cross_check_run,
 )
 from ringqa.pipeline.verdicts import numerics_verdict
+from tests.pipeline.fakes import sim_result
 
 needs_fork = pytest.mark.skipif(
     not hasattr(os, "fork") or (os.cpu_count() or 1) < 2, reason="needs fork and 2 cores"
@@ -32,8 +33,7 @@ def _engine(offset_mm=0.0, raise_exc=None, status=0):
         if raise_exc is not None:
             raise raise_exc
         pos = RIGID_MM + np.array([0.0, offset_mm, 0.0])
-        return SimpleNamespace(status=status, message="m", source_pos_m=pos * 1e-3,
-                               solve_time_s=0.5, advances_mm=advances_mm)  # fmt: skip
+        return sim_result(status, "m", advances_mm, pos * 1e-3, solve_time_s=0.5)
 
     def with_overrides(scene, ov):
         return SimpleNamespace(**{**vars(scene), **ov})
