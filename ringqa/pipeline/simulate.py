@@ -1212,6 +1212,13 @@ class PendingCrossCheck:
         """Stop the forked run (its result is not needed)."""
         self.call.cancel()
 
+    def __del__(self) -> None:
+        # the rigid runs raised (a jam) before finish(): the child is stopped and reaped when
+        # this is dropped, not left blocked on its pipe
+        call = getattr(self, "call", None)
+        if call is not None:
+            call.cancel()
+
     def finish(self, rigid_error_mm: float, distance, positions) -> CrossCheck | None:
         """Wait for (or make) the flexible run and compare its dwells with the reported ones.
 

@@ -14,7 +14,8 @@ applicator:
    transform), the numbers "as supplied | registered" side by side with the simulation's
    numerical error, the free notes, the signature block and the references used on the page.
 2. Dwell positions like the paper's Figure 6 (the applicator frame's plane, in the family's
-   words, and the orthogonal view).
+   words, and the orthogonal view); after it, only when the cross-check failed, both engines'
+   dwells (:mod:`ringqa.report.cross_check`).
 3. Deviation per dwell: 3D distance (with the simulation's numerical error),
    along/radial/out-of-plane components, angle of orientation; flagged reference positions shaded.
 4. Dose points: map and the dose table of the standard plans (differences to the reference plan

@@ -124,6 +124,9 @@ def commission_settings(job: Job, values: Sequence) -> tuple[Any, Perturbation]:
         else:
             overrides[key] = bool(v) if isinstance(v, bool | np.bool_) else float(v)
     kw = dict(job.settings)
+    # a sample is one converged run: commission's cross-check (on by default) is not repeated
+    # per sample (ringqa.pipeline.simulate.start_cross_check)
+    kw.setdefault("cross_check", False)
     if "sk_u" in kw:
         kw["sk_U"] = kw.pop("sk_u")
     if "centreline_reference" in kw:

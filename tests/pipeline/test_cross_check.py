@@ -141,3 +141,39 @@ def test_the_cross_check_beside_the_rigid_runs_equals_it_after_them(monkeypatch)
     assert off.cross_check is None and off.text[-1] == simulate.CROSS_CHECK_OFF_TEXT
     quiet = run(None).numerics
     assert quiet.cross_check is None and simulate.CROSS_CHECK_OFF_TEXT not in quiet.text
+
+
+@needs_fork
+def test_a_jam_of_the_rigid_runs_leaves_no_cross_check_process(monkeypatch):
+    """The rigid runs jam (a push-force limit far below the push needed) after the cross-check
+    was forked: the jam is raised, and the forked flexible run is stopped and reaped when its
+    pending check is dropped (no child left blocked on its pipe)."""
+    import gc
+
+    from ringqa.io.applicator_file import load_applicator
+    from ringqa.pipeline import forked as forked_mod
+    from ringqa.pipeline import simulate
+    from ringqa.pipeline.dwells import reference_dwells
+
+    app = load_applicator("ring26x60")
+    ring = app.channel("ring")
+    rel = reference_dwells(app, ring, 5.0).relative_position_mm
+    pids = []
+    real = simulate.start_cross_check
+
+    def spy(*a, **k):
+        pending = real(*a, **k)
+        pids.append(pending.call._pid)
+        return pending
+
+    monkeypatch.setattr(simulate, "start_cross_check", spy)
+    monkeypatch.setattr(simulate, "kernels_cached", lambda: True)
+    monkeypatch.setattr(forked_mod, "second_core_free", lambda: True)
+    with pytest.raises(simulate.SimulationJammedError, match="jam"):
+        simulate.simulate_dwells(app, ring, rel, cable="flexitron", stem_mm=60.0,
+                                 scene_overrides={"solver.jam_force_n": 1e-3},
+                                 cross_check=True)  # fmt: skip
+    gc.collect()
+    assert pids and pids[0] > 0
+    with pytest.raises(ChildProcessError):
+        os.waitpid(pids[0], os.WNOHANG)
