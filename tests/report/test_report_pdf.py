@@ -183,9 +183,9 @@ def test_figures_drawn_ahead_give_the_same_pdf(fake_result, tmp_path, monkeypatc
     core) or drawn late in this one give a PDF byte for byte equal to the plain one (reportlab's
     invariant mode: no time stamp or random id in the file), and the figures are drawn once:
     three figures in all (in the child when forked: none of the two drawn here again)."""
-    import ringqa.pipeline.plots as plots
     from reportlab import rl_config
 
+    import ringqa.pipeline.plots as plots
     from ringqa.pipeline.forked import can_fork
     from ringqa.report.pdf import draw_ahead
 
