@@ -33,7 +33,7 @@ import os
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from ringqa.errors import RingQAError
 from ringqa.geometry.registration import REGISTER_MODES
@@ -41,9 +41,11 @@ from ringqa.pipeline.dwells import TANDEM_DWELLS
 from ringqa.pipeline.settings import DEFAULT_STEM_MM, CommissionSettings
 from ringqa.pipeline.verdicts import DOSE_ACTION_PCT, POSITION_RECOMMENDED_MM, POSITION_REQUIRED_MM
 from ringqa.plan import PLAN_STEP_MM, PRESCRIPTION_GY, DosePointSpec
-from ringqa.report.fields import ReportFields
 from ringqa.simulation.scene_keys import KEYS as SCENE_KEYS
 from ringqa.textio import read_toml
+
+if TYPE_CHECKING:  # imported where used: ringqa.report's package loads reportlab and pandas
+    from ringqa.report.fields import ReportFields
 
 log = logging.getLogger(__name__)
 
@@ -532,6 +534,8 @@ class EffectiveConfig:
 
     def report_fields(self) -> ReportFields:
         """The report's free-text fields (``[report]``)."""
+        from ringqa.report.fields import ReportFields
+
         keys = {f"report.{f.name}": f.name for f in dataclasses.fields(ReportFields)}
         return ReportFields(
             **{name: self.values[k] for k, name in keys.items() if k in self.values}

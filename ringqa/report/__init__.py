@@ -15,18 +15,53 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import importlib
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-
-import pandas as pd
+from typing import TYPE_CHECKING
 
 from ringqa.errors import InputFileError
 from ringqa.jsonio import write_json
 from ringqa.outdir import MARKER_NAME, marker_record, staged_output
 from ringqa.report.fields import ReportFields
-from ringqa.report.pdf import draw_ahead, write_batch_pdf, write_pdf
-from ringqa.report.tables import SCHEMA, results_dict, write_batch_tables, write_tables
 from ringqa.textio import read_csv_table
+
+if TYPE_CHECKING:
+    import pandas as pd
+
+    from ringqa.report.pdf import draw_ahead, write_batch_pdf, write_pdf
+    from ringqa.report.tables import SCHEMA, results_dict, write_batch_tables, write_tables
+
+#: names of this package that live in its heavy modules (reportlab, matplotlib, pandas):
+#: imported on first use (PEP 562), so that ``ringqa.report.fields`` (the configuration's
+#: report fields) or a command that has not written yet does not load them
+_LAZY = {
+    "draw_ahead": "ringqa.report.pdf",
+    "write_batch_pdf": "ringqa.report.pdf",
+    "write_pdf": "ringqa.report.pdf",
+    "SCHEMA": "ringqa.report.tables",
+    "results_dict": "ringqa.report.tables",
+    "write_batch_tables": "ringqa.report.tables",
+    "write_tables": "ringqa.report.tables",
+}
+
+
+def __getattr__(name: str):
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
+
+
+def _load() -> None:
+    """Bind every lazy name here (one set by a test's monkeypatch is kept): the writers below
+    use them as globals."""
+    for name in _LAZY:
+        if name not in globals():
+            __getattr__(name)
+
 
 __all__ = [
     "SCHEMA",
@@ -65,6 +100,7 @@ def _write_one(
 ) -> None:  # fmt: skip
     # ahead: the PDF's costliest figures are drawn in a forked process (when a core is free)
     # while the tables, report.html and the rest of the PDF are made here
+    _load()
     drawn = draw_ahead(result) if pdf and ahead else None
     try:
         _write_files(result, folder, pdf, accuracy, fields, export, sections, extra_files, html,
@@ -137,6 +173,7 @@ def write_report(
     pathlib.Path
         ``out_dir``.
     """
+    _load()
     accuracy = None if accuracy_csv is None else read_accuracy_csv(accuracy_csv)
     (checked,) = _checked_exports([result], export)
     with staged_output(out_dir) as stage:
@@ -167,6 +204,7 @@ def write_batch(
     from ringqa.pipeline.batch import default_workers
     from ringqa.progress import progress_bar as tqdm  # plain lines when not a terminal
 
+    _load()
     checked = _checked_exports(batch.results, export)
     n_workers = default_workers() if workers is None else max(1, int(workers))
     forked = pdf and n_workers > 1 and len(batch.results) > 1
@@ -239,5 +277,6 @@ def _pdf_task(k: int) -> int:
     from ringqa.pipeline.forked import job
 
     results, paths, fields, sections, notes = job()
+    _load()
     write_pdf(results[k], paths[k], fields=fields[k], sections=sections, notes=notes[k])
     return k
