@@ -15,53 +15,19 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
-import importlib
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING
+
+import pandas as pd
 
 from ringqa.errors import InputFileError
 from ringqa.jsonio import write_json
 from ringqa.outdir import MARKER_NAME, marker_record, staged_output
+from ringqa.pipeline.result import register_report_writer
 from ringqa.report.fields import ReportFields
+from ringqa.report.pdf import draw_ahead, write_batch_pdf, write_channels_pdf, write_pdf
+from ringqa.report.tables import SCHEMA, results_dict, write_batch_tables, write_tables
 from ringqa.textio import read_csv_table
-
-if TYPE_CHECKING:
-    import pandas as pd
-
-    from ringqa.report.pdf import draw_ahead, write_batch_pdf, write_pdf
-    from ringqa.report.tables import SCHEMA, results_dict, write_batch_tables, write_tables
-
-#: names of this package that live in its heavy modules (reportlab, matplotlib, pandas):
-#: imported on first use (PEP 562), so that ``ringqa.report.fields`` (the configuration's
-#: report fields) or a command that has not written yet does not load them
-_LAZY = {
-    "draw_ahead": "ringqa.report.pdf",
-    "write_batch_pdf": "ringqa.report.pdf",
-    "write_pdf": "ringqa.report.pdf",
-    "SCHEMA": "ringqa.report.tables",
-    "results_dict": "ringqa.report.tables",
-    "write_batch_tables": "ringqa.report.tables",
-    "write_tables": "ringqa.report.tables",
-}
-
-
-def __getattr__(name: str):
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    value = getattr(importlib.import_module(module), name)
-    globals()[name] = value
-    return value
-
-
-def _load() -> None:
-    """Bind every lazy name here (one set by a test's monkeypatch is kept): the writers below
-    use them as globals."""
-    for name in _LAZY:
-        if name not in globals():
-            __getattr__(name)
-
 
 __all__ = [
     "SCHEMA",
@@ -71,6 +37,7 @@ __all__ = [
     "results_dict",
     "write_batch",
     "write_batch_pdf",
+    "write_channels_pdf",
     "write_pdf",
     "write_report",
     "write_tables",
@@ -78,6 +45,18 @@ __all__ = [
 
 
 ACCURACY_COLUMNS = ("time_s", "max_err_mm", "status")
+
+
+def _write_html(result, path):
+    """report.html of ``result`` (:func:`ringqa.report.html.write_html`, imported when used)."""
+    from ringqa.report.html import write_html
+
+    return write_html(result, path)
+
+
+# the pipeline's named seam (CommissioningResult.publish_pdf / publish_html)
+register_report_writer("pdf", write_pdf)
+register_report_writer("html", _write_html)
 
 
 def read_accuracy_csv(path) -> pd.DataFrame:
@@ -96,23 +75,25 @@ def read_accuracy_csv(path) -> pd.DataFrame:
 
 def _write_one(
     result, folder: Path, pdf: bool, accuracy=None, fields=None, export=None, sections=(),
-    extra_files=None, html: bool | None = None, ahead: bool = False,
+    extra_files=None, html: bool | None = None, files=None, ahead: bool = False,
 ) -> None:  # fmt: skip
     # ahead: the PDF's costliest figures are drawn in a forked process (when a core is free)
     # while the tables, report.html and the rest of the PDF are made here
-    _load()
     drawn = draw_ahead(result) if pdf and ahead else None
     try:
         _write_files(result, folder, pdf, accuracy, fields, export, sections, extra_files, html,
-                     drawn)  # fmt: skip
+                     drawn, files)  # fmt: skip
     finally:
         if drawn is not None:
             drawn.cancel()
 
 
 def _write_files(result, folder, pdf, accuracy, fields, export, sections, extra_files, html,
-                 drawn) -> None:  # fmt: skip
-    write_tables(result, folder)
+                 drawn, files=None) -> None:  # fmt: skip
+    if files is None:
+        write_tables(result, folder)
+    else:
+        write_tables(result, folder, files)
     if pdf if html is None else html:
         from ringqa.report.html import write_html
 
@@ -156,6 +137,8 @@ def write_report(
     export: bool = False,
     sections: Sequence = (),
     extra_files: Mapping[str, bytes] | None = None,
+    html: bool | None = None,
+    files: Sequence[str] | None = None,
 ) -> Path:
     """Write one applicator's files into ``out_dir`` (staged: all or nothing).
 
@@ -166,19 +149,20 @@ def write_report(
     ``sections``: extra report pages, callables ``section(result) -> list of reportlab
     flowables`` (see :func:`ringqa.report.pdf.write_pdf`). ``extra_files``: more files of the
     run (name -> bytes, e.g. the uncertainty sweep's ``uncertainty.csv``), written in the same
-    staged folder (all or nothing).
+    staged folder (all or nothing). ``html``: write report.html (default: when ``pdf``).
+    ``files``: results.json's list of the files written (default
+    :data:`ringqa.report.tables.FILES`).
 
     Returns
     -------
     pathlib.Path
         ``out_dir``.
     """
-    _load()
     accuracy = None if accuracy_csv is None else read_accuracy_csv(accuracy_csv)
     (checked,) = _checked_exports([result], export)
     with staged_output(out_dir) as stage:
-        _write_one(result, stage, pdf, accuracy, fields, checked, sections, extra_files,
-                   ahead=True)  # fmt: skip
+        _write_one(result, stage, pdf, accuracy, fields, checked, sections, extra_files, html,
+                   files, ahead=True)  # fmt: skip
     return Path(out_dir)
 
 
@@ -204,7 +188,6 @@ def write_batch(
     from ringqa.pipeline.batch import default_workers
     from ringqa.progress import progress_bar as tqdm  # plain lines when not a terminal
 
-    _load()
     checked = _checked_exports(batch.results, export)
     n_workers = default_workers() if workers is None else max(1, int(workers))
     forked = pdf and n_workers > 1 and len(batch.results) > 1
@@ -277,6 +260,5 @@ def _pdf_task(k: int) -> int:
     from ringqa.pipeline.forked import job
 
     results, paths, fields, sections, notes = job()
-    _load()
     write_pdf(results[k], paths[k], fields=fields[k], sections=sections, notes=notes[k])
     return k

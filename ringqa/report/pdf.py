@@ -13,7 +13,8 @@ applicator:
    notes), where the reference path comes from and what its checks found (registration and its
    transform), the numbers "as supplied | registered" side by side with the simulation's
    numerical error, the free notes, the signature block and the references used on the page.
-2. Dwell positions like the paper's Figure 6 (ring plane and orthogonal view).
+2. Dwell positions like the paper's Figure 6 (the frame's plane, e.g. the ring plane, and the
+   orthogonal view).
 3. Deviation per dwell: 3D distance (with the simulation's numerical error),
    along/radial/out-of-plane components, angle of orientation; flagged reference positions shaded.
 4. Dose points: map and the dose table of the standard plans (differences to the reference plan
@@ -65,11 +66,13 @@ from ringqa.pipeline.plots import (
     deviations_figure,
     dose_points_caption,
     dose_points_figure,
+    frame_words,
     positions_figure,
     reference_flags,
     reference_name,
 )
 from ringqa.report import layout
+from ringqa.report.cross_check import cross_check_figure, cross_check_page, failed_cross_check
 from ringqa.report.fields import ReportFields
 from ringqa.report.layout import badge, grid_table, heading, para
 from ringqa.units import m_to_mm
@@ -864,9 +867,9 @@ def positions_flowables(res) -> list:
     return [
         heading("Dwell positions (paper Figure 6 [1])", 1),
         para(
-            "Projected onto the ring plane (seen from cranial; numbers: relative position, mm) "
-            "and orthogonal to it. Reference as supplied and registered, simulated, centreline; "
-            "circled: flagged reference positions."
+            f"Projected onto the {frame_words(res).plane} (seen from cranial; numbers: relative "
+            "position, mm) and orthogonal to it. Reference as supplied and registered, "
+            "simulated, centreline; circled: flagged reference positions."
         ),
         _figure("positions", res, 0.95 * layout.FRAME_WIDTH),
         *_references(PAPER_REFERENCE),
@@ -951,10 +954,10 @@ def dwell_table_flowables(res) -> list:
         para(
             "sim. = simulated, cl. = centreline, ref. = reference position (as supplied / "
             "registered), num. error = the simulation's numerical error. "
-            "along = distal positive, radial = outward in the ring plane, out of plane = cranial "
-            "positive; angle between source orientations. Shaded rows: reference position "
-            "infeasible (cannot lie in the lumen, red) or outside the channel (left out of the "
-            "verdicts, grey).",
+            f"along = distal positive, radial = outward in the {frame_words(res).plane}, out of "
+            "plane = cranial positive; angle between source orientations. Shaded rows: "
+            "reference position infeasible (cannot lie in the lumen, red) or outside the "
+            "channel (left out of the verdicts, grey).",
             "small",
         ),
         grid_table(
@@ -1098,17 +1101,28 @@ def report_story(
 ) -> list:
     """All flowables of one applicator's report, page breaks included (see the module
     docstring for the pages). ``sections`` add pages after the standard ones."""
-    pages = [
-        summary_flowables(result, fields, notes),
+    pages = [summary_flowables(result, fields, notes), *detail_pages(result)]
+    if accuracy is not None:
+        pages.append(accuracy_flowables(result, accuracy))
+    pages += [list(section(result)) for section in sections]
+    return _joined(pages)
+
+
+def detail_pages(result) -> list[list]:
+    """The pages after page 1 of one channel's report: positions, deviations, dose points,
+    the dwell table and the settings (one list of flowables per page)."""
+    return [
         positions_flowables(result),
+        *([page] if (page := cross_check_page(result)) else []),  # a failed cross-check
         deviations_flowables(result),
         doses_flowables(result),
         dwell_table_flowables(result),
         settings_flowables(result),
     ]
-    if accuracy is not None:
-        pages.append(accuracy_flowables(result, accuracy))
-    pages += [list(section(result)) for section in sections]
+
+
+def _joined(pages: Sequence[list]) -> list:
+    """The pages' flowables with a page break between pages."""
     story: list = []
     for k, page in enumerate(pages):
         if k:
@@ -1121,6 +1135,8 @@ def report_figures(result, accuracy: pd.DataFrame | None = None) -> list:
     """The report's figures of one CommissioningResult (positions, deviations, dose points,
     accuracy when given), as :class:`matplotlib.figure.Figure` (no pyplot state to close)."""
     figs = [positions_figure(result), deviations_figure(result), dose_points_figure(result)]
+    if failed_cross_check(result) is not None:
+        figs.append(cross_check_figure(result))
     if accuracy is not None:
         figs.append(accuracy_figure(result, accuracy))
     return figs
@@ -1299,3 +1315,162 @@ def write_batch_pdf(batch, path: Path, *, fields: ReportFields | None = None) ->
 
 def _esc(text) -> str:
     return escape(str(text))
+
+
+# ---------------------------------------------------------------------------------------------
+# Several channels of one input: one report, a section per channel, one conclusion (issue 30)
+# ---------------------------------------------------------------------------------------------
+
+#: The order of the overall verdicts, best first (the front page's box takes the worst).
+VERDICT_ORDER = ("PASS", "WARN", "FAIL", "ACTION", "ERROR")
+
+
+def family_words(result):
+    """The report words of ``result``'s channel family
+    (:class:`ringqa.geometry.families.FamilyWords`; the ring's for an unknown family)."""
+    from ringqa.geometry.families import FAMILIES
+
+    family = FAMILIES.get(getattr(result, "family", "ring")) or FAMILIES["ring"]
+    return family.words
+
+
+def channel_title(result) -> str:
+    """A channel section's title: ``Channel 1 (ring): ring channel of the ring applicator``."""
+    words = family_words(result)
+    name = result.settings.channel
+    label = result.channel or name
+    named = f" ({name})" if name and name != label else ""
+    return f"Channel {label}{named}: {words.channel} ({words.title})"
+
+
+def channel_verdict_rows(results) -> list[list[str]]:
+    """The front page's verdict table: one row per channel and verdict (channel, family,
+    check, value, status); the channel named on its first row only."""
+    from ringqa.pipeline.numbers import fmt_verdict_value
+
+    rows = []
+    for res in results:
+        words = family_words(res)
+        first = True
+        for v in res.verdicts:
+            rows.append([
+                channel_title(res).split(":")[0] if first else "",
+                words.title if first else "",
+                v.check,
+                fmt_verdict_value(v.value, v.unit, v.check),
+                v.status,
+            ])  # fmt: skip
+            first = False
+    return rows
+
+
+def worst_verdict(results, not_simulated=()) -> str:
+    """The worst overall verdict of the channels (FAIL when a channel with dwells was left
+    out: a channel never passes unseen)."""
+    verdicts = [r.summary.verdict for r in results]
+    if not_simulated:
+        verdicts.append("FAIL")
+    known = [v for v in verdicts if v in VERDICT_ORDER]
+    return max(known, key=VERDICT_ORDER.index) if known else "FAIL"
+
+
+def channels_front_flowables(
+    results, conclusion: str, not_simulated: Sequence[str] = (), fields=None, notes=()
+) -> list:
+    """The front page of a several-channel report: the physicist's fields, the one conclusion
+    over every channel, the verdict table per channel, the channels not commissioned (by name,
+    with why), free notes and the signature block."""
+    f = fields or ReportFields()
+    first = results[0]
+    w = layout.FRAME_WIDTH
+    status = worst_verdict(results, not_simulated)
+    rows = channel_verdict_rows(results)
+    for row in rows:  # the status on its colour, as on page 1 of a one-channel report
+        row[-1] = para(badge(row[-1]), "cell", markup=True)
+    story = [
+        heading("Commissioning report", 0),
+        para(first.applicator, "h1"),
+        _fields_table(field_rows(first, f)),
+        layout.spacer(2),
+        heading(f"Conclusion over all {len(results)} channels commissioned", 1),
+        _conclusion_box(TextItem("conclusion", conclusion, status)),
+        *(
+            para(
+                f"{badge(r.summary.verdict)}&nbsp; {escape(channel_title(r).split(':')[0])}: "
+                f"{escape(r.conclusion)}",
+                markup=True,
+            )
+            for r in results
+        ),
+        layout.spacer(1.5),
+        heading("Verdicts per channel", 1),
+        grid_table(
+            [["channel", "family", "check", "value", "status"], *rows],
+            [0.2 * w, 0.16 * w, 0.38 * w, 0.13 * w, 0.13 * w],
+            align="LEFT",
+        ),
+        para(
+            "Each channel's section (in this order) gives its run, verdicts, notes, reference "
+            "path, numerical error, positions, deviations, dose points and settings.",
+            "small",
+        ),
+    ]
+    if not_simulated:
+        story.append(heading("Channels with dwells NOT commissioned", 1))
+        story += [para(f"• {_esc(text)}", "note", markup=True) for text in not_simulated]
+    return [*story, *_free_notes([f.notes, *notes]), signature_block(f)]
+
+
+def channel_section_flowables(result) -> list:
+    """A channel's first page in a several-channel report: its title (number, name, family),
+    then page 1 of a one-channel report (the run, verdicts and conclusion, notes, reference
+    path, numbers as supplied | registered, numerical error) without the physicist's fields
+    and signature, which the front page carries once."""
+    return [
+        heading(channel_title(result), 0),
+        *items_flowables(page1_items(result)),
+        *_references(PAPER_REFERENCE),
+    ]
+
+
+def write_channels_pdf(
+    results,
+    path: Path,
+    *,
+    conclusion: str,
+    not_simulated: Sequence[str] = (),
+    fields: ReportFields | None = None,
+    notes: Sequence[str] = (),
+) -> Path:
+    """One report.pdf for several channels of one input: a front page with the one conclusion
+    and the verdict table per channel (:func:`channels_front_flowables`), then a section per
+    channel with the pages of a one-channel report (:func:`channel_section_flowables`,
+    :func:`detail_pages`), under the same running header and footer.
+
+    Parameters
+    ----------
+    results : sequence of CommissioningResult
+        The channels, in the order of their sections (at least one).
+    path : pathlib.Path
+    conclusion : str
+        The one conclusion over every channel.
+    not_simulated : sequence of str
+        One sentence per channel with dwells that was not commissioned.
+    fields, notes
+        As :func:`write_pdf`.
+
+    Returns
+    -------
+    pathlib.Path
+    """
+    pages = [channels_front_flowables(results, conclusion, not_simulated, fields, notes)]
+    for res in results:
+        pages += [channel_section_flowables(res), *detail_pages(res)]
+    first = results[0]
+    return layout.build_pdf(
+        path,
+        _joined(pages),
+        page_stamp(first),
+        title=f"ringqa commissioning report: {first.applicator}",
+        subject="HDR gynaecological applicator commissioning, every channel",
+    )
