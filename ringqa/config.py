@@ -32,15 +32,17 @@ import os
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from ringqa.errors import RingQAError
 from ringqa.pipeline.settings import SETTINGS, CommissionSettings
 from ringqa.pipeline.settings import Setting as ConfigKey
 from ringqa.plan import DosePointSpec
-from ringqa.report.fields import ReportFields
 from ringqa.simulation.scene_keys import KEYS as SCENE_KEYS
 from ringqa.textio import read_toml
+
+if TYPE_CHECKING:  # imported where used: ringqa.report's package loads reportlab and pandas
+    from ringqa.report.fields import ReportFields
 
 log = logging.getLogger(__name__)
 
@@ -322,6 +324,8 @@ class EffectiveConfig:
 
     def report_fields(self) -> ReportFields:
         """The report's free-text fields (``[report]``)."""
+        from ringqa.report.fields import ReportFields
+
         keys = {f"report.{f.name}": f.name for f in dataclasses.fields(ReportFields)}
         return ReportFields(
             **{name: self.values[k] for k, name in keys.items() if k in self.values}

@@ -40,8 +40,9 @@ def test_search_finds_an_install_path_and_passes_package_names(tmp_path):
 
 @pytest.mark.slow
 def test_wheel_installed_example_names_no_absolute_path():
-    """The whole check (about 35 s on 2 quiet cores: the wheel, and numba compiling the kernels
-    of the installed copy once)."""
+    """The whole check: the wheel, and numba compiling the installed copy's kernels once (a new
+    path: its own cache). 75 s of CPU in all (4.3 min wall at load 11 on 2 cores); on 2 quiet
+    cores about 40-50 s, like README's first run plus the wheel."""
     tool = _tool()
     try:
         found, texts = tool.check()

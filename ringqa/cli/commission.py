@@ -405,13 +405,14 @@ def _run(args: argparse.Namespace) -> int:
     from ringqa.outdir import check_writable
     from ringqa.pipeline import commission_batch
     from ringqa.pipeline.batch import check_labels
-    from ringqa.report import write_batch, write_report
+
+    # ringqa.report (reportlab, matplotlib, plotly) is imported where it is used: for one
+    # input after the commissioning has been forked (commission_ahead), beside it
 
     if args.example and args.register is None:
         args.register = "plane-height"  # README's quick start (a 2D path: see README)
     config = effective(args)
     settings = config.settings()
-    fields = config.report_fields()
     strict = bool(config.values.get("report.strict", False))
     if args.example:
         from ringqa.datasets import example_plan
@@ -444,28 +445,34 @@ def _run(args: argparse.Namespace) -> int:
             "the other)"
         )
     settings = _with_channel_settings(settings, args)
-    loaded, load_s = None, 0.0  # the input as the channel choice read it, and how long
-    if single and sweep_spec is None:
-        from ringqa.cli.channels import channels_wanted, run_channels
+    if single:
+        ahead = sweep_spec is None and not args.no_pdf  # the report is prepared meanwhile
+        # several channels of one input to commission one by one? (asked where the input is
+        # read: in the forked process, beside the commissioning)
+        res = commission_ahead(
+            items[0], settings, not args.quiet, ahead, by_channel=sweep_spec is None,
+            channel_args=args.channel,
+        )  # fmt: skip
+        fields = config.report_fields()  # imports ringqa.report: after the fork
+        if isinstance(res, ChannelsWanted):
+            from ringqa.cli.channels import run_channels
 
-        wanted, loaded, load_s = channels_wanted(items[0], settings, args.channel)
-        if wanted is not None:
-            runs = run_channels(items[0], settings, wanted, args, fields, named=bool(args.channel),
+            runs = run_channels(items[0], settings, list(res.channels), args, fields,
+                                named=bool(args.channel),
                                 audit=lambda rs: audit_inputs_and_settings(config, rs))  # fmt: skip
-            for res in runs.results:
-                audit_verdicts(res)
-                print_warnings(res, prefix=f"channel {res.channel}: ")
+            for r in runs.results:
+                audit_verdicts(r)
+                print_warnings(r, prefix=f"channel {r.channel}: ")
             audit_files(args.out)
             return EXIT_FAIL if strict and not runs.passed else EXIT_OK
-    if single:
         if labels:
             fields = dataclasses.replace(fields, label=labels[0])
-        ahead = sweep_spec is None and not args.no_pdf  # the report is prepared meanwhile
-        res = commission_ahead(items[0], settings, not args.quiet, ahead, loaded=(loaded, load_s))
         audit_inputs_and_settings(config, [res])
         sections, extra = (), None
         if sweep_spec is not None:
             sections, extra = _run_uncertainty(sweep_spec, args, res)
+        from ringqa.report import write_report
+
         write_report(
             res, args.out, pdf=not args.no_pdf, accuracy_csv=args.accuracy_csv, fields=fields,
             export=args.export, sections=sections, extra_files=extra,
@@ -479,9 +486,12 @@ def _run(args: argparse.Namespace) -> int:
             f"-> {args.out}"
         )
         return EXIT_FAIL if strict and not res.passed else EXIT_OK
+    fields = config.report_fields()
     batch = commission_batch(items, settings, progress=not args.quiet, labels=labels,
                              workers=args.workers)  # fmt: skip
     audit_inputs_and_settings(config, batch.results)
+    from ringqa.report import write_batch
+
     write_batch(
         batch, args.out, pdf=not args.no_pdf, progress=not args.quiet, fields=fields,
         export=args.export, workers=args.workers,
@@ -524,27 +534,51 @@ def _real_std_streams() -> bool:
         return False
 
 
-def commission_ahead(item, settings, progress: bool, report: bool = True, *, loaded=(None, 0.0)):
+@dataclasses.dataclass(frozen=True)
+class ChannelsWanted:
+    """:func:`commission_ahead`'s answer for an input whose channels are commissioned one by
+    one (:func:`ringqa.cli.channels.channels_wanted`): their names."""
+
+    channels: tuple[str, ...]
+
+
+def commission_ahead(
+    item, settings, progress: bool, report: bool = True, *, by_channel: bool = False,
+    channel_args=None,
+):  # fmt: skip
     """:func:`ringqa.pipeline.commission` of one input, in a forked child process while this
     one loads the report's libraries and fonts (:func:`ringqa.report.prepare_report`: about
     0.5 s of the warm example otherwise spent after the commissioning). The result (or the
     error) is the child's; where it cannot be handed back, on one core, without ``fork``, with
     the output captured in memory, on a first run (an empty kernel cache) or with no core free
-    (:func:`ringqa.pipeline.forked.second_core_free`), the commissioning runs here as before."""
+    (:func:`ringqa.pipeline.forked.second_core_free`), the commissioning runs here as before.
+
+    ``by_channel``: an input with several channels may be commissioned channel by channel
+    (``channel_args``: the command's ``--channel`` values, None when none was given): the input
+    is read first (in the child, beside the report's preparation here) and, for such an input,
+    a :class:`ChannelsWanted` is returned instead of a result."""
     from ringqa.pipeline import commission
     from ringqa.pipeline.forked import ForkedCall
     from ringqa.pipeline.simulate import second_core_worthwhile
-    from ringqa.report import prepare_report
 
-    def run():  # ``loaded``: the input as the channel choice read it (not read twice)
-        return commission(item, settings, progress=progress, loaded=loaded[0], load_s=loaded[1])
+    def run():  # the input as the channel choice read it is not read twice
+        loaded, load_s = None, 0.0
+        if by_channel:
+            from ringqa.cli.channels import channels_wanted
+
+            wanted, loaded, load_s = channels_wanted(item, settings, channel_args)
+            if wanted is not None:
+                return ChannelsWanted(tuple(wanted))
+        return commission(item, settings, progress=progress, loaded=loaded, load_s=load_s)
 
     # a first run (numba compiling, with its helper process) stays as it was
     # ... and so does a machine whose cores are busy (the fork would only add its overhead)
     fork = report and _real_std_streams() and second_core_worthwhile()
     call = ForkedCall(run, fork)
     try:
-        if call.forked:
+        if call.forked:  # the report's imports and set-up here, beside the child's work
+            from ringqa.report import prepare_report
+
             prepare_report()
         return call.result()
     finally:

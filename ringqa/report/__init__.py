@@ -221,9 +221,10 @@ def write_batch(
 
 def prepare_report() -> None:
     """Load what every report needs, ahead of it (e.g. while a forked process commissions):
-    matplotlib's Agg canvas, PIL, reportlab, the report's fonts and styles, and matplotlib's
-    text set-up by drawing a small figure once. Nothing is written; the report's pixels and
-    text are the same with or without it (only caches are filled)."""
+    matplotlib's Agg canvas, PIL, reportlab, the report's fonts and styles, plotly's set-up for
+    report.html, and matplotlib's text set-up by drawing a small figure once. Nothing is
+    written; the report's pixels and text are the same with or without it (only caches are
+    filled)."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
@@ -231,6 +232,9 @@ def prepare_report() -> None:
 
     layout.register_fonts()
     layout.styles()
+    from ringqa.report.html import prepare_html
+
+    prepare_html()  # plotly's set-up for report.html
     fig = Figure(figsize=(2.0, 1.5), dpi=layout.FIGURE_DPI)
     FigureCanvasAgg(fig)
     ax = fig.add_subplot()
