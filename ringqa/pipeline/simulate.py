@@ -1077,8 +1077,10 @@ class _WholeChannel:
         try:
             coarse = _run_with_retries(self.engine, self.scene, self.advances, False)
             fine = self._ahead.result()
-        except RingQAError as exc:
+        except BaseException as exc:
             self.cancel()
+            if not isinstance(exc, RingQAError):
+                raise
             return not_measured(str(exc))
         finally:
             self._ahead = None
