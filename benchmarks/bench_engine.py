@@ -1,6 +1,7 @@
 """Issue-4 performance report for the rod-in-channel engine (a script, not a timed test).
 
     /work/venv/bin/python benchmarks/bench_engine.py [--quick] [--json OUT.json]
+    .venv/bin/python benchmarks/bench_engine.py --per-process N [--baseline DIR | --python-loop]
 
 Scene: data/scenes/ring13-push100.toml -- the Flexitron cable (paper Table 1, Stribeck friction,
 quasi-static) pushed 100 mm into a ring of centreline radius 13 mm. Reports:
@@ -83,8 +84,8 @@ def row(name, res, t, err=None, t_base=None) -> dict:
     return r
 
 
-#: one fresh process of --per-process: the solve time and the wall of simulate() (median of 7
-#: after one warm run) of ring13-push100 and ring26-flexitron, and what the process looked like
+#: one fresh process of --per-process: the solve's CPU time and simulate()'s CPU and wall (median
+#: of 7 after one warm run) of ring13-push100 and ring26-flexitron, and what the process looked like
 _PROCESS = r"""
 import json, os, statistics, sys, time
 sys.path.insert(0, sys.argv[1])
@@ -95,40 +96,78 @@ import numba
 t_import = time.perf_counter() - t0
 out = {"pid": os.getpid(), "import_s": t_import, "numba_threads": numba.config.NUMBA_NUM_THREADS,
        "cpus": len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else None}
+import types
+import ringqa.simulation.solvers.driver as driver
+if len(sys.argv) > 2 and sys.argv[2] == "python-loop":
+    driver.USE_MARCH = False
+# solve_time_s in CPU seconds: the driver's clock is this process's CPU time (other users' load
+# on a shared machine inflates wall figures several times)
+driver.time = types.SimpleNamespace(perf_counter=time.process_time)
 for name in ("ring13-push100", "ring26-flexitron"):
     scene = load_scene(os.path.join(sys.argv[1], "data", "scenes", name + ".toml"))
     t1 = time.perf_counter(); simulate(scene); first = time.perf_counter() - t1
-    solve, wall, iters = [], [], 0
+    solve, wall, cpu, iters = [], [], [], 0
     for _ in range(7):
-        t1 = time.perf_counter(); r = simulate(scene); wall.append(time.perf_counter() - t1)
+        t1 = time.perf_counter(); c1 = time.process_time(); r = simulate(scene)
+        cpu.append(time.process_time() - c1); wall.append(time.perf_counter() - t1)
         solve.append(r.solve_time_s); iters = int(r.stats.n_newton_iters)
-    out[name] = {"first_s": first, "solve_ms": 1e3 * statistics.median(solve),
-                 "wall_ms": 1e3 * statistics.median(wall), "outside_ms": 1e3 * (
-                 statistics.median(wall) - statistics.median(solve)), "iters": iters,
-                 "steps": int(r.stats.n_steps)}
+    out[name] = {"first_s": first, "solve_cpu_ms": 1e3 * statistics.median(solve),
+                 "wall_ms": 1e3 * statistics.median(wall), "outside_cpu_ms": 1e3 * (
+                 statistics.median(cpu) - statistics.median(solve)), "iters": iters,
+                 "steps": int(r.stats.n_steps), "cpu_ms": 1e3 * statistics.median(cpu),
+                 "solve_cpu_min_ms": 1e3 * min(solve), "residuals": int(r.stats.n_residuals)}
 print(json.dumps(out))
 """
 
 
-def per_process(n: int) -> int:
-    """``n`` fresh processes one after the other: is the solve time bimodal per process?"""
+def per_process(n: int, baseline: Path | None = None, python_loop: bool = False) -> int:
+    """``n`` fresh processes one after the other: is the solve time bimodal per process?
+
+    With ``baseline`` (another checkout) or ``python_loop`` (this checkout with the compiled
+    load-step loop off: ``driver.USE_MARCH = False``) the processes alternate between "before"
+    (that) and "after" (this checkout), ``n`` each, and the medians and their ratio are
+    printed: CPU time of the solve (the driver's clock switched to ``time.process_time`` in
+    the benchmark's processes) and of ``simulate()``, less sensitive to other users' load than
+    wall figures, Newton iterations, residual assemblies and load steps.
+    """
     import subprocess
 
-    print("| process | import s | ring13 solve ms | wall ms | outside ms | ring26-flexitron "
-          "solve ms | wall ms | outside ms | iters | steps |")  # fmt: skip
-    print("|---|---|---|---|---|---|---|---|---|---|")
+    variants = [("after", ROOT, "")]
+    if baseline is not None:
+        variants.insert(0, ("before", Path(baseline).resolve(), ""))
+    elif python_loop:
+        variants.insert(0, ("before", ROOT, "python-loop"))
+    print(
+        "| process | checkout | import s | ring13 simulate CPU ms | solve CPU ms | outside CPU ms "
+        "| iters | ring26-flexitron simulate CPU ms | solve CPU ms | outside CPU ms | iters | "
+        "residuals | steps |"
+    )
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+    got: dict[str, list] = {v[0]: [] for v in variants}
     for k in range(n):
-        done = subprocess.run(
-            [sys.executable, "-c", _PROCESS, str(ROOT)], capture_output=True, text=True, check=True
-        )
-        d = json.loads(done.stdout.strip().splitlines()[-1])
-        a, b = d["ring13-push100"], d["ring26-flexitron"]
-        print(
-            f"| {k} | {d['import_s']:.2f} | {a['solve_ms']:.1f} | {a['wall_ms']:.1f} | "
-            f"{a['outside_ms']:.1f} | {b['solve_ms']:.1f} | {b['wall_ms']:.1f} | "
-            f"{b['outside_ms']:.1f} | {b['iters']} | {b['steps']} |",
-            flush=True,
-        )
+        for label, root, flag in variants:
+            cmd = [sys.executable, "-c", _PROCESS, str(root)] + ([flag] if flag else [])
+            done = subprocess.run(cmd, capture_output=True, text=True, check=True)
+            d = json.loads(done.stdout.strip().splitlines()[-1])
+            got[label].append(d)
+            a, b = d["ring13-push100"], d["ring26-flexitron"]
+            print(
+                f"| {k} | {label} | {d['import_s']:.2f} | {a['cpu_ms']:.1f} | "
+                f"{a['solve_cpu_ms']:.1f} | {a['outside_cpu_ms']:.1f} | {a['iters']} | "
+                f"{b['cpu_ms']:.1f} | {b['solve_cpu_ms']:.1f} | {b['outside_cpu_ms']:.1f} | "
+                f"{b['iters']} | {b['residuals']} | {b['steps']} |",
+                flush=True,
+            )
+    if len(variants) == 2:
+        print("\nmedians over the processes (before -> after, ratio):")
+        for scene in ("ring13-push100", "ring26-flexitron"):
+            for key in ("solve_cpu_ms", "solve_cpu_min_ms", "cpu_ms", "outside_cpu_ms", "iters",
+                        "residuals", "steps"):  # fmt: skip
+                vals = [[p[scene].get(key) for p in got[lab]] for lab in ("before", "after")]
+                if any(v is None for vs in vals for v in vs):
+                    continue
+                m0, m1 = (statistics.median(v) for v in vals)
+                print(f"  {scene:18s} {key:16s} {m0:9.2f} -> {m1:9.2f}  x{m1 / m0:.3f}")
     return 0
 
 
@@ -140,9 +179,17 @@ def main() -> int:
         "--per-process", type=int, default=0, metavar="N",
         help="only: N fresh processes, each timing ring13 and ring26-flexitron (bimodal?)",
     )  # fmt: skip
+    ap.add_argument(
+        "--baseline", type=Path, metavar="DIR",
+        help="with --per-process: alternate with this checkout (before) and print the ratios",
+    )  # fmt: skip
+    ap.add_argument(
+        "--python-loop", action="store_true",
+        help="with --per-process: 'before' = this checkout with the compiled loop off",
+    )  # fmt: skip
     args = ap.parse_args()
     if args.per_process:
-        return per_process(args.per_process)
+        return per_process(args.per_process, args.baseline, args.python_loop)
     reps = 1 if args.quick else 5
     base = load_scene(SCENE)
     t0 = time.perf_counter()

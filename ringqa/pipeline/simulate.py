@@ -29,7 +29,7 @@ from __future__ import annotations
 import os
 import time
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -155,13 +155,28 @@ class StemCheck:
 
 
 #: The cross-check (issue 28): the flexible-element engine (``model.formulation = "flexible"``)
-#: runs once at the commissioning settings beside the rigid one; the dwells' largest disagreement
-#: above max(:data:`CROSS_CHECK_MIN_MM`, 2 x the combined numerical error) fails the numerics.
+#: runs once beside the rigid runs (at :data:`CROSS_CHECK_ELEMENT_FACTOR`); the dwells' largest
+#: disagreement above max(:data:`CROSS_CHECK_MIN_MM`, 2 x the combined numerical error) fails
+#: the numerics. On by default in ``ringqa commission`` (``--no-cross-check`` turns it off).
 CROSS_CHECK_MIN_MM = 0.2
-#: The flexible engine's own numerical error at the commissioning settings, mm: its dwells moved
-#: at most 0.020 mm from x1 to x0.5 on ring26-flexitron, ring13-push100, the example and
-#: needle-paper (docs/engine.md, benchmarks/flexible_agreement.py); taken as 0.05 mm.
-CROSS_CHECK_FLEXIBLE_ERROR_MM = 0.05
+#: The cross-check's flexible run: every element length of the commissioning scene times this,
+#: the increment unchanged. Its cubic elements' discretisation error is small next to the
+#: increment's (docs/engine.md, "Convergence and cost per accuracy"); measured on the four
+#: agreement scenes with ``benchmarks/flexible_agreement.py --cross-check`` (see
+#: CROSS_CHECK_FLEXIBLE_ERROR_MM) at 40-60 % of the CPU time of the commissioning element lengths.
+CROSS_CHECK_ELEMENT_FACTOR = 2.0
+#: The flexible engine's own numerical error at the cross-check settings, mm (taken, with margin,
+#: from the measurements named at :data:`CROSS_CHECK_ELEMENT_FACTOR`: up to 0.049 mm from its own
+#: x0.25 run on ring26-flexitron, 0.031 on ring13-push100, 0.008 on needle-paper; on the
+#: example's commissioning run 0.048 mm from the rigid x0.25 run, its own x0.25 run taking
+#: another branch there).
+CROSS_CHECK_FLEXIBLE_ERROR_MM = 0.06
+#: The report's line when the cross-check was switched off.
+CROSS_CHECK_OFF_TEXT = (
+    "Cross-check with an independent engine (flexible beam elements): switched off "
+    "(--no-cross-check or simulation.cross_check = false), so the simulated positions rest on "
+    "the rigid-link engine alone."
+)
 
 
 @dataclass(frozen=True)
@@ -182,11 +197,22 @@ class CrossCheck:
     ok : bool
         The flexible run reached every dwell.
     solve_time_s, wall_time_s : float
-        What the flexible run cost (s).
+        What the flexible run cost (s): its solve time, and the wall time from its start to its
+        result (when it ran on the second core beside the rigid runs, most of that overlapped
+        them).
     flexible_pos_mm : (n, 3) ndarray
         Its source centres (the reference's order), for plotting beside the rigid ones.
     text : str
         One line for the report.
+    settings : dict
+        The flexible run's numerical settings (dotted keys, user units).
+    concurrent : bool
+        It ran in a forked process beside the rigid runs.
+    added_wall_s : float
+        Wall time the command waited for it after the rigid runs (s; its whole wall time when it
+        ran after them).
+    relative_position_mm : (n,) ndarray or None
+        The dwells' relative positions (mm, the order of the arrays above; None: not recorded).
     """
 
     disagreement_mm: np.ndarray
@@ -198,6 +224,10 @@ class CrossCheck:
     wall_time_s: float
     flexible_pos_mm: np.ndarray
     text: str
+    settings: dict = field(default_factory=dict)
+    concurrent: bool = False
+    added_wall_s: float = 0.0
+    relative_position_mm: np.ndarray | None = None
 
     def as_dict(self) -> dict:
         """The ``results.json`` ``numerical_check.cross_check`` section."""
@@ -209,6 +239,9 @@ class CrossCheck:
             "solve_time_s": self.solve_time_s,
             "wall_time_s": self.wall_time_s,
             "text": self.text,
+            "settings": dict(self.settings),
+            "concurrent": self.concurrent,
+            "added_wall_s": self.added_wall_s,
         }
 
 
@@ -498,7 +531,7 @@ class _Run:
 
 def _run_engine(simulate, scene, advances, progress: bool = False):
     res = simulate(scene, advances_mm=advances, progress=progress)
-    status = int(getattr(res, "status", 0))
+    status = int(res.status)
     pos_m = np.asarray(res.source_pos_m, dtype=float).reshape(-1, 3)
     ok = status == 0 and pos_m.shape[0] >= advances.size and bool(np.all(np.isfinite(pos_m)))
     return res, status, pos_m, ok
@@ -512,7 +545,7 @@ def _run_with_retries(engine: Engine, scene, advances, progress: bool) -> _Run:
     inc_m = getattr(getattr(scene, "solver", None), "increment_m", None)
     note = ""
     if not ok and status == -1 and inc_m:
-        first_message = str(getattr(res, "message", ""))
+        first_message = str(res.message)
         for factor in RETRY_INCREMENT_FACTORS:
             inc_mm = m_to_mm(float(inc_m)) * factor
             retry = engine.scene_with_overrides(scene, {"solver.increment_mm": inc_mm})
@@ -578,7 +611,7 @@ def _run_two(
 
 
 def _jammed(app, run: _Run, advances, s_ref_mm: float) -> SimulationJammedError:
-    got_adv = np.asarray(getattr(run.res, "advances_mm", advances), dtype=float).reshape(-1)
+    got_adv = np.asarray(run.res.advances_mm, dtype=float).reshape(-1)
     n = min(run.pos_m.shape[0], got_adv.size)
     finite = np.all(np.isfinite(run.pos_m[:n]), axis=1)
     reached = got_adv[:n][finite]
@@ -591,14 +624,14 @@ def _jammed(app, run: _Run, advances, s_ref_mm: float) -> SimulationJammedError:
     kind = "jammed" if run.status == 1 else "failed"
     return SimulationJammedError(
         f"applicator {app.name}: the simulated source cable {kind} {where}: "
-        f"{getattr(run.res, 'message', '') or 'no message'} (check the lumen and the scene "
+        f"{run.res.message or 'no message'} (check the lumen and the scene "
         "settings, e.g. --set solver.increment_mm=0.25 or --set effects.friction=coulomb)"
     )
 
 
 def _dwell_rows(run: _Run, advances, wanted_mm) -> np.ndarray:
     """Row of each wanted advance (mm) in the run's output."""
-    got_adv = np.asarray(getattr(run.res, "advances_mm", advances), dtype=float).reshape(-1)
+    got_adv = np.asarray(run.res.advances_mm, dtype=float).reshape(-1)
     lookup = {round(float(a), 6): i for i, a in enumerate(got_adv)}
     idx = []
     for a in wanted_mm:
@@ -650,7 +683,7 @@ def commission_scene(engine: Engine, channel, cable: str, scene_overrides: Mappi
 
 def _stabilised(run: _Run) -> int:
     """Load steps of a run that needed the fallback stabilisation."""
-    settings = getattr(run.res, "settings", {}) or {}
+    settings = run.res.settings or {}
     return int(settings.get("n_stabilised_steps", 0) or 0)
 
 
@@ -779,7 +812,7 @@ def simulate_dwells(
     engine: Engine | None = None,
     progress: bool = False,
     stem_mm: float | None = None,
-    cross_check: bool = False,
+    cross_check: bool | None = None,
     stem_check: bool | None = None,
 ) -> SimulatedDwells:
     """Simulate the cable to the dwells at ``relative_position_mm``, twice (commissioning and
@@ -802,9 +835,10 @@ def simulate_dwells(
         Show the engine's progress bar.
     stem_mm : float or None
         Straight channel kept before the first bend, mm (None: the whole channel).
-    cross_check : bool
-        Also run the flexible-element engine once at the commissioning settings and compare
-        (:func:`cross_check_run`; ringqa's own engine only).
+    cross_check : bool or None
+        True: also run the flexible-element engine once and compare (:func:`start_cross_check`;
+        ringqa's own engine only; on the second core beside the rigid runs where one is free).
+        False: switched off, and the numerical-check text says so. None: not asked (no line).
     stem_check : bool, optional
         When ``stem_mm`` cut straight shaft off the channel, also run the whole channel at the
         commissioning and the refined settings and add what the cut moves to each dwell's error
@@ -858,12 +892,15 @@ def simulate_dwells(
     # the refined run's scene does not depend on the commissioning run's result (unless that
     # run had to be retried with a finer increment): run both at once
     fork = second_core_worthwhile(engine)
+    xpending = start_cross_check(engine, scene, advances, None, rel_mm) if cross_check else None
     ahead = ForkedCall(lambda: _run_with_retries(engine, refine(scene, REFINE_FACTOR), advances,
                                                  False), fork and CONCURRENT_RUNS)  # fmt: skip
     try:
         runs = [_run_with_retries(engine, scene, advances, progress)]
     except BaseException:
         ahead.cancel()
+        if xpending is not None:
+            xpending.cancel()
         raise
     if ahead.forked and runs[0].ok and runs[0].scene is scene:
         runs.append(ahead.result())
@@ -941,33 +978,35 @@ def simulate_dwells(
             "increment halved each time); the numbers below come from the last two runs."
         )
     res = fine.res
-    run_settings = dict(getattr(res, "settings", {}) or {})
+    run_settings = dict(res.settings or {})
     stabilised = _stabilised(fine)
-    n_steps = getattr(getattr(res, "stats", None), "n_steps", None)
+    n_steps = res.stats.n_steps
     coarse_dict, fine_dict = _scene_dict(engine, coarse.scene), _scene_dict(engine, fine.scene)
     xcheck = None
-    if cross_check and own_engine(engine):  # both engines share the stem: its share left out
-        xcheck = cross_check_run(engine, runs[0].scene, advances, float(np.max(discretisation_mm)),
+    if xpending is not None:  # both engines share the stem: its share left out
+        xcheck = xpending.finish(float(np.max(discretisation_mm)),
                                  lambda run: distance(run, fine),
                                  lambda run: m_to_mm(run.pos_m[_dwell_rows(run, advances,
                                                                            wanted)]))  # fmt: skip
     text = numerical_text(discretisation_mm, stabilised, n_steps, pair_mm, len(probes), branch_mm,
                           resolved, stem_result)  # fmt: skip
+    if cross_check is False:
+        text = (*text, CROSS_CHECK_OFF_TEXT)
     numerics = NumericalCheck(
         error_mm=error_mm,
         max_mm=float(np.max(error_mm)),
         median_mm=float(np.median(error_mm)),
         settings=_numeric_settings(coarse_dict),
         refined_settings=_numeric_settings(fine_dict),
-        solve_time_s=float(getattr(coarse.res, "solve_time_s", coarse.wall_s)),
-        refined_solve_time_s=float(getattr(res, "solve_time_s", fine.wall_s)),
+        solve_time_s=float(coarse.res.solve_time_s),
+        refined_solve_time_s=float(res.solve_time_s),
         stabilised_steps=stabilised,
         text=text if xcheck is None else (*text, xcheck.text),
         n_runs=len(runs),
         n_probes=len(probes),
         branch_mm=branch_mm,
         resolved=resolved,
-        total_solve_time_s=sum(float(getattr(r.res, "solve_time_s", r.wall_s)) for r in runs),
+        total_solve_time_s=sum(float(r.res.solve_time_s) for r in runs),
         cross_check=xcheck,
         stem=stem_result,
     )
@@ -975,11 +1014,11 @@ def simulate_dwells(
     dirs = np.asarray(res.source_dir, dtype=float).reshape(-1, 3)[idx_f]
     info = SimulationInfo(
         status=fine.status,
-        message=str(getattr(res, "message", "")),
-        warnings=tuple(str(w) for w in getattr(res, "warnings", ())),
+        message=str(res.message),
+        warnings=tuple(str(w) for w in res.warnings),
         solve_time_s=numerics.total_solve_time_s,
         wall_time_s=sum(r.wall_s for r in runs),
-        n_elements=int(getattr(res, "n_elements", 0) or 0),
+        n_elements=int(res.n_elements or 0),
         settings=run_settings,
     )
     afterloader = getattr(getattr(fine.scene, "instrument", None), "afterloader", "") or cable
@@ -1109,55 +1148,146 @@ class _WholeChannel:
         return StemCheck(stem_mm, dropped_mm, distance, own, added, True, solve, text)
 
 
-def cross_check_run(
-    engine: Engine, scene, advances, rigid_error_mm: float, distance, positions
-) -> CrossCheck:
-    """Run the flexible-element engine on the commissioning ``scene`` and compare its dwells
-    with the reported (refined rigid) run's.
+def cross_check_overrides(engine: Engine, scene) -> dict[str, Any]:
+    """The overrides that make the commissioning ``scene`` the cross-check's (dotted keys, user
+    units): ``model.formulation = "flexible"``, every element length times
+    :data:`CROSS_CHECK_ELEMENT_FACTOR`, the increment unchanged (a stand-in engine's scene only
+    gets the formulation)."""
+    from ringqa.accuracy import scaled_overrides
+
+    over = scaled_overrides(scene, CROSS_CHECK_ELEMENT_FACTOR, 1.0) if own_engine(engine) else {}
+    return {"model.formulation": "flexible", **over}
+
+
+def cross_check_scene(engine: Engine, scene):
+    """The cross-check's scene (:func:`cross_check_overrides` applied to ``scene``)."""
+    return engine.scene_with_overrides(scene, cross_check_overrides(engine, scene))
+
+
+def _flexible_run(engine: Engine, scene, advances) -> _Run | str:
+    """The cross-check's run, or why it could not be made (a scene the flexible engine does not
+    model: its SceneError's text)."""
+    try:
+        return _run_with_retries(engine, cross_check_scene(engine, scene), advances, False)
+    except RingQAError as exc:
+        return str(exc)
+
+
+class PendingCrossCheck:
+    """The cross-check's flexible run, started (in a forked process beside the rigid runs when
+    ``fork``; else it runs in :meth:`finish`).
 
     Parameters
     ----------
     engine : Engine
-        ringqa's own (the scene gets ``model.formulation = "flexible"``).
+        ringqa's own (a stand-in engine is not cross-checked: :meth:`finish` returns None).
     scene
         The commissioning run's scene.
     advances : (n,) ndarray
         The advances run, mm.
-    rigid_error_mm : float
-        The rigid runs' numerical error (max over the dwells), mm.
-    distance, positions : callable
-        ``distance(run) -> (n,)`` mm to the reported run and ``positions(run) -> (n, 3)`` mm,
-        in the reference's order.
+    fork : bool or None
+        Run it in a forked child now (:class:`ringqa.pipeline.forked.ForkedCall`). None: when a
+        core is free (:func:`ringqa.pipeline.forked.second_core_free`), whether or not its
+        kernels are cached: unlike the rigid runs' forks, the child compiles kernels the command
+        itself never needs, so on a first run the flexible engine compiles beside the rigid
+        engine's compile instead of after it.
+    relative_position_mm : (n,) array_like or None
+        The dwells' relative positions (mm) in the order ``finish``'s callables use, for the
+        report's plot.
     """
-    flex_scene = engine.scene_with_overrides(scene, {"model.formulation": "flexible"})
-    n = np.asarray(advances).size
-    limit = max(CROSS_CHECK_MIN_MM, 2.0 * (rigid_error_mm + CROSS_CHECK_FLEXIBLE_ERROR_MM))
 
-    def not_compared(why: str, solve: float, wall: float) -> CrossCheck:
-        text = f"Cross-check with the flexible-element engine not made: {why}"
-        return CrossCheck(np.full(n, np.nan), float("nan"), limit, False, False, solve, wall,
-                          np.full((n, 3), np.nan), text)  # fmt: skip
+    def __init__(self, engine: Engine, scene, advances, fork: bool | None,
+                 relative_position_mm=None) -> None:  # fmt: skip
+        self.engine = engine
+        self.rel = None if relative_position_mm is None else np.asarray(relative_position_mm,
+                                                                         dtype=float)  # fmt: skip
+        self.scene = scene
+        self.advances = np.asarray(advances, dtype=float)
+        self.active = own_engine(engine)
+        self.t0 = time.perf_counter()
+        if fork is None:
+            fork = forked.second_core_free()
+        self.call = ForkedCall(lambda: _flexible_run(engine, scene, self.advances),
+                               fork and self.active and CONCURRENT_RUNS)  # fmt: skip
 
-    t0 = time.perf_counter()
-    try:
-        run = _run_with_retries(engine, flex_scene, advances, False)
-    except RingQAError as exc:  # a scene the flexible engine does not model: said, not failed
-        return not_compared(str(exc), 0.0, time.perf_counter() - t0)
-    wall = time.perf_counter() - t0
-    solve = float(getattr(run.res, "solve_time_s", wall))
-    if not run.ok:
-        msg = getattr(run.res, "message", "")
-        return not_compared(f"its run did not reach every dwell ({msg}).", solve, wall)
-    d = np.asarray(distance(run), dtype=float)
-    worst = float(np.max(d))
-    fails = worst > limit
-    text = (
-        f"Cross-check with an independent engine (flexible beam elements instead of rigid "
-        f"links): the dwells agree to {worst:.3f} mm (median {float(np.median(d)):.3f} mm), "
-        + ("MORE than" if fails else "within")
-        + f" the {limit:.2f} mm the numerical errors allow; it took {solve:.2f} s."
-    )
-    return CrossCheck(d, worst, limit, fails, True, solve, wall, positions(run), text)
+    def cancel(self) -> None:
+        """Stop the forked run (its result is not needed)."""
+        self.call.cancel()
+
+    def finish(self, rigid_error_mm: float, distance, positions) -> CrossCheck | None:
+        """Wait for (or make) the flexible run and compare its dwells with the reported ones.
+
+        Parameters
+        ----------
+        rigid_error_mm : float
+            The rigid runs' numerical error (max over the dwells), mm.
+        distance, positions : callable
+            ``distance(run) -> (n,)`` mm to the reported run and ``positions(run) -> (n, 3)``
+            mm, in the reference's order.
+        """
+        if not self.active:
+            self.call.cancel()
+            return None
+        t_wait = time.perf_counter()
+        concurrent = self.call.forked
+        run = self.call.result()
+        now = time.perf_counter()
+        wall = now - self.t0 if concurrent else now - t_wait
+        added = now - t_wait
+        n = self.advances.size
+        limit = max(CROSS_CHECK_MIN_MM, 2.0 * (rigid_error_mm + CROSS_CHECK_FLEXIBLE_ERROR_MM))
+        settings = cross_check_overrides(self.engine, self.scene)
+        base = {"settings": settings, "concurrent": concurrent, "added_wall_s": added,
+                "relative_position_mm": self.rel}  # fmt: skip
+
+        def not_compared(why: str, solve: float) -> CrossCheck:
+            text = f"Cross-check with the flexible-element engine not made: {why}"
+            return CrossCheck(np.full(n, np.nan), float("nan"), limit, False, False, solve, wall,
+                              np.full((n, 3), np.nan), text, **base)  # fmt: skip
+
+        if isinstance(run, str):  # a scene the flexible engine does not model: said, not failed
+            return not_compared(run, 0.0)
+        solve = float(run.res.solve_time_s)
+        if not run.ok:
+            msg = run.res.message
+            return not_compared(f"its run did not reach every dwell ({msg}).", solve)
+        d = np.asarray(distance(run), dtype=float)
+        worst = float(np.max(d))
+        fails = worst > limit
+        where = (
+            f"it ran beside the rigid runs on the second core ({solve:.2f} s; the command waited "
+            f"{added:.2f} s for it)"
+            if concurrent
+            else f"it took {solve:.2f} s"
+        )
+        text = (
+            f"Cross-check with an independent engine (flexible beam elements instead of rigid "
+            f"links): the dwells agree to {worst:.3f} mm (median {float(np.median(d)):.3f} mm), "
+            + ("MORE than" if fails else "within")
+            + f" the {limit:.2f} mm the numerical errors allow; {where}."
+        )
+        return CrossCheck(d, worst, limit, fails, True, solve, wall, positions(run), text, **base)
+
+
+def start_cross_check(
+    engine: Engine, scene, advances, fork: bool | None = None, relative_position_mm=None
+) -> PendingCrossCheck:
+    """Start the cross-check's flexible run on the commissioning ``scene`` (see
+    :class:`PendingCrossCheck`)."""
+    return PendingCrossCheck(engine, scene, advances, fork, relative_position_mm)
+
+
+def cross_check_run(
+    engine: Engine, scene, advances, rigid_error_mm: float, distance, positions
+) -> CrossCheck:
+    """Run the flexible-element engine on the commissioning ``scene`` here and now and compare
+    its dwells with the reported (refined rigid) run's (:meth:`PendingCrossCheck.finish`; the
+    scene gets ``model.formulation = "flexible"`` and :data:`CROSS_CHECK_ELEMENT_FACTOR`)."""
+    pending = PendingCrossCheck(engine, scene, advances, fork=False)
+    pending.active = True
+    out = pending.finish(rigid_error_mm, distance, positions)
+    assert out is not None
+    return out
 
 
 #: Engine warnings about the fallback stabilisation start with a count and contain this; the

@@ -24,6 +24,7 @@ import numpy as np
 
 from ringqa.geometry.shape_checks import capsule_bow_m, capsule_pass_radius_m
 from ringqa.provenance import Provenance
+from ringqa.simulation import model as model_mod
 from ringqa.simulation._kernels import restore_lengths
 from ringqa.simulation.effects.base import Samples
 from ringqa.simulation.model import Model
@@ -41,8 +42,11 @@ from ringqa.simulation.result import (
     SimResult,
     SolverStats,
 )
+from ringqa.simulation.solvers import march as march_kernel
+from ringqa.simulation.solvers import schedule as schedule_mod
 from ringqa.simulation.solvers.integrators import combine, integrator_for
 from ringqa.simulation.solvers.monitor import Monitor, max_penetration
+from ringqa.simulation.solvers.newton import newton
 from ringqa.simulation.solvers.predictor import predict
 from ringqa.simulation.solvers.recorder import Recorder, lump_to_nodes
 from ringqa.simulation.solvers.schedule import Schedule
@@ -164,7 +168,7 @@ def initial_equilibrium(model: Model, q: np.ndarray, v: np.ndarray, dt: float) -
     return st, it
 
 
-def warm_kernels(model: Model) -> None:
+def warm_kernels(model: Model, schedule=None, monitor=None) -> None:
     """Compile (or load from numba's disk cache) the kernels this model runs, on scratch copies,
     so that JIT compilation never enters the run's ``solve_time_s``.
 
@@ -190,6 +194,15 @@ def warm_kernels(model: Model) -> None:
     lump_to_nodes(sw.link, sw.alpha, sw.F, np.zeros(model.n_nodes))
     if model.dynamic:
         combine(1.0, q, 0.0, q, q.copy())
+    elif schedule is not None and marchable(model, model.scene, integrator_for(model), False):
+        args = _march_args(model, schedule, monitor, q.copy(), np.zeros_like(q),
+                           np.zeros(0), 2, 0)[0]  # fmt: skip
+        march_kernel.march(*args)  # no waypoints: compiles (or loads) only
+        z = np.zeros((0, 3))
+        march_kernel.source_rows(
+            np.zeros((0, model.n_all)), np.zeros(0), 0, model.nd, 0, 0.0, model.table.h,
+            model.table.pos, model.table.tan, z, z.copy(), z.copy(), np.zeros(0), np.zeros(0),
+        )  # fmt: skip
 
 
 def run(
@@ -212,7 +225,7 @@ def run(
     monitor = Monitor(model, history_free)
     recorder = Recorder(model, advances_m, bool(scene.outputs.trajectory))
     stepper = Stepper(model, integrator, monitor, cut_grown=schedule.slide_grow)
-    warm_kernels(model)
+    warm_kernels(model, schedule, monitor)
 
     t0 = time.perf_counter()
     u = model.u_start
@@ -230,7 +243,12 @@ def run(
     bar = _progress_bar(scene, schedule, u) if progress else None
     hist = None  # the integrator's history (BDF2)
     over = False
-    for leg in schedule.legs() if status == STATUS_SUCCESS else ():
+    fast = marchable(model, scene, integrator, progress)
+    if fast and status == STATUS_SUCCESS:
+        status, message, over, q, u, time_s = _marched(
+            model, schedule, stepper, monitor, recorder, q, v, u, iters_since, deadline, t0
+        )
+    for leg in schedule.legs() if status == STATUS_SUCCESS and not fast else ():
         dwell_left = leg.dwell_s
         while status == STATUS_SUCCESS and (abs(leg.target_m - u) > 1e-12 or dwell_left > 1e-15):
             du, dt = schedule.next_step(u, leg, dwell_left)
@@ -276,6 +294,199 @@ def run(
     if over:
         res.settings["budget_exceeded"] = True
     return res
+
+
+#: quasi-static runs take their load steps in the compiled loop where they can (:func:`marchable`);
+#: False runs every step through the Python loop (the reference: benchmarks/bench_engine.py
+#: --march compares the two)
+USE_MARCH = True
+
+
+def marchable(model: Model, scene, integrator, progress: bool) -> bool:
+    """The run's load steps can go through the compiled loop (:mod:`.march`): quasi-static,
+    no always-on tether, no wall damping's far-sample refresh, no kept trajectory or progress
+    bar, every effect ringqa's own (disk-cached Newton)."""
+    return (
+        USE_MARCH
+        and not integrator.dynamic
+        and model.stab == 0.0
+        and not progress
+        and not bool(scene.outputs.trajectory)
+        and not model._refresh_far
+        and model.newton is newton
+    )
+
+
+def _march_args(model: Model, schedule: Schedule, monitor: Monitor, q, v, targets, hist_cap,
+                max_steps: int):  # fmt: skip
+    """The arguments of :func:`.march.march` for this run (scalars from the monitor, schedule and
+    model; the modules' constants read now, so that a test may patch them), with its record
+    arrays; returns (args, fs, ist, hist_u, hist_s, records)."""
+    n_legs = targets.shape[0]
+    fs = np.zeros(march_kernel.N_FS)
+    ist = np.zeros(march_kernel.N_IST, dtype=np.int64)
+    hist_u = np.zeros(max(hist_cap, len(monitor._hist_u), 2))
+    hist_s = np.zeros_like(hist_u)
+    rec = (
+        np.full((n_legs, model.n_all), np.nan),
+        np.full(n_legs, np.nan),
+        np.zeros(n_legs, dtype=np.int64),
+        np.zeros((n_legs, model.n_nodes)),
+        np.full(n_legs, np.nan),
+    )
+    names = model.names
+    solver = model.scene.solver
+    args = (
+        model.effects, q, v, model.samples, model.d_prev, model.r, model.B, model.energies,
+        model.counters, model.nd, model.n_nodes, model.kl, model.n_free, model.tol_abs,
+        model.max_iter, model.max_step, model.chain.link_len, model._chan, model._cum, model.cft,
+        model._node_sample, np.ascontiguousarray(model.table.tan[0]), bool(model.extrapolate),
+        float(model_mod.EXTRAPOLATE_FRACTION), int(model_mod.EXTRAPOLATE_MAX_ITERS),
+        model._pred_plain,
+        model._pred_hints, targets, bool(schedule.history_free), bool(schedule.slide_grow),
+        float(model.increment), float(schedule_mod.JUMP_FACTOR),
+        int(schedule_mod.SLIDE_GROW_MAX_ITERS), float(model.speed),
+        names.index("friction") if "friction" in names else -1,
+        names.index("wall_damping") if "wall_damping" in names else -1, bool(model.contact_on),
+        float(solver.jam_force_n), float(solver.jam_length_m), hist_u, hist_s, fs, ist,
+        int(max_steps), *rec,
+    )  # fmt: skip
+    return args, fs, ist, hist_u, hist_s, rec
+
+
+def _sync_in(fs, ist, hist_u, hist_s, model, schedule, monitor, u, time_s, iters_since) -> None:
+    """The run's scalars from the Python objects into the kernel's arrays."""
+    M = march_kernel
+    fs[M.F_U] = u
+    fs[M.F_INC] = schedule.inc
+    fs[M.F_PUSH] = monitor.push
+    fs[M.F_WORK_IN] = monitor.work_in
+    fs[M.F_WORK_FR] = monitor.work_friction
+    fs[M.F_WORK_DAMP] = monitor.work_damping
+    fs[M.F_PRED_DU] = model._pred_du
+    fs[M.F_PRED_U] = model._pred_u
+    fs[M.F_MAX_PEN] = monitor.max_penetration_m
+    fs[M.F_TIME] = time_s
+    ist[M.I_ITERS] = monitor.total_iters
+    ist[M.I_STEPS] = monitor.n_steps
+    ist[M.I_SINCE] = iters_since
+    n = len(monitor._hist_u)
+    hist_u[:n] = monitor._hist_u
+    hist_s[:n] = monitor._hist_s
+    ist[M.I_HIST] = n
+
+
+def _sync_out(fs, ist, hist_u, hist_s, model, schedule, monitor) -> tuple[float, float, int]:
+    """The kernel's scalars back into the Python objects; returns (u, time_s, iters_since)."""
+    M = march_kernel
+    schedule.inc = float(fs[M.F_INC])
+    monitor.push = float(fs[M.F_PUSH])
+    monitor.work_in = float(fs[M.F_WORK_IN])
+    monitor.work_friction = float(fs[M.F_WORK_FR])
+    monitor.work_damping = float(fs[M.F_WORK_DAMP])
+    monitor.max_penetration_m = float(fs[M.F_MAX_PEN])
+    monitor.total_iters = int(ist[M.I_ITERS])
+    monitor.n_steps = int(ist[M.I_STEPS])
+    n = int(ist[M.I_HIST])
+    monitor._hist_u = [float(x) for x in hist_u[:n]]
+    monitor._hist_s = [float(x) for x in hist_s[:n]]
+    model._pred_du = float(fs[M.F_PRED_DU])
+    model._pred_u = float(fs[M.F_PRED_U])
+    model._extrapolated = False
+    return float(fs[M.F_U]), float(fs[M.F_TIME]), int(ist[M.I_SINCE])
+
+
+def _marched(model, schedule, stepper, monitor, recorder, q, v, u, iters_since, deadline, t0):
+    """The load steps of a :func:`marchable` run through :func:`.march.march`, a step its first
+    attempt does not solve through the :class:`Stepper` (as the Python loop in :func:`run`,
+    with the same answers). Returns (status, message, over budget, q, u, time_s)."""
+    M = march_kernel
+    legs = list(schedule.legs())
+    targets = np.array([leg.target_m for leg in legs], dtype=np.float64)
+    hist_cap = schedule.estimated_steps() + 2 * len(legs) + 8
+    max_steps = 0 if deadline is None else 8
+    args, fs, ist, hist_u, hist_s, rec = _march_args(
+        model, schedule, monitor, q, v, targets, hist_cap, max_steps
+    )
+    time_s = 0.0
+    _sync_in(fs, ist, hist_u, hist_s, model, schedule, monitor, u, time_s, iters_since)
+    status, message, over = STATUS_SUCCESS, "", False
+    while True:
+        code = march_kernel.march(*args)
+        if code == M.DONE:
+            break
+        u, time_s, iters_since = _sync_out(fs, ist, hist_u, hist_s, model, schedule, monitor)
+        if code == M.JAM_FORCE:
+            status, message = monitor.jam_message(u, None, None)
+            break
+        if code == M.JAM_PROGRESS:
+            status, message = monitor.jam_message(
+                u, float(fs[M.F_JAM_MOVED]), float(fs[M.F_JAM_OVER])
+            )
+            break
+        if code == M.STEP_FAILED:
+            du, dt = float(fs[M.F_DU]), float(fs[M.F_DT])
+            first = (int(ist[M.I_FAIL_ITERS]), int(ist[M.I_FAIL_STATUS]), float(fs[M.F_RES]))
+            out = stepper.take(u, du, dt, q, v, None, first=first)
+            iters_since += out.iters
+            if not out.ok:
+                monitor.failed(out)
+                status = STATUS_FAILED
+                message = (
+                    f"Newton did not converge at advance {u * 1e3:.3f} mm even with "
+                    f"{out.sub} sub-steps (status {out.status}, residual {out.res:.3g} N)"
+                )
+                break
+            monitor.accepted(out, du)
+            q[:] = out.q
+            u = u + du
+            time_s += dt
+            schedule.adapt(out.sub, out.last_iters, out.rest_speed_m_s)
+            status, message = monitor.jam(u, du)
+            if status != STATUS_SUCCESS:
+                break
+        if deadline is not None and time.perf_counter() > deadline:
+            status, over = STATUS_FAILED, True
+            message = (
+                f"the run exceeded its time budget at advance {u * 1e3:.3f} mm "
+                f"({time.perf_counter() - t0:.1f} s of solving)"
+            )
+            break
+        _sync_in(fs, ist, hist_u, hist_s, model, schedule, monitor, u, time_s, iters_since)
+    u, time_s, _ = _sync_out(fs, ist, hist_u, hist_s, model, schedule, monitor)
+    _record_marched(model, recorder, legs, int(ist[M.I_LEG]), rec)
+    return status, message, over, q, u, time_s
+
+
+def _record_marched(model: Model, recorder: Recorder, legs, n_done: int, rec) -> None:
+    """The waypoints :func:`.march.march` reached into the recorder (as
+    :meth:`Recorder.record` at each)."""
+    if n_done == 0:
+        return
+    rec_q, rec_push, rec_iters, rec_contact, rec_u = rec
+    n = n_done
+    src = np.empty((n, 3))
+    dirn = np.empty((n, 3))
+    tip = np.empty((n, 3))
+    s = np.empty(n)
+    off = np.empty(n)
+    j = model._src_link
+    tb = model.table
+    march_kernel.source_rows(
+        rec_q, rec_u, n, model.nd, j, model.cft - model.chain.cum[j], tb.h, tb.pos, tb.tan, src,
+        dirn, tip, s, off,
+    )  # fmt: skip
+    idx = np.array([i for leg in legs[:n] for i in leg.requested], dtype=np.int64)
+    row = np.repeat(np.arange(n), [len(leg.requested) for leg in legs[:n]])
+    recorder.source_pos_m[idx] = src[row]
+    recorder.source_dir[idx] = dirn[row]
+    recorder.tip_pos_m[idx] = tip[row]
+    recorder.push_force_n[idx] = rec_push[row]
+    recorder.contact_force_n[idx] = rec_contact[row]
+    recorder.newton_iters[idx] = rec_iters[row]
+    recorder.s_m[idx] = s[row]
+    recorder.offset_m[idx] = off[row]
+    recorder.nodes_m[idx] = rec_q[row].reshape(row.size, model.n_nodes, model.nd)[:, :, :3]
 
 
 def _result(scene, model, integrator, monitor, recorder, status, message, v, time_s, solve_time):

@@ -88,10 +88,7 @@ class Monitor:
         solver = self.model.scene.solver
         push = self.push
         if push > solver.jam_force_n:
-            return STATUS_JAMMED, (
-                f"jammed at advance {u * 1e3:.2f} mm: push force {push:.2f} N above "
-                f"solver.jam_force_n = {solver.jam_force_n:g} N"
-            )
+            return self.jam_message(u, None, None)
         if du > 0:
             s_src = float(self.model.samples.s[0])
             self._hist_u.append(u)
@@ -103,15 +100,26 @@ class Monitor:
                 # side="right", without converting the list to an array on every step
                 k = bisect_right(hu, u - jl) - 1
                 if s_src - self._hist_s[k] < 0.1 * (u - hu[k]):
-                    return STATUS_JAMMED, (
-                        f"jammed at advance {u * 1e3:.2f} mm: the tip moved "
-                        f"{(s_src - self._hist_s[k]) * 1e3:.2f} mm over the last "
-                        f"{(u - hu[k]) * 1e3:.1f} mm of input"
-                    )
+                    return self.jam_message(u, s_src - self._hist_s[k], u - hu[k])
         else:
             self._hist_u = [u]
             self._hist_s = [float(self.model.samples.s[0])]
         return STATUS_SUCCESS, ""
+
+    def jam_message(self, u: float, moved: float | None, over: float | None) -> tuple[int, str]:
+        """(STATUS_JAMMED, message) of a jam at input advance ``u`` (m): the push force above
+        ``solver.jam_force_n`` (``moved`` None), or the tip moved ``moved`` (m) over the last
+        ``over`` (m) of input."""
+        solver = self.model.scene.solver
+        if moved is None:
+            return STATUS_JAMMED, (
+                f"jammed at advance {u * 1e3:.2f} mm: push force {self.push:.2f} N above "
+                f"solver.jam_force_n = {solver.jam_force_n:g} N"
+            )
+        return STATUS_JAMMED, (
+            f"jammed at advance {u * 1e3:.2f} mm: the tip moved {moved * 1e3:.2f} mm over the "
+            f"last {over * 1e3:.1f} mm of input"
+        )
 
     def work(self, v: np.ndarray, dynamic: bool) -> dict[str, float]:
         """The work balance at the end of the run (J; ``balance_error`` relative)."""

@@ -128,6 +128,7 @@ def newton(effects, q, st, sw, n_free, tol_abs, max_iter, max_step, r, B, energi
     it_best = 0
     fresh = False  # r already holds the residual at q (from the accepted line-search trial)
     need_jac = False  # ... but B not yet the Jacobian there (built only if Newton goes on)
+    res_prev = np.inf
     for it in range(max_iter + 1):
         if not fresh:
             assemble(effects, q, st, sw, r, B, yes, yes, energies)
@@ -192,10 +193,19 @@ def newton(effects, q, st, sw, n_free, tol_abs, max_iter, max_step, r, B, energi
         for i in range(q.shape[0]):  # element copies: an array slice assignment compiles
             q0[i] = q[i]  # numba's shape-mismatch error formatting (~3 s of cold start)
         lam = scale
+        # the first trial builds the Jacobian with its residual (one pass over the effects
+        # instead of two) unless Newton is expected to converge there: superlinear
+        # convergence predicts the next residual res^2 / res_prev; the same values either way
+        fuse = not (res * res <= tol_abs * res_prev)
+        res_prev = res
+        trial_jac = False
         for _ls in range(9):
             update_chain(q0, rhs, lam, nd, n_nodes, n_free, q)
-            assemble(effects, q, st, sw, r_try, B, no, yes, energies)
+            trial_jac = fuse and _ls == 0
+            assemble(effects, q, st, sw, r_try, B, trial_jac, yes, energies)
             counters[0] += 1
+            if trial_jac:
+                counters[1] += 1
             merit = 0.0
             for i in range(n_free):
                 merit += r_try[i] * r_try[i]
@@ -208,7 +218,7 @@ def newton(effects, q, st, sw, n_free, tol_abs, max_iter, max_step, r, B, energi
         for i in range(r.shape[0]):
             r[i] = r_try[i]
         fresh = True
-        need_jac = True
+        need_jac = not trial_jac  # B is the Jacobian at q if the accepted trial built it
         if mx * lam < 1e-15:
             # stagnation at round-off
             status = 1

@@ -121,8 +121,14 @@ class Stepper:
         self.monitor = monitor
         self.cut_grown = cut_grown
 
-    def take(self, u: float, du: float, dt: float, q, v, hist) -> StepOutcome:
-        """Advance the input by ``du`` (m) over ``dt`` (s) from state ``q``, velocity ``v``."""
+    def take(self, u: float, du: float, dt: float, q, v, hist, first=None) -> StepOutcome:
+        """Advance the input by ``du`` (m) over ``dt`` (s) from state ``q``, velocity ``v``.
+
+        ``first``: ``(iterations, status, residual)`` of a first attempt (the whole step, no
+        stabilisation) that was already made and failed, the state left at the step's start
+        (the compiled load-step loop, :mod:`.march`): the step goes on from its second attempt
+        as if this call had made the first.
+        """
         model = self.model
         integ = self.integrator
         sw = model.samples
@@ -146,52 +152,23 @@ class Stepper:
             fallback_after = max(FALLBACK_AFTER, int(np.ceil(abs(du) / model.increment - 1e-9)))
         iters_total = 0
         attempts = 0
+        skip = first is not None
+        if skip:
+            iters_total, attempts = int(first[0]), 1
+            last_iters, last_status, last_res = int(first[0]), int(first[1]), float(first[2])
         while True:
-            # try the step in `sub` equal sub-steps (with the stabilisation `stab`)
-            attempts += 1
-            q_try = q_prev.copy()
-            v_try = v_prev.copy()
-            sw.s[:] = s_saved
-            model.d_prev[:] = dprev_saved
-            effects = model.effects if stab == model.stab else model.with_tether(stab)
-            if monotone:
-                effects = model.monotone_effects
-            iters_step = 0
-            fr_step = damp_step = stab_step = 0.0
-            good = True
-            hist_try = hist
-            h = dt / sub
-            for k in range(sub):
-                qp = q_try.copy()
-                q_try = q_try.copy() if pause else integ.predictor(q_try, v_try, h)
-                model.predict(q_try, du / sub, u + du * (k + 1) / sub, integ.slides)
-                q_ref = q_try.copy()
-                # a grown pause step is backward Euler (BDF2 without its history; docstring)
-                out = integ.solve(effects, q_try, qp, v_try, h, q_ref, None if be else hist_try)
-                iters_step += out.iters
-                if out.status != 0:
-                    good = False
-                    break
-                hist_try = out.hist
-                v_try = out.v
-                model.refresh_far(q_try)  # exact distance history for wall damping
-                model.d_prev[:] = sw.d
-                self.monitor.penetration(sw.z, sw.w)
-                fr_step += out.friction_j
-                damp_step += out.damping_j
-                if stab > 0 and not integ.dynamic:
-                    dq = (q_try - q_ref).reshape(model.n_nodes, model.nd)[:, :3]
-                    stab_step += stab * float(np.sum(dq**2)) / h
-            iters_total += iters_step
-            if good:
-                speed = 0.0
-                if pause:
-                    dq = (q_try - q_prev).reshape(model.n_nodes, model.nd)[:, :3]
-                    speed = float(np.max(np.abs(dq))) / dt
-                return StepOutcome(
-                    True, q_try, v_try, hist_try, iters_total, out.iters, sub, fallback, attempts,
-                    fr_step, damp_step, stab_step, 0, out.res, speed,
+            if skip:
+                skip = False
+            else:
+                ok, got = self._attempt(
+                    u, du, dt, q_prev, v_prev, s_saved, dprev_saved, hist, sub, stab, pause,
+                    monotone, be, fallback,
                 )  # fmt: skip
+                attempts += 1
+                iters_total += got[0]
+                if ok:
+                    return got[1]._replace(iters=iters_total, attempts=attempts)
+                last_iters, last_status, last_res = got[4], got[2], got[3]
             if not fallback and not integ.dynamic and stab == 0.0 and sub >= fallback_after:
                 # snap-through / stall: retry the step with the fallback stabilisation
                 fallback = True
@@ -200,7 +177,57 @@ class Stepper:
                 continue
             if sub >= int(1 / MIN_CUT):
                 return StepOutcome(
-                    False, q_prev, v_prev, hist, iters_total, out.iters, sub, fallback, attempts,
-                    0.0, 0.0, 0.0, out.status, out.res,
+                    False, q_prev, v_prev, hist, iters_total, last_iters, sub, fallback,
+                    attempts, 0.0, 0.0, 0.0, last_status, last_res,
                 )  # fmt: skip
             sub *= 2
+
+    def _attempt(
+        self, u, du, dt, q_prev, v_prev, s_saved, dprev_saved, hist, sub, stab, pause, monotone,
+        be, fallback,
+    ):  # fmt: skip
+        """One attempt at the step in ``sub`` equal sub-steps with the stabilisation ``stab``:
+        ``(ok, (iterations, outcome or None, status, residual, last sub-step's iterations))``."""
+        model = self.model
+        integ = self.integrator
+        sw = model.samples
+        q_try = q_prev.copy()
+        v_try = v_prev.copy()
+        sw.s[:] = s_saved
+        model.d_prev[:] = dprev_saved
+        effects = model.effects if stab == model.stab else model.with_tether(stab)
+        if monotone:
+            effects = model.monotone_effects
+        iters_step = 0
+        fr_step = damp_step = stab_step = 0.0
+        hist_try = hist
+        h = dt / sub
+        for k in range(sub):
+            qp = q_try.copy()
+            q_try = q_try.copy() if pause else integ.predictor(q_try, v_try, h)
+            model.predict(q_try, du / sub, u + du * (k + 1) / sub, integ.slides)
+            q_ref = q_try.copy()
+            # a grown pause step is backward Euler (BDF2 without its history; docstring)
+            out = integ.solve(effects, q_try, qp, v_try, h, q_ref, None if be else hist_try)
+            iters_step += out.iters
+            if out.status != 0:
+                return False, (iters_step, None, out.status, out.res, out.iters)
+            hist_try = out.hist
+            v_try = out.v
+            model.refresh_far(q_try)  # exact distance history for wall damping
+            model.d_prev[:] = sw.d
+            self.monitor.penetration(sw.z, sw.w)
+            fr_step += out.friction_j
+            damp_step += out.damping_j
+            if stab > 0 and not integ.dynamic:
+                dq = (q_try - q_ref).reshape(model.n_nodes, model.nd)[:, :3]
+                stab_step += stab * float(np.sum(dq**2)) / h
+        speed = 0.0
+        if pause:
+            dq = (q_try - q_prev).reshape(model.n_nodes, model.nd)[:, :3]
+            speed = float(np.max(np.abs(dq))) / dt
+        outcome = StepOutcome(
+            True, q_try, v_try, hist_try, iters_step, out.iters, sub, fallback, 0, fr_step,
+            damp_step, stab_step, 0, out.res, speed,
+        )  # fmt: skip
+        return True, (iters_step, outcome, 0, out.res, out.iters)
