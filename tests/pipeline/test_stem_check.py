@@ -16,7 +16,7 @@ import pytest
 from ringqa.errors import SimulationError
 from ringqa.geometry import Centreline, Channel, Lumen
 from ringqa.pipeline.simulate import NUMERICAL_ERROR_WARN_MM, simulate_dwells
-from tests.pipeline.fakes import fake_engine
+from tests.pipeline.fakes import fake_engine, sim_result
 
 SHAFT_M = 0.150  # straight shaft before the bend: a 60 mm stem drops 90 mm of it
 
@@ -47,9 +47,8 @@ def _height_simulator(heights_mm, jam_whole=False, refuse_whole=False):
         pos[:, 2] += heights_mm[(whole, refined)] * 1e-3
         dirs = np.atleast_2d(ch.centreline.tangent(adv * 1e-3))
         status, msg = (1, "push force above 50 N") if whole and jam_whole else (0, "ok")
-        return SimpleNamespace(status=status, message=msg, advances_mm=adv, source_pos_m=pos,
-                               source_dir=dirs, warnings=(), solve_time_s=0.01, n_elements=12,
-                               settings={})  # fmt: skip
+        return sim_result(status, msg, adv, pos, dirs, solve_time_s=0.01, n_elements=12,
+                          settings={})  # fmt: skip
 
     return simulate
 
