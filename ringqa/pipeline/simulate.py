@@ -17,7 +17,7 @@ The channel simulated keeps :data:`~ringqa.geometry.stem.DEFAULT_STEM_M` of stra
 before its first bend (:func:`~ringqa.geometry.stem.trim_to_stem`; the dwells keep their place in
 space). That cut is a modelling choice the numerical error must cover (issue 28): when it dropped
 straight shaft, the whole channel is run too, at the commissioning and the refined settings
-(:func:`stem_check_runs`), and each dwell's error gains the distance of the whole channel's refined
+(:class:`StemCheck`), and each dwell's error gains the distance of the whole channel's refined
 run from the reported positions plus the whole channel's own error (its two runs' distance).
 
 The engine is reached through an :class:`Engine` (its four functions), so tests and other engines
@@ -88,7 +88,7 @@ NUMERICAL_ERROR_WARN_MM = 0.1
 CONCURRENT_RUNS = True
 
 
-#: Measure what the modelled stem's cut moves (:func:`stem_check_runs`) whenever the cut dropped
+#: Measure what the modelled stem's cut moves (:class:`StemCheck`) whenever the cut dropped
 #: straight shaft: the whole channel at the commissioning and the refined settings. Measured on the
 #: example (microSelectron cable, 133 mm of shaft dropped; benchmarks/bench_commission_numerics.py
 #: "Modelled stem"): the whole channel's runs at 1, 1/2, 1/4 and 1/8 of the commissioning settings
@@ -1116,8 +1116,10 @@ class _WholeChannel:
         try:
             coarse = _run_with_retries(self.engine, self.scene, self.advances, False)
             fine = self._ahead.result()
-        except RingQAError as exc:
+        except BaseException as exc:
             self.cancel()
+            if not isinstance(exc, RingQAError):
+                raise
             return not_measured(str(exc))
         finally:
             self._ahead = None

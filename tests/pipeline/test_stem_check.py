@@ -13,6 +13,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
+from ringqa.errors import SimulationError
 from ringqa.geometry import Centreline, Channel, Lumen
 from ringqa.pipeline.simulate import NUMERICAL_ERROR_WARN_MM, simulate_dwells
 from tests.pipeline.fakes import fake_engine, sim_result
@@ -30,20 +31,24 @@ def _shaft_and_arc():
     return Channel("ring", cl, Lumen.circular(1.5e-3, 1.4e-3), cl.length_m - 5e-3)
 
 
-def _height_simulator(heights_mm, jam_whole=False):
+def _height_simulator(heights_mm, jam_whole=False, refuse_whole=False):
     """Source on the scene's channel centreline at the advance, raised by
-    ``heights_mm[(whole, refined)]`` (mm); ``jam_whole``: the whole channel's runs jam."""
+    ``heights_mm[(whole, refined)]`` (mm); ``jam_whole``: the whole channel's runs jam;
+    ``refuse_whole``: the engine refuses the whole channel (a RingQAError)."""
 
     def simulate(scene, advances_mm=None, progress=False):
         adv = np.asarray(advances_mm, dtype=float)
         ch = scene.channel
         whole = ch.length_m > 0.15  # the cut channel is 60 + 45 mm long, the whole one 195 mm
+        if whole and refuse_whole:
+            raise SimulationError("the capsule cannot pass the shaft")
         refined = "refined" in scene.overrides
         pos = np.atleast_2d(ch.centreline.position(adv * 1e-3)).copy()
         pos[:, 2] += heights_mm[(whole, refined)] * 1e-3
         dirs = np.atleast_2d(ch.centreline.tangent(adv * 1e-3))
         status, msg = (1, "push force above 50 N") if whole and jam_whole else (0, "ok")
-        return sim_result(status, msg, adv, pos, dirs, solve_time_s=0.01, n_elements=12)
+        return sim_result(status, msg, adv, pos, dirs, solve_time_s=0.01, n_elements=12,
+                          settings={})  # fmt: skip
 
     return simulate
 
@@ -101,13 +106,21 @@ def test_no_cut_no_stem_check():
     assert n.stem is None and n.n_runs == 3 and n.max_mm == pytest.approx(0.0, abs=1e-9)
 
 
-def test_a_whole_channel_run_that_jams_is_said_not_hidden():
-    """The whole channel jams: the commissioning still reports the cut channel's positions and
-    error (0.03 mm), and the text says the stem's share is NOT included."""
-    n = _run(_height_simulator(HEIGHTS, jam_whole=True)).numerics
+@pytest.mark.parametrize(
+    ("kw", "why"),
+    [
+        ({"jam_whole": True}, "did not reach every dwell"),
+        ({"refuse_whole": True}, "cannot pass the shaft"),
+    ],
+)
+def test_a_whole_channel_run_that_jams_is_said_not_hidden(kw, why):
+    """The whole channel jams, or the engine refuses it: the commissioning still reports the cut
+    channel's positions and error (0.03 mm), and the text says why the stem's share is NOT
+    included."""
+    n = _run(_height_simulator(HEIGHTS, **kw)).numerics
     assert n.stem is not None and not n.stem.ok
     assert n.max_mm == pytest.approx(0.03, abs=1e-5)
-    assert any("does NOT include it" in t and "did not reach every dwell" in t for t in n.text)
+    assert any("does NOT include it" in t and why in t for t in n.text)
 
 
 @pytest.mark.skipif(not hasattr(os, "fork"), reason="needs fork")
