@@ -28,7 +28,6 @@ from __future__ import annotations
 import dataclasses
 import difflib
 import logging
-import math
 import os
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -36,16 +35,19 @@ from pathlib import Path
 from typing import Any
 
 from ringqa.errors import RingQAError
-from ringqa.geometry.registration import REGISTER_MODES
-from ringqa.pipeline.dwells import TANDEM_DWELLS
-from ringqa.pipeline.settings import DEFAULT_STEM_MM, CommissionSettings
-from ringqa.pipeline.verdicts import DOSE_ACTION_PCT, POSITION_RECOMMENDED_MM, POSITION_REQUIRED_MM
-from ringqa.plan import PLAN_STEP_MM, PRESCRIPTION_GY, DosePointSpec
+from ringqa.pipeline.settings import SETTINGS, CommissionSettings
+from ringqa.pipeline.settings import Setting as ConfigKey
+from ringqa.plan import DosePointSpec
 from ringqa.report.fields import ReportFields
 from ringqa.simulation.scene_keys import KEYS as SCENE_KEYS
 from ringqa.textio import read_toml
 
 log = logging.getLogger(__name__)
+
+#: every configuration key outside ``[scene]``, in the order of docs/config.md: the one settings
+#: table (:data:`ringqa.pipeline.settings.SETTINGS`: name, unit, range, default, help, config
+#: key, command-line option, CommissionSettings field, results.json key)
+KEYS: tuple[ConfigKey, ...] = SETTINGS
 
 #: environment variable naming the user configuration file ("" = none)
 ENV_VAR = "RINGQA_CONFIG"
@@ -53,252 +55,14 @@ ENV_VAR = "RINGQA_CONFIG"
 DEFAULT = "default"
 #: origin of a command-line option
 COMMAND_LINE = "command line"
-#: the cable models a commissioning run can simulate
-CABLES = ("flexitron", "microselectron")
 
 
 class ConfigError(RingQAError):
     """A configuration file is unreadable or holds an unknown key or a bad value."""
 
 
-@dataclass(frozen=True)
-class ConfigKey:
-    """One configuration key.
-
-    Attributes
-    ----------
-    key : str
-        ``table.name`` as written in the file.
-    unit : str
-        User unit (``mm``, ``Gy``, ``%``, ``U``; ``""`` for text, flags and choices).
-    default : object
-        Built-in default (None: decided by the input, e.g. the RT Plan's source).
-    kind : str
-        ``"number"``, ``"int"``, ``"text"``, ``"choice"`` or ``"flag"``.
-    low, high : float
-        Allowed range of a number (``low`` exclusive when ``low_open``).
-    low_open : bool
-        ``low`` itself is not allowed (``> low``).
-    choices : tuple of str
-        Allowed values of a choice.
-    option : str
-        The command-line option that overrides it (``""``: none).
-    doc : str
-        What it means (docs table).
-    """
-
-    key: str
-    unit: str
-    default: Any
-    kind: str
-    doc: str
-    low: float = 0.0
-    high: float = math.inf
-    low_open: bool = True
-    choices: tuple[str, ...] = ()
-    option: str = ""
-
-    @property
-    def allowed(self) -> str:
-        """The allowed values in words (``"> 0 and <= 100"``, ``"none, rigid"``)."""
-        if self.kind == "choice":
-            return "one of " + ", ".join(self.choices)
-        if self.kind == "text":
-            return "text"
-        if self.kind == "flag":
-            return "true or false"
-        lo = f"{'>' if self.low_open else '>='} {self.low:g}"
-        return lo if math.isinf(self.high) else f"{lo} and <= {self.high:g}"
-
-    def problem(self, value) -> str | None:
-        """What is wrong with ``value`` (None if nothing)."""
-        if self.kind == "flag":
-            return None if isinstance(value, bool) else "must be true or false"
-        if self.kind in ("text", "choice"):
-            if not isinstance(value, str):
-                return "must be text (in quotes)"
-            if self.kind == "choice" and value not in self.choices:
-                return f"allowed: {self.allowed}"
-            return None
-        if isinstance(value, bool) or not isinstance(value, int | float):
-            return f"must be a number ({self.allowed})"
-        if self.kind == "int" and not isinstance(value, int):
-            return f"must be a whole number ({self.allowed})"
-        if not math.isfinite(value):
-            return f"must be a finite number ({self.allowed})"
-        too_low = value <= self.low if self.low_open else value < self.low
-        if too_low or value > self.high:
-            unit = f" {self.unit}" if self.unit else ""
-            return f"out of range: allowed {self.allowed}{unit}"
-        return None
-
-
-def _num(key, unit, default, doc, low=0.0, high=math.inf, low_open=True, option="", kind="number"):
-    return ConfigKey(key, unit, default, kind, doc, low, high, low_open, (), option)
-
-
-#: every configuration key outside ``[scene]``, in the order of docs/config.md
-KEYS: tuple[ConfigKey, ...] = (
-    _num(
-        "tolerances.position_recommended_mm",
-        "mm",
-        POSITION_RECOMMENDED_MM,
-        "recommended source-position tolerance (PASS up to it)",
-        high=10.0,
-    ),
-    _num(
-        "tolerances.position_required_mm",
-        "mm",
-        POSITION_REQUIRED_MM,
-        "required source-position tolerance (WARN up to it, FAIL beyond); >= recommended",
-        high=10.0,
-    ),
-    _num(
-        "tolerances.dose_action_pct",
-        "%",
-        DOSE_ACTION_PCT,
-        "dose-difference action level",
-        high=100.0,
-        option="--dose-action-pct",
-    ),
-    _num(
-        "plan.prescription_gy",
-        "Gy",
-        PRESCRIPTION_GY,
-        "mean Point A dose of the standard plan",
-        high=50.0,
-        option="--prescription-gy",
-    ),
-    _num(
-        "plan.step_mm",
-        "mm",
-        PLAN_STEP_MM,
-        "dwell spacing of the standard plan (a multiple of the reference path's step)",
-        high=50.0,
-    ),
-    _num(
-        "plan.tandem_dwells",
-        "",
-        TANDEM_DWELLS,
-        "tandem dwells of the standard plan when the tandem has no measured path (0: none)",
-        high=100,
-        low_open=False,
-        kind="int",
-    ),
-    _num(
-        "dose_points.point_a_height_mm",
-        "mm",
-        DosePointSpec().point_a_height_mm,
-        "height of Point A above the ring channel's plane",
-        high=100.0,
-        low_open=False,
-    ),
-    _num(
-        "dose_points.point_a_lateral_mm",
-        "mm",
-        DosePointSpec().point_a_lateral_mm,
-        "distance of Point A from the ring's axis",
-        high=100.0,
-        low_open=False,
-    ),
-    _num(
-        "dose_points.surface_offset_mm",
-        "mm",
-        DosePointSpec().surface_offset_mm,
-        "lateral ring surface outside the channel centreline",
-        high=50.0,
-        low_open=False,
-    ),
-    _num(
-        "dose_points.depth_mm",
-        "mm",
-        DosePointSpec().depth_mm,
-        "depth of the deeper vaginal points beyond the surface",
-        high=50.0,
-        low_open=False,
-    ),
-    ConfigKey(
-        "simulation.source",
-        "",
-        None,
-        "text",
-        "TG-43 source (flexisource, mhdr-v2, ...; default: the RT Plan's, else flexisource)",
-        option="--source",
-    ),
-    _num(
-        "simulation.sk_u",
-        "U",
-        None,
-        "source air-kerma strength (default: the RT Plan's)",
-        high=1e6,
-        option="--sk-u",
-    ),
-    ConfigKey(
-        "simulation.cable",
-        "",
-        None,
-        "choice",
-        "cable model (default: the cable of the plan's source)",
-        choices=CABLES,
-        option="--cable",
-    ),
-    ConfigKey(
-        "simulation.register",
-        "",
-        "none",
-        "choice",
-        "registration of the reference path to the channel",
-        choices=REGISTER_MODES,
-        option="--register",
-    ),
-    _num(
-        "simulation.stem_mm",
-        "mm",
-        DEFAULT_STEM_MM,
-        "straight channel simulated before the first bend",
-        high=2000.0,
-        option="--stem-mm",
-    ),
-    ConfigKey(
-        "simulation.whole_channel",
-        "",
-        False,
-        "flag",
-        "simulate the whole channel (ignores stem_mm)",
-        option="--whole-channel",
-    ),
-    ConfigKey(
-        "simulation.cross_check",
-        "",
-        False,
-        "flag",
-        "also run the flexible-element engine and compare its dwells (the cross-check)",
-        option="--cross-check",
-    ),
-    ConfigKey("report.institution", "", "", "text", "hospital / department"),
-    ConfigKey("report.physicist", "", "", "text", "the physicist who signs"),
-    ConfigKey("report.afterloader", "", "", "text", "afterloader model and serial number"),
-    ConfigKey("report.applicator_serial", "", "", "text", "applicator serial or part number"),
-    ConfigKey(
-        "report.source_calibration",
-        "",
-        "",
-        "text",
-        "source serial and calibration (certificate, date)",
-    ),
-    ConfigKey("report.notes", "", "", "text", "free notes printed above the signature block"),
-    ConfigKey(
-        "report.strict",
-        "",
-        False,
-        "flag",
-        "exit status 1 when a verdict is FAIL or ACTION (for scripts; the files are written "
-        "either way)",
-        option="--strict",
-    ),
-)
 _BY_KEY = {k.key: k for k in KEYS}
-TABLES = ("tolerances", "plan", "dose_points", "simulation", "scene", "report")
+TABLES = ("tolerances", "plan", "dose_points", "simulation", "scene", "report", "calibration")
 _SCENE_DOTTED = {k.dotted for k in SCENE_KEYS}
 #: scene keys whose value is a table keyed by names (``element_length_mm = {thin = 1.5}``)
 _SCENE_TABLE_KEYS = {"discretisation.element_length_mm"}
@@ -491,30 +255,33 @@ class EffectiveConfig:
             A combination the settings refuse, named with the file the values came from.
         """
         v = self.values
+        # a field with one key in the settings table takes its value as it is; the fields of
+        # several keys (dose points, the tolerance pair, the stem) are put together below
+        rows = [k for k in KEYS if k.field]
+        single = {k.field: v[k.key] for k in rows if [r.field for r in rows].count(k.field) == 1}
+        single["source"] = single["source"] or None
+        single["cross_check"] = bool(single["cross_check"])
         try:
             return CommissionSettings(
                 scene_overrides=self.scene_overrides,
-                source=v["simulation.source"] or None,
-                prescription_gy=v["plan.prescription_gy"],
-                sk_U=v["simulation.sk_u"],
-                cable=v["simulation.cable"],
+                **single,
                 point_spec=DosePointSpec(
                     point_a_height_mm=v["dose_points.point_a_height_mm"],
                     point_a_lateral_mm=v["dose_points.point_a_lateral_mm"],
                     surface_offset_mm=v["dose_points.surface_offset_mm"],
                     depth_mm=v["dose_points.depth_mm"],
                 ),
-                plan_step_mm=v["plan.step_mm"],
-                tandem_dwells=v["plan.tandem_dwells"],
                 position_limits_mm=(
                     v["tolerances.position_recommended_mm"],
                     v["tolerances.position_required_mm"],
                 ),
-                dose_action_pct=v["tolerances.dose_action_pct"],
-                register=v["simulation.register"],
                 stem_mm=None if v["simulation.whole_channel"] else v["simulation.stem_mm"],
-                cross_check=bool(v["simulation.cross_check"]),
-                settings_origin=dict(self.origins),
+                calibration=self.calibration_record(),
+                settings_origin={  # [calibration] only when a calibration file set it
+                    k: o
+                    for k, o in self.origins.items()
+                    if not (k.startswith("calibration.") and o == DEFAULT)
+                },
                 **self.extra,
             )
         except ConfigError:
@@ -529,6 +296,29 @@ class EffectiveConfig:
                     "required tolerance must be >= the recommended one"
                 ) from None
             raise
+
+    def calibration_record(self) -> dict[str, Any] | None:
+        """The cable calibration file in use (a configuration layer with a ``[calibration]``
+        table, from ``ringqa calibrate``): ``file``, ``sha256`` and the table's keys; None
+        when no layer has one."""
+        keys = [k.key for k in KEYS if k.field == "calibration"]
+        origins = {self.origins[k] for k in keys if self.origins.get(k, DEFAULT) != DEFAULT}
+        if not origins:
+            return None
+        origin = sorted(origins)[-1]
+        path = ""
+        for prefix in ("--config ", "user config "):
+            if origin.startswith(prefix):
+                path = origin[len(prefix) :]
+        from ringqa.provenance import sha256_of
+
+        record: dict[str, Any] = {"file": path}
+        if path and Path(path).is_file():
+            record["sha256"] = sha256_of(path)
+        for k in keys:
+            if self.origins.get(k) == origin:
+                record[k.split(".", 1)[1]] = self.values[k]
+        return record
 
     def report_fields(self) -> ReportFields:
         """The report's free-text fields (``[report]``)."""

@@ -57,6 +57,51 @@ class _NoBar:
         pass
 
 
+def _factor(scene, overrides, key: str) -> float:
+    """A run's setting ``key`` relative to the scene's own (1 where it is not overridden)."""
+    from ringqa.accuracy.grid import setting_value
+
+    base = setting_value(scene, key)
+    if key not in overrides or not isinstance(base, int | float) or base <= 0:
+        return 1.0
+    return max(float(overrides[key]) / float(base), 1e-6)
+
+
+def run_costs(scene, grid_list, max_levels: int, repeats: int) -> list[float]:
+    """Predicted relative cost of each grid run and then each reference level, in the order the
+    study runs them: elements x load steps (the Newton work of a step grows with the elements)
+    relative to the scene's own settings, times the timed repeats of a grid run; reference level
+    k halves the finest grid run's element length and step k times: 4^k times that run's cost
+    (the study's own prediction, ``refine_reference``)."""
+    from ringqa.accuracy.grid import finest_factors, flexible_sections
+
+    keys = [f"discretisation.element_length_mm.{n}" for n in flexible_sections(scene)]
+    step = "solver.time_step_s" if scene.solver.kind == "dynamic" else "solver.increment_mm"
+
+    def units(ov) -> float:
+        el = min((_factor(scene, ov, k) for k in keys), default=1.0)
+        return 1.0 / (el * _factor(scene, ov, step))
+
+    costs = [max(1, repeats) * units(ov) for ov in grid_list]
+    finest = finest_factors(scene, grid_list)
+    base = 1.0 / (finest.element_length * finest.step)
+    return costs + [base * 4.0**k for k in range(1, max_levels + 1)]
+
+
+def cost_progress_bar(scene, grid_list, max_levels: int, repeats: int, on: bool,
+                      max_ref_time_s: float):  # fmt: skip
+    """The study's bar (:class:`ringqa.progress.CostProgress`): one ``update()`` per grid run and
+    per reference level, each weighted by :func:`run_costs` and scaled by the measured seconds
+    of the runs so far (levels from the third on that would take longer than
+    ``max_ref_time_s`` are not counted: the study does not start them)."""
+    from ringqa.progress import CostProgress
+
+    costs = run_costs(scene, grid_list, max_levels, repeats)
+    n = len(grid_list)
+    limits = [None] * n + [None if k < 3 else max_ref_time_s for k in range(1, max_levels + 1)]
+    return CostProgress(costs, on=on, desc="accuracy runs", limits_s=limits)
+
+
 def progress_bar(total: int, on: bool):
     """A tqdm bar over ``total`` runs on stderr, or a silent stand-in (``update``, ``close``)."""
     if not on:

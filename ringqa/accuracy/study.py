@@ -93,7 +93,7 @@ from ringqa.accuracy.reference import (
     tail_estimate,
 )
 from ringqa.accuracy.result import SUMMARY_TARGETS_MM, AccuracyStudy, recommendation_summary
-from ringqa.accuracy.runs import execute, progress_bar
+from ringqa.accuracy.runs import cost_progress_bar, execute
 from ringqa.accuracy.table import (
     CONTRACT_COLUMNS,
     STATUS_WORDS,
@@ -225,7 +225,8 @@ def run_study(
             cache.put(rec)
         return rec
 
-    bar = progress_bar(len(grid_list) + max_levels, progress)
+    # weighted by each run's predicted cost (a reference level costs 4x the one before)
+    bar = cost_progress_bar(scene, grid_list, max_levels, repeats, progress, max_ref_time_s)
     runs = []
     for ov in grid_list:
         runs.append(get(ov))

@@ -39,7 +39,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ringqa.calibration.measured import CalibrationError
-from ringqa.calibration.model import ForwardModel, Parametrisation
+from ringqa.calibration.model import ForwardModel, Parametrisation, base_key
 
 __all__ = [
     "FD_STEP",
@@ -291,7 +291,7 @@ def fit_parameters(
     se = {k: float(v) for k, v in zip(keys, se_arr, strict=True)}
     ident = {}
     for k in keys:
-        if k == "lumen.diameter_delta_mm":
+        if base_key(k) == "lumen.diameter_delta_mm":
             ident[k] = bool(np.isfinite(se[k]) and se[k] <= MAX_DELTA_SE_MM)
         else:
             ident[k] = bool(np.isfinite(se[k]) and se[k] <= MAX_RELATIVE_SE * abs(values[k]))

@@ -15,6 +15,10 @@ The fitted keys are ordinary scene keys; the fit works in unconstrained-looking 
 - ``contact.mu_s = mu_k (1 + exp(theta_s))`` (so mu_s > mu_k whatever theta is);
 - ``instrument.ei_scale = exp(theta_e)`` (EI > 0);
 - ``lumen.diameter_delta_mm = theta_d`` (bounded so that the lumen stays wider than the cable).
+
+With two or more applicators the cable keys are shared and each applicator has its own lumen
+diameter change, ``lumen.diameter_delta_mm@LABEL`` (:func:`expand_keys`; the lumen belongs to
+the applicator, the friction and stiffness to the cable).
 """
 
 from __future__ import annotations
@@ -39,11 +43,56 @@ from ringqa.pipeline.simulate import (
 from ringqa.units import m_to_mm, mm_to_m
 
 __all__ = [
+    "APPLICATOR_SEP",
     "DEFAULT_KEYS",
     "FITTABLE_KEYS",
+    "PER_APPLICATOR_KEYS",
     "ForwardModel",
     "Parametrisation",
+    "applicator_of",
+    "base_key",
+    "expand_keys",
+    "values_for",
 ]
+
+#: Keys a multi-applicator fit gives each applicator its own value of (``KEY@LABEL``): the
+#: lumen is a property of each applicator, the cable's friction and stiffness are shared.
+PER_APPLICATOR_KEYS = ("lumen.diameter_delta_mm",)
+#: Separates a per-applicator key from its applicator's label.
+APPLICATOR_SEP = "@"
+
+
+def base_key(key: str) -> str:
+    """The scene key of a fitted key (``lumen.diameter_delta_mm@ring30x60`` ->
+    ``lumen.diameter_delta_mm``)."""
+    return key.split(APPLICATOR_SEP, 1)[0]
+
+
+def applicator_of(key: str) -> str:
+    """The applicator label of a per-applicator key (``""``: a shared key)."""
+    return key.split(APPLICATOR_SEP, 1)[1] if APPLICATOR_SEP in key else ""
+
+
+def expand_keys(keys: Sequence[str], labels: Sequence[str]) -> tuple[str, ...]:
+    """The fitted parameters of ``keys`` for the applicators ``labels``: with two or more, each
+    :data:`PER_APPLICATOR_KEYS` key becomes one ``KEY@LABEL`` per applicator."""
+    out: list[str] = []
+    for k in keys:
+        if k in PER_APPLICATOR_KEYS and len(labels) > 1:
+            out += [f"{k}{APPLICATOR_SEP}{label}" for label in labels]
+        else:
+            out.append(k)
+    return tuple(out)
+
+
+def values_for(values: Mapping[str, float], label: str) -> dict[str, float]:
+    """The scene values of applicator ``label``: the shared keys and its own ``KEY@LABEL``."""
+    out = {k: v for k, v in values.items() if APPLICATOR_SEP not in k}
+    for k, v in values.items():
+        if APPLICATOR_SEP in k and applicator_of(k) == label:
+            out[base_key(k)] = v
+    return out
+
 
 #: Keys fitted by default (issue 26): the cable's friction and bending stiffness.
 DEFAULT_KEYS = ("contact.mu_k", "contact.mu_s", "instrument.ei_scale")
@@ -87,8 +136,8 @@ class Parametrisation:
         :data:`MIN_CLEARANCE_MM` around the cable."""
         lo, hi = [], []
         for k in keys:
-            a, b = RANGES[k]
-            if k == "lumen.diameter_delta_mm":
+            a, b = RANGES[base_key(k)]
+            if base_key(k) == "lumen.diameter_delta_mm":
                 lo.append(max(a, min_delta_mm))
                 hi.append(b)
             elif k == "contact.mu_k" and "contact.mu_s" not in keys:
@@ -113,8 +162,9 @@ class Parametrisation:
             out["contact.mu_s"] = max(self.fixed["contact.mu_s"], mu_k)
         if "instrument.ei_scale" in t:
             out["instrument.ei_scale"] = math.exp(t["instrument.ei_scale"])
-        if "lumen.diameter_delta_mm" in t:
-            out["lumen.diameter_delta_mm"] = t["lumen.diameter_delta_mm"]
+        for k, v in t.items():
+            if base_key(k) == "lumen.diameter_delta_mm":
+                out[k] = v
         return out
 
     def theta(self, values: Mapping[str, float]) -> np.ndarray:
@@ -125,7 +175,7 @@ class Parametrisation:
             v = float(values[k])
             if k == "contact.mu_s":
                 out.append(math.log(max(v / mu_k - 1.0, RANGES[k][0])))
-            elif k == "lumen.diameter_delta_mm":
+            elif base_key(k) == "lumen.diameter_delta_mm":
                 out.append(v)
             else:
                 out.append(math.log(v))
@@ -139,7 +189,7 @@ class Parametrisation:
         for k, i in idx.items():
             if k in ("contact.mu_k", "instrument.ei_scale"):
                 g[i, i] = vals[k]
-            elif k == "lumen.diameter_delta_mm":
+            elif base_key(k) == "lumen.diameter_delta_mm":
                 g[i, i] = 1.0
             elif k == "contact.mu_s":
                 mu_k = vals.get("contact.mu_k", self.fixed["contact.mu_k"])
@@ -212,13 +262,17 @@ class ForwardModel:
         """Every fittable key's value in the scene without fitted values (the preset's, or
         the user's overrides)."""
         scene = self.scene(0, {})
-        return {
+        out = {
             "contact.mu_k": float(scene.contact.mu_k),
             "contact.mu_s": float(scene.contact.mu_s),
             "instrument.ei_scale": float(getattr(scene.instrument, "ei_scale", 1.0)),
             "lumen.diameter_delta_mm": m_to_mm(float(scene.lumen.diameter_delta_m))
             if hasattr(scene, "lumen") else 0.0,
         }  # fmt: skip
+        for k in PER_APPLICATOR_KEYS:  # each applicator's own value starts at the shared one
+            for m in self.measured:
+                out[f"{k}{APPLICATOR_SEP}{m.label}"] = out[k]
+        return out
 
     def min_delta_mm(self) -> float:
         """The smallest lumen diameter change that keeps :data:`MIN_CLEARANCE_MM` around the
@@ -243,7 +297,7 @@ class ForwardModel:
         engine = self.engine or default_engine()
         out = []
         for i, t in enumerate(self._targets()):
-            scene = self.scene(i, values)
+            scene = self.scene(i, values_for(values, self.measured[i].label))
             res = engine.simulate(scene, advances_mm=t.advances_mm, progress=False)
             if int(getattr(res, "status", 0)) == -1:
                 inc = m_to_mm(float(scene.solver.increment_m)) * 0.5

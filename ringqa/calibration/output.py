@@ -4,20 +4,22 @@
   key (and the rule), residual median / max before and after (mm), number of points, the
   leave-one-out predictions, the inputs with their SHA-256, the settings;
 - ``calibrated_cable.toml``: a configuration file (``[simulation] cable`` and ``[scene]`` with
-  the identifiable fitted keys) that ``ringqa commission --config`` reads; its first lines give
-  the same values as ``--set`` arguments for ``ringqa simulate``;
+  the identifiable fitted keys, and ``[calibration]``: the command, the date and the SHA-256 of
+  calibration.json, which ``ringqa commission --config`` names in its report with the file's own
+  SHA-256) that ``ringqa commission --config`` reads; its first lines give the same values as
+  ``--set`` arguments for ``ringqa simulate``;
 - ``residuals.csv``: ``applicator, point, relative_position_mm, measured_x_mm, measured_y_mm,
   measured_z_mm, simulated_before_x_mm, ..., simulated_after_z_mm, residual_before_mm,
   residual_after_mm, sd_mm`` and ``flag`` (empty, or why the point was left out of the fit);
 - ``calibration.png``: measured vs simulated before/after, and the residuals;
 - ``calibration.pdf``: the same on signed pages with the report's header, footer and fields;
 
-and beside them ``calibration_sweep.toml``: a sweep spec (docs/sweeps.md) that varies each
-identifiable fitted key as a normal distribution (mean the fitted value, sd its standard error)
-with the other fitted values held, so that ``ringqa commission INPUT --config
-calibrated_cable.toml --sweep calibration_sweep.toml`` propagates the fit's uncertainty to every
-dwell with the existing sweep machinery (the keys independently: with one identifiable key, as
-on the rings measured so far, there is no correlation to lose; with more, the file says so).
+and beside them ``calibration_sweep.toml``: a sweep spec (docs/sweeps.md) that varies the
+identifiable fitted keys as one multivariate normal (means the fitted values, sds their standard
+errors, and with two or more keys the fit's correlation matrix in its ``[correlation]`` table),
+the other fitted values held, so that ``ringqa commission INPUT --config calibrated_cable.toml
+--sweep calibration_sweep.toml`` propagates the fit's uncertainty, correlations kept, to every
+dwell with the existing sweep machinery.
 """
 
 from __future__ import annotations
@@ -30,9 +32,10 @@ from pathlib import Path
 import numpy as np
 
 from ringqa.calibration.fit import MAX_DELTA_SE_MM, MAX_RELATIVE_SE, RCOND
+from ringqa.calibration.model import applicator_of, base_key
 from ringqa.calibration.run import Calibration
 from ringqa.jsonio import csv_encoding, write_json
-from ringqa.provenance import Provenance
+from ringqa.provenance import Provenance, sha256_of
 
 __all__ = [
     "FILES",
@@ -77,13 +80,18 @@ def calibration_dict(cal: Calibration, provenance: Provenance | None = None) -> 
     f = cal.fit
     keys = list(f.keys)
     params = {}
+    own: dict[str, dict] = {}  # per applicator: its own keys (the lumen), by scene key
     for k in keys:
-        params[k] = {
+        entry = {
             "value": f.values[k],
             "standard_error": f.se[k] if math.isfinite(f.se[k]) else None,
             "start": f.start[k],
             "identifiable": f.identifiable[k],
         }
+        if applicator_of(k):
+            own.setdefault(applicator_of(k), {})[base_key(k)] = entry
+        else:
+            params[k] = entry
     moved = {k: v for k, v in f.values.items() if k not in keys}
     per_app = []
     before, after = cal.distances("before"), cal.distances("after")
@@ -105,11 +113,14 @@ def calibration_dict(cal: Calibration, provenance: Provenance | None = None) -> 
             "residual_after": _stats(a[m.used]),
             "max_numerical_error_mm": float(np.max(e)) if e.size else None,
             "notes": list(m.notes),
+            "parameters": own.get(m.label, {}),
+            "use": applicator_use(cal, m.label),
         })  # fmt: skip
     out = {
         "cable": cal.cable,
         "fitted_keys": keys,
         "parameters": params,
+        "per_applicator_keys": sorted({base_key(k) for k in keys if applicator_of(k)}),
         "also_changed": moved,
         "correlation": {"keys": keys, "matrix": np.asarray(f.correlation).tolist()},
         "identifiable_rule": IDENTIFIABLE_RULE,
@@ -145,7 +156,8 @@ def calibration_dict(cal: Calibration, provenance: Provenance | None = None) -> 
     return out
 
 
-def cable_toml(cal: Calibration, command: str = "") -> str:
+def cable_toml(cal: Calibration, command: str = "", created_utc: str = "",
+               json_sha256: str = "") -> str:  # fmt: skip
     """``calibrated_cable.toml``: a configuration with the identifiable fitted values (the
     others stay at the cable's own values and are named in a comment)."""
     f = cal.fit
@@ -164,19 +176,46 @@ def cable_toml(cal: Calibration, command: str = "") -> str:
     ]
     for k in left:
         lines.append(f"# {k}: not identifiable from these measurements; left at the cable's value")
+    for m in cal.measured:  # each applicator's own lumen (not the cable's: not in [scene])
+        use = applicator_use(cal, m.label)
+        if use:
+            lines.append(f"# {m.label}: its own fitted lumen; commission it with: {use}")
     lines += ["", "[simulation]", f'cable = "{cal.cable}"', "", "[scene]"]
     for k, v in kept.items():
         lines.append(f"{k} = {v:.6g}")
     for k, v in cal.overrides.items():
         if k not in kept and isinstance(v, int | float) and not isinstance(v, bool):
             lines.append(f"{k} = {v!r}")
+    lines += [
+        "",
+        "# the commissioning report names this file (with its SHA-256) and these",
+        "[calibration]",
+        f"command = {json_str(command or 'ringqa calibrate')}",
+    ]
+    if created_utc:
+        lines.append(f"created_utc = {json_str(created_utc)}")
+    if json_sha256:
+        lines.append(f"calibration_json_sha256 = {json_str(json_sha256)}")
     return "\n".join(lines) + "\n"
+
+
+def applicator_use(cal: Calibration, label: str) -> str:
+    """How to commission applicator ``label`` with its own fitted (identifiable) per-applicator
+    keys: ``ringqa commission INPUT --config calibrated_cable.toml --set KEY=VALUE``; ``""``
+    when it has none."""
+    f = cal.fit
+    sets = [f"--set {base_key(k)}={f.values[k]:.6g}" for k in f.keys
+            if applicator_of(k) == label and f.identifiable[k]]  # fmt: skip
+    if not sets:
+        return ""
+    item = next((m.input for m in cal.measured if m.label == label), label)
+    return f"ringqa commission {item} --config calibrated_cable.toml {' '.join(sets)}"
 
 
 def _kept(cal: Calibration) -> dict[str, float]:
     """The values calibrated_cable.toml sets (identifiable keys, mu_s raised to mu_k)."""
     f = cal.fit
-    kept = {k: f.values[k] for k in f.keys if f.identifiable[k]}
+    kept = {k: f.values[k] for k in f.keys if f.identifiable[k] and not applicator_of(k)}
     if "contact.mu_k" in kept and "contact.mu_s" not in kept:
         mu_s = f.start.get("contact.mu_s", f.values.get("contact.mu_s"))
         if mu_s is not None and mu_s < kept["contact.mu_k"]:
@@ -188,7 +227,11 @@ def sweep_spec_text(cal: Calibration) -> str:
     """``calibration_sweep.toml`` (module docstring)."""
     f = cal.fit
     kept = _kept(cal)
-    varied = [k for k in f.keys if f.identifiable[k] and math.isfinite(f.se[k]) and f.se[k] > 0]
+    first = cal.measured[0]
+    # the spec commissions the first applicator: its own lumen key varies as the scene key
+    varied = [k for k in f.keys if f.identifiable[k] and math.isfinite(f.se[k]) and f.se[k] > 0
+              and applicator_of(k) in ("", first.label)]  # fmt: skip
+    name = {k: base_key(k) for k in varied}
     lines = [
         "# ringqa calibrate: the fitted cable's uncertainty as a sweep (docs/sweeps.md):",
         "#   ringqa commission INPUT --config calibrated_cable.toml "
@@ -196,9 +239,8 @@ def sweep_spec_text(cal: Calibration) -> str:
         "# (ringqa commission sets the input and the commissioning settings)",
     ]
     if len(varied) > 1:
-        lines.append("# the keys are varied independently: their correlation "
-                     "(calibration.json) is not kept")  # fmt: skip
-    first = cal.measured[0]
+        lines.append("# the keys are drawn together from one multivariate normal with the fit's "
+                     "correlation ([correlation], calibration.json)")  # fmt: skip
     lines += [
         'description = "the calibrated cable\'s parameter uncertainty (ringqa calibrate)"',
         f"input = {json_str(_resolved(first.input))}",
@@ -209,9 +251,19 @@ def sweep_spec_text(cal: Calibration) -> str:
     ]
     lines += [f'"{k}" = {v:.6g}' for k, v in kept.items() if k not in varied]
     for k in varied:
-        lines += ["", f'[parameters."{k}"]', 'distribution = "normal"',
+        lines += ["", f'[parameters."{name[k]}"]', 'distribution = "normal"',
                   f"mean = {f.values[k]:.6g}", f"sd = {f.se[k]:.6g}",
                   'source = "ringqa calibrate: fitted value and its standard error"']  # fmt: skip
+    if len(varied) > 1:
+        idx = [f.keys.index(k) for k in varied]
+        corr = np.asarray(f.correlation, dtype=float)[np.ix_(idx, idx)]
+        corr = 0.5 * (corr + corr.T)
+        np.fill_diagonal(corr, 1.0)
+        rows = ", ".join("[" + ", ".join(f"{x:.12g}" for x in row) + "]" for row in corr)
+        lines += ["", "[correlation]",
+                  "keys = [" + ", ".join(json_str(name[k]) for k in varied) + "]",
+                  f"matrix = [{rows}]",
+                  'source = "ringqa calibrate: the fit\'s correlation matrix"']  # fmt: skip
     return "\n".join(lines) + "\n"
 
 
@@ -365,7 +417,10 @@ def write_outputs(stage: Path, cal: Calibration, provenance: Provenance, *, comm
     stage = Path(stage)
     data = calibration_dict(cal, provenance)
     write_json(stage / "calibration.json", data)
-    (stage / "calibrated_cable.toml").write_text(cable_toml(cal, command), encoding="utf-8")
+    (stage / "calibrated_cable.toml").write_text(
+        cable_toml(cal, command, provenance.created_utc, sha256_of(stage / "calibration.json")),
+        encoding="utf-8",
+    )
     buf = io.StringIO(newline="")
     w = csv.writer(buf)
     w.writerow(RESIDUAL_COLUMNS)

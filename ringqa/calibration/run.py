@@ -7,7 +7,12 @@ predictions (``ringqa calibrate``; docs/calibration.md).
    point's uncertainty, so the fit does not chase the discretisation.
 3. The weighted least squares of the fitted keys (:mod:`.fit`).
 4. With two or more applicators, leave-one-out: the fit on all but one, the left-out one
-   predicted with it (the prediction error tells a clinic whether measuring one ring is enough).
+   predicted with it (the prediction error tells a clinic whether measuring one ring is enough;
+   its own lumen diameter change, which the others cannot tell, at its start value).
+
+With two or more applicators the cable keys are shared and ``lumen.diameter_delta_mm`` is fitted
+per applicator (``lumen.diameter_delta_mm@LABEL``, :func:`~ringqa.calibration.model
+.expand_keys`).
 """
 
 from __future__ import annotations
@@ -21,7 +26,15 @@ import numpy as np
 
 from ringqa.calibration.fit import FitResult, fit_parameters
 from ringqa.calibration.measured import CalibrationError, MeasuredApplicator
-from ringqa.calibration.model import DEFAULT_KEYS, FITTABLE_KEYS, ForwardModel
+from ringqa.calibration.model import (
+    APPLICATOR_SEP,
+    DEFAULT_KEYS,
+    FITTABLE_KEYS,
+    PER_APPLICATOR_KEYS,
+    ForwardModel,
+    applicator_of,
+    expand_keys,
+)
 from ringqa.pipeline.simulate import Engine, simulate_dwells
 
 __all__ = ["Calibration", "LeftOut", "calibrate", "check_keys"]
@@ -129,6 +142,7 @@ def numerical_errors(
         sim = simulate_dwells(
             m.applicator, m.channel, m.relative_position_mm, cable=model.cable,
             scene_overrides=over, engine=engine, stem_mm=model.stem_mm,
+            stem_check=False,  # the discretisation's error only (the fit's model keeps the stem)
         )  # fmt: skip
         out.append(np.asarray(sim.numerics.error_mm, dtype=float))
     return out
@@ -184,17 +198,24 @@ def calibrate(
     cable = measured[0].cable
     model = ForwardModel(measured, cable, over, stem_mm, engine)
     base = {**model.base_values(), **start}
+    for k in PER_APPLICATOR_KEYS:  # a start value given for all applicators: each one's
+        if k in start:
+            base.update({f"{k}{APPLICATOR_SEP}{m.label}": start[k] for m in measured})
     numerics = numerical_errors(model, {k: base[k] for k in keys}, engine)
     sigma = [np.sqrt(m.sd_mm**2 + e**2) for m, e in zip(measured, numerics, strict=True)]
-    result = fit_parameters(model, keys, sigma, base, workers=workers)
+    labels = [m.label for m in measured]
+    result = fit_parameters(model, expand_keys(keys, labels), sigma, base, workers=workers)
     left: list[LeftOut] = []
     if leave_one_out and len(measured) >= 2:
         for i, m in enumerate(measured):
             others = tuple(x for j, x in enumerate(measured) if j != i)
             sub = ForwardModel(others, cable, over, stem_mm, engine)
             sig = [s for j, s in enumerate(sigma) if j != i]
-            part = fit_parameters(sub, keys, sig, {**base, **result.values}, workers=workers,
-                                  check_bounds=False)  # fmt: skip
+            sub_keys = tuple(  # the others' own lumen keys, as in the whole fit
+                k for k in result.keys if applicator_of(k) in ("", *(x.label for x in others))
+            )
+            part = fit_parameters(sub, sub_keys, sig, {**base, **result.values},
+                                  workers=workers, check_bounds=False)  # fmt: skip
             alone = ForwardModel((m,), cable, over, stem_mm, engine)
             pred = alone.positions(part.values)[0]
             dist = np.linalg.norm(m.measured_mm - pred, axis=1)[m.used]

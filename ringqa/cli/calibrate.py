@@ -14,9 +14,11 @@ cannot lie in the lumen after that are left out of the fit and named.
 
 The fit (weighted least squares, scipy.optimize.least_squares with bounds; docs/calibration.md)
 varies --fit KEYS (default contact.mu_k, contact.mu_s, instrument.ei_scale; also
-lumen.diameter_delta_mm), each point weighted by its uncertainty and the simulation's numerical
-error, and reports every key's standard error and whether the measurement determines it at all
-(identifiable). With two or more applicators each is also predicted by the fit on the others.
+lumen.diameter_delta_mm, fitted per applicator when there are several: the cable's friction and
+stiffness are shared, the lumen belongs to each applicator), each point weighted by its
+uncertainty and the simulation's numerical error, and reports every key's standard error and
+whether the measurement determines it at all (identifiable). With two or more applicators each
+is also predicted by the fit on the others.
 
 Writes DIR/calibration.json, calibrated_cable.toml (give it to ringqa commission --config),
 residuals.csv, calibration.png and calibration.pdf, all at once at the end; a fit that does not
@@ -27,7 +29,6 @@ from __future__ import annotations
 
 import argparse
 import shlex
-import sys
 from pathlib import Path
 
 from ringqa.cli._options import add_set_option
@@ -84,7 +85,7 @@ def add_parser(subparsers) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from ringqa.calibration.measured import CalibrationError, measured_applicators
-    from ringqa.calibration.output import write_outputs
+    from ringqa.calibration.output import applicator_use, write_outputs
     from ringqa.calibration.run import calibrate, check_keys
     from ringqa.config import effective_config
     from ringqa.outdir import check_writable, staged_output
@@ -121,7 +122,7 @@ def run(args: argparse.Namespace) -> int:
         "measured": [{"applicator": m.label, "file": m.file, "method": m.method}
                      for m in measured],
     })  # fmt: skip
-    command = "ringqa calibrate " + shlex.join(sys.argv[2:] if len(sys.argv) > 2 else [])
+    command = command_line(args)
     with staged_output(args.out) as stage:
         write_outputs(stage, cal, prov, command=command, fields=fields)
     f = cal.fit
@@ -137,10 +138,35 @@ def run(args: argparse.Namespace) -> int:
         shown = f"± {se:.2g}" if se != float("inf") else "± undetermined"
         flag = "" if f.identifiable[k] else "  (NOT identifiable from these measurements)"
         print(f"  {k} = {f.values[k]:.4g} {shown}{flag}")
+    for m in measured:  # each applicator's own lumen (calibration.json applicators[].use)
+        use = applicator_use(cal, m.label)
+        if use:
+            print(f"  {m.label}: its own lumen; commission it with: {use}")
     for lo in cal.left_out:
         print(f"  left out {lo.label}: predicted within median {lo.median_mm:.2f} / max "
               f"{lo.max_mm:.2f} mm")  # fmt: skip
     return 0
+
+
+def command_line(args: argparse.Namespace) -> str:
+    """The ``ringqa calibrate`` command of ``args`` (as it would be typed; recorded in
+    calibrated_cable.toml and named by the commissioning report)."""
+    words = ["ringqa", "calibrate", str(args.input)]
+    if args.measured:
+        words += ["--measured", *map(str, args.measured)]
+    if args.fit:
+        words += ["--fit", *args.fit]
+    for flag, value in (("--config", args.config), ("--register", args.register),
+                        ("--cable", args.cable), ("--sd-mm", args.sd_mm),
+                        ("--method", args.method)):  # fmt: skip
+        if value is not None:
+            words += [flag, str(value)]
+    for item in getattr(args, "overrides", None) or ():
+        words += ["--set", str(item)]
+    if args.no_leave_one_out:
+        words.append("--no-leave-one-out")
+    words += ["--out", str(args.out)]
+    return shlex.join(words)
 
 
 def _median(x):

@@ -1,10 +1,15 @@
 """``ringqa commission`` of several channels of one input (issue 30): each channel its own
-simulation, comparison, numerical error and report (``DIR/channel-<N>/``), and the combined
-``dwells.csv``, ``doses.csv`` and ``summary.csv`` (with the ``channel`` column),
-``channels.json`` (each channel's conclusion, the channels NOT simulated, one conclusion) and
-``summary.pdf`` (the report's cross-result summary: every channel's row, the channels not
-simulated, the signature block) in ``DIR``, all written together
-(:func:`ringqa.outdir.staged_output`).
+simulation, comparison and numerical error, written together
+(:func:`ringqa.outdir.staged_output`) as
+
+- ``report.pdf``: ONE report, a front page with one conclusion over every channel and the verdict
+  table per channel, then a section per channel (the pages of a one-channel report, headed with
+  the channel's number, name and family; :func:`ringqa.report.write_channels_pdf`);
+- ``results.json``: the conclusion, the channels NOT commissioned (by name, with why) and a
+  section per channel (:func:`ringqa.report.tables.channels_results_dict`);
+- ``dwells.csv``, ``doses.csv``, ``plan_dwells.csv``, ``summary.csv``: every channel's rows with
+  the ``channel`` column (the RT Plan's own-dwell dose rows, ``channel = all``, once);
+- ``channel-<N>/``: each channel's own tables, results.json and report.html (and ``export/``).
 """
 
 from __future__ import annotations
@@ -14,23 +19,29 @@ import sys
 
 import pandas as pd
 
-__all__ = ["channels_wanted", "run_channels"]
+__all__ = ["channels_wanted", "conclusion", "run_channels"]
 
 
 def channels_wanted(item, settings, channel_args) -> list[str] | None:
-    """The channels to commission one by one, or None for the single-channel run (one
-    ``--channel``, or an input with one default channel: its files as before)."""
+    """The channels to commission one by one, or None for the one-channel run (one
+    ``--channel``, or an input whose default choice is one channel: its files as before, with
+    the plan's other channels named in its warnings).
+
+    Without ``--channel``: an RT Plan's channels with dwells and a centreline (those without a
+    reference source path where one is required are named, not commissioned:
+    :func:`ringqa.pipeline.commission.channel_choice`); other inputs: the family's default (a
+    ring applicator: its ring)."""
     if channel_args:
         return None if len(channel_args) == 1 else [str(c) for c in channel_args]
     from ringqa.errors import RingQAError
-    from ringqa.pipeline.commission import default_channels
+    from ringqa.pipeline.commission import channel_choice
     from ringqa.pipeline.inputs import load_input
 
     try:
-        app = load_input(item, settings.structures, settings.lumen_mm).applicator
+        loaded = load_input(item, settings.structures, settings.lumen_mm)
     except RingQAError:
         return None  # the single run says what is wrong
-    names = default_channels(app)
+    names = channel_choice(loaded, settings.require_measured).names
     return None if len(names) <= 1 else list(names)
 
 
@@ -38,42 +49,77 @@ def _folder_name(label: str) -> str:
     return "channel-" + re.sub(r"[^A-Za-z0-9_.-]+", "_", label)
 
 
-def run_channels(item, settings, wanted, args, fields) -> int:
-    """Commission ``wanted`` channels of ``item`` and write the files (module docstring)."""
+def combined_tables(results) -> dict[str, pd.DataFrame]:
+    """dwells.csv, doses.csv, plan_dwells.csv and summary.csv of every channel (the ``channel``
+    column last; the RT Plan's own-dwell dose rows, the same in every channel's run, once)."""
+    from ringqa.report.tables import with_channel
+
+    doses = pd.concat([with_channel(r, r.doses) for r in results], ignore_index=True)
+    if "plan" in doses.columns:
+        own = doses["plan"] == "rtplan"
+        doses = pd.concat(
+            [doses[~own], doses[own].drop_duplicates(subset=["point", "plan"])],
+            ignore_index=True,
+        )
+    plan_dwells = pd.concat(
+        [r.plan_dwells.assign(channel=r.channel or r.settings.channel) for r in results],
+        ignore_index=True,
+    )
+    tables = {
+        "dwells.csv": pd.concat([with_channel(r, r.dwells) for r in results], ignore_index=True),
+        "doses.csv": doses,
+        "plan_dwells.csv": plan_dwells,
+        "summary.csv": pd.concat(
+            [with_channel(r, pd.DataFrame([r.summary_row()])) for r in results],
+            ignore_index=True,
+        ),
+    }
+    # the channel column last (a column only some channels have, e.g. the registered numbers,
+    # would otherwise follow it)
+    return {name: t[[c for c in t.columns if c != "channel"] + ["channel"]]
+            for name, t in tables.items()}  # fmt: skip
+
+
+def run_channels(item, settings, wanted, args, fields, *, named: bool = True, audit=None):
+    """Commission the channels of ``item`` (``wanted`` when ``named``, else the default choice)
+    and write the files (module docstring); ``audit(results)`` is called before anything is
+    written (the audit trail's inputs and settings). Returns the
+    :class:`~ringqa.pipeline.commission.ChannelRuns` (the caller logs the verdicts and files and
+    chooses the exit status)."""
     from ringqa.jsonio import csv_encoding, write_json
     from ringqa.outdir import staged_output
     from ringqa.pipeline.commission import commission_channels
-    from ringqa.report import write_report
-    from ringqa.report.tables import FLOAT_FORMAT, with_channel
+    from ringqa.report import write_channels_pdf, write_report
+    from ringqa.report.tables import FLOAT_FORMAT, channels_results_dict
 
-    runs = commission_channels(item, settings, channels=wanted, progress=not args.quiet)
+    runs = commission_channels(
+        item, settings, channels=wanted if named else None, progress=not args.quiet
+    )
+    results = runs.results
+    if audit is not None:
+        audit(results)
+    text = conclusion(runs)
+    folders = [_folder_name(r.channel or r.settings.channel) for r in results]
     with staged_output(args.out) as stage:
-        for res in runs.results:
-            write_report(
-                res,
-                stage / _folder_name(res.channel),
-                pdf=not args.no_pdf,
-                fields=fields,
-                export=args.export,
-            )
-        for name, frames in (
-            ("dwells.csv", [with_channel(r, r.dwells) for r in runs.results]),
-            ("doses.csv", [with_channel(r, r.doses) for r in runs.results]),
-            (
-                "summary.csv",
-                [with_channel(r, pd.DataFrame([r.summary.as_row()])) for r in runs.results],
-            ),
-        ):
-            table = pd.concat(frames, ignore_index=True)
+        own = ["dwells.csv", "doses.csv", "plan_dwells.csv", "summary.csv"]
+        own += [] if args.no_pdf else ["report.html"]  # the channel's PDF is a section of ours
+        for res, folder in zip(results, folders, strict=True):
+            write_report(res, stage / folder, pdf=False, fields=fields, export=args.export,
+                         html=not args.no_pdf, files=own)  # fmt: skip
+        for name, table in combined_tables(results).items():
             table.to_csv(
                 stage / name, index=False, float_format=FLOAT_FORMAT, encoding=csv_encoding(table)
             )
-        write_json(stage / "channels.json", channels_record(runs), indent=2)
-        if not args.no_pdf and runs.results:
-            from ringqa.report import write_batch_pdf
-
-            write_batch_pdf(summary_batch(runs), stage / "summary.pdf", fields=fields)
-    for res in runs.results:
+        files = ["dwells.csv", "doses.csv", "plan_dwells.csv", "summary.csv"]
+        files += [] if args.no_pdf else ["report.pdf"]
+        record = channels_results_dict(
+            results, runs.not_simulated, text, folders, files=files, channel_files=own
+        )
+        write_json(stage / "results.json", record, indent=2)
+        if not args.no_pdf:
+            write_channels_pdf(results, stage / "report.pdf", conclusion=text,
+                               not_simulated=runs.not_simulated, fields=fields)  # fmt: skip
+    for res in results:
         verdicts = "; ".join(f"{v.status} {v.check}" for v in res.verdicts)
         print(
             f"ringqa commission: {res.applicator}, channel {res.channel} ({res.reference} "
@@ -81,24 +127,8 @@ def run_channels(item, settings, wanted, args, fields) -> int:
         )
     for note in runs.not_simulated:
         print(f"ringqa commission: warning: {note}", file=sys.stderr)
-    print(f"ringqa commission: {conclusion(runs)} -> {args.out}")
-    return 0
-
-
-def summary_batch(runs):
-    """The channels as a :class:`ringqa.pipeline.BatchResult` for the report's summary PDF
-    (one row per channel, named ``<applicator> channel <N>``; the channels not simulated are
-    its failures)."""
-    from ringqa.pipeline import BatchResult
-
-    rows = [
-        {**r.summary.as_row(), "applicator": f"{r.applicator} channel {r.channel}",
-         "error": "", "folder": _folder_name(r.channel)}
-        for r in runs.results
-    ]  # fmt: skip
-    failures = tuple(("not simulated", note) for note in runs.not_simulated)
-    labels = tuple(_folder_name(r.channel) for r in runs.results)
-    return BatchResult(tuple(runs.results), failures, pd.DataFrame(rows), labels)
+    print(f"ringqa commission: {text} -> {args.out}")
+    return runs
 
 
 def conclusion(runs) -> str:
@@ -111,27 +141,5 @@ def conclusion(runs) -> str:
         else f"{n} channels commissioned; channel(s) {', '.join(failed)} did not pass"
     )
     if runs.not_simulated:
-        text += f"; {len(runs.not_simulated)} channel(s) with dwells NOT simulated"
-    return text
-
-
-def channels_record(runs) -> dict:
-    """``channels.json``: each channel's folder, conclusion and numerical error, the channels
-    not simulated and the conclusion."""
-    return {
-        "schema": "ringqa.commission-channels/1",
-        "channels": [
-            {
-                "channel": r.channel,
-                "name": r.settings.channel,
-                "folder": _folder_name(r.channel),
-                "passed": r.passed,
-                "conclusion": r.conclusion,
-                "max_numerical_error_mm": None if r.numerics is None else r.numerics.max_mm,
-                "solve_time_s": r.timings.as_dict().get("simulation_s"),
-            }
-            for r in runs.results
-        ],
-        "not_simulated": list(runs.not_simulated),
-        "conclusion": conclusion(runs),
-    }
+        text += f"; {len(runs.not_simulated)} channel(s) with dwells NOT commissioned (named below)"
+    return text + "."

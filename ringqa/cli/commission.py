@@ -99,69 +99,7 @@ def add_parser(subparsers) -> None:
         "the plan with the ring dwells moved to the simulated positions, for commissioning "
         "verification only; docs/export.md)",
     )
-    p.add_argument(
-        "--source",
-        default=None,
-        metavar="NAME",
-        help="TG-43 source (default: the RT Plan's, else flexisource)",
-    )
-    p.add_argument(
-        "--prescription-gy",
-        type=float,
-        metavar="GY",
-        default=None,
-        help="mean Point A dose of the standard plan, Gy (default 7)",
-    )
-    p.add_argument(
-        "--dose-action-pct",
-        type=float,
-        metavar="PCT",
-        default=None,
-        help="dose-difference action level, %% (default 5)",
-    )
-    p.add_argument(
-        "--sk-u",
-        type=float,
-        metavar="U",
-        default=None,
-        help="source air-kerma strength, U (default: the RT Plan's; needed to check a plan "
-        "without one against its planning-system doses)",
-    )
-    p.add_argument(
-        "--register",
-        default=None,
-        metavar="MODE",
-        help="how the reference source path is aligned with the channel before comparing: "
-        "none (default: as supplied), plane-height or rigid",
-    )
-    p.add_argument(
-        "--cable",
-        default=None,
-        metavar="NAME",
-        help="source cable model (flexitron, microselectron; default: the cable of the plan's "
-        "source)",
-    )
-    p.add_argument(
-        "--stem-mm",
-        type=float,
-        metavar="MM",
-        default=None,
-        help="straight channel simulated before the first bend, mm (default 60)",
-    )
-    p.add_argument(
-        "--whole-channel",
-        action="store_true",
-        default=None,
-        help="simulate the whole channel (however long its straight shaft)",
-    )
-    p.add_argument(
-        "--cross-check",
-        action=argparse.BooleanOptionalAction,
-        default=None,
-        help="also run the flexible-element engine (model.formulation = flexible) and compare its "
-        "dwells; a disagreement above max(0.2 mm, 2 x the numerical errors) fails the numerics "
-        "(off by default: it adds ~1-2 s)",
-    )
+    add_setting_options(p)
     p.add_argument(
         "--centreline-correction",
         type=Path,
@@ -170,6 +108,16 @@ def add_parser(subparsers) -> None:
         help="a measured (CT/film) piece of the ring channel's centre line (CSV x_mm,y_mm,z_mm, "
         "entry to tip, in the plan's coordinates) that replaces the library's there (one "
         "applicator only)",
+    )
+    p.add_argument(
+        "--measured",
+        type=Path,
+        default=None,
+        metavar="FILE",
+        help="the clinic's measured source path of the channel (CSV/JSON, mm; any subset of "
+        "relative positions, optional sd_mm and method: film, ct, panel, vendor) in place of "
+        "the input's own; the standard plan stays on the input's library path (one applicator "
+        "only)",
     )
     add_set_option(p)
     p.add_argument(
@@ -212,17 +160,30 @@ def add_parser(subparsers) -> None:
         "once (default: 2 on a machine with 2 or more cores, else 1; the results are the same "
         "as with 1)",
     )
-    p.add_argument(
-        "--strict",
-        action="store_true",
-        default=None,
-        help="exit status 1 when a verdict is FAIL or ACTION (the files are written either "
-        "way; configuration key report.strict)",
-    )
     p.add_argument("--no-pdf", action="store_true", help="write the CSV/JSON files only")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     add_channel_options(p)
     p.set_defaults(func=run)
+
+
+def add_setting_options(p) -> None:
+    """The options of the settings table's rows that have one
+    (:data:`ringqa.pipeline.settings.SETTINGS`: option, type from the kind, placeholder, help);
+    each defaults to None, so that the configuration decides what is not given."""
+    from ringqa.pipeline.settings import SETTINGS
+
+    types = {"number": float, "int": int}
+    for s in SETTINGS:
+        if not s.option:
+            continue
+        kw = {"default": None, "help": s.help or s.doc}
+        if s.kind == "flag":
+            kw["action"] = argparse.BooleanOptionalAction if s.negatable else "store_true"
+        else:
+            kw["metavar"] = s.metavar or None
+            if s.kind in types:
+                kw["type"] = types[s.kind]
+        p.add_argument(s.option, **kw)
 
 
 def add_channel_options(p) -> None:
@@ -298,19 +259,11 @@ def _inputs(args) -> list:
     return items
 
 
-#: command-line option (argparse dest) -> configuration key (ringqa.config)
-OPTION_KEYS = {
-    "source": "simulation.source",
-    "prescription_gy": "plan.prescription_gy",
-    "dose_action_pct": "tolerances.dose_action_pct",
-    "sk_u": "simulation.sk_u",
-    "register": "simulation.register",
-    "cable": "simulation.cable",
-    "stem_mm": "simulation.stem_mm",
-    "whole_channel": "simulation.whole_channel",
-    "strict": "report.strict",
-    "cross_check": "simulation.cross_check",
-}
+def option_keys() -> dict[str, str]:
+    """Command-line option (argparse dest) -> configuration key, from the settings table."""
+    from ringqa.pipeline.settings import SETTINGS
+
+    return {s.dest: s.key for s in SETTINGS if s.option}
 
 
 def command_line_settings(args: argparse.Namespace) -> dict:
@@ -321,7 +274,7 @@ def command_line_settings(args: argparse.Namespace) -> dict:
 
     specs = {k.key: k for k in KEYS}
     given = {}
-    for dest, key in OPTION_KEYS.items():
+    for dest, key in option_keys().items():
         value = getattr(args, dest, None)
         if value is None:
             continue
@@ -343,6 +296,8 @@ def effective(args: argparse.Namespace):
         extra["centreline_correction"] = args.centreline_correction
     if getattr(args, "centreline_reference", False):
         extra["require_measured"] = False
+    if getattr(args, "measured", None) is not None:
+        extra["measured"] = args.measured
     return effective_config(args.config, command_line_settings(args), extra=extra)
 
 
@@ -471,6 +426,11 @@ def _run(args: argparse.Namespace) -> int:
             "--centreline-correction: give one applicator (each applicator has its own frame; "
             "a correction segment belongs to one)"
         )
+    if getattr(args, "measured", None) is not None and not single:
+        raise RingQAError(
+            f"--measured {args.measured}: give one applicator (a measured path belongs to one "
+            "applicator's channel; commission the others without --measured)"
+        )
     sweep_spec = None
     if args.sweep is not None or args.uncertainty is not None:
         if not single:
@@ -489,7 +449,13 @@ def _run(args: argparse.Namespace) -> int:
 
         wanted = channels_wanted(items[0], settings, args.channel)
         if wanted is not None:
-            return run_channels(items[0], settings, wanted, args, fields)
+            runs = run_channels(items[0], settings, wanted, args, fields, named=bool(args.channel),
+                                audit=lambda rs: audit_inputs_and_settings(config, rs))  # fmt: skip
+            for res in runs.results:
+                audit_verdicts(res)
+                print_warnings(res, prefix=f"channel {res.channel}: ")
+            audit_files(args.out)
+            return EXIT_FAIL if strict and not runs.passed else EXIT_OK
     if single:
         if labels:
             fields = dataclasses.replace(fields, label=labels[0])
@@ -584,11 +550,6 @@ def commission_ahead(item, settings, progress: bool, report: bool = True):
         call.cancel()
 
 
-#: the commissioning settings a --sweep / --uncertainty run takes over from the command (so
-#: the uncertainty page judges the same comparison as the report's verdicts)
-SWEEP_SETTINGS = ("register", "cable", "source", "prescription_gy", "dose_action_pct", "stem_mm")
-
-
 def sweep_spec_for(args, item, settings=None):
     """The sweep spec of --sweep / --uncertainty N, its input set to the commissioned one and
     its commissioning settings (registration, cable, source, prescription, action level, stem)
@@ -602,13 +563,22 @@ def sweep_spec_for(args, item, settings=None):
     sets = {"input": str(Path(item).resolve()) if Path(item).exists() else str(item)}
     if args.uncertainty is not None:
         sets["samples"] = args.uncertainty
-    for name in SWEEP_SETTINGS if settings is not None else ():
-        value = getattr(settings, name, None)
-        if value is not None and (name != "source" or isinstance(value, str)):
-            sets[f"settings.{name}"] = value
-    if settings is not None and settings.sk_U is not None:
-        sets["settings.sk_u"] = settings.sk_U
+    for row in sweep_setting_rows() if settings is not None else ():
+        value = getattr(settings, row.field, None)
+        if value is not None and (row.field != "source" or isinstance(value, str)):
+            sets[f"settings.{row.key.split('.')[-1]}"] = value
     return load_spec(path, sets)
+
+
+def sweep_setting_rows():
+    """The rows of the settings table a --sweep / --uncertainty run takes over from the command
+    (registration, cable, source, S_K, prescription, action level, stem: so the uncertainty
+    page judges the same comparison as the report's verdicts; the samples vary only the spec's
+    parameters)."""
+    from ringqa.pipeline.settings import SETTINGS
+    from ringqa.sweep.spec import SWEEP_SETTING_FIELDS
+
+    return [s for s in SETTINGS if s.field in SWEEP_SETTING_FIELDS and s.kind != "flag"]
 
 
 def _run_uncertainty(spec, args, res=None) -> tuple[tuple, dict[str, bytes]]:

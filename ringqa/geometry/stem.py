@@ -11,7 +11,12 @@ the cable in the shaft only passes the push force on. The paper (Straathof et al
 :func:`trim_to_stem` keeps ``stem_m`` of straight channel before the first bend and drops the rest
 proximally; the measured path (positions in space) and the relative positions do not change, only
 the arc lengths shift (``s_ref_m`` minus the dropped length). How much the choice moves the dwells
-is measured in ``benchmarks/bench_commission_numerics.py`` and shown in docs/commissioning.md.
+is measured in ``benchmarks/bench_commission_numerics.py`` and shown in docs/commissioning.md, and
+every commissioning run that cuts measures it again: its numerical check also runs the whole
+channel and adds what the cut moves to each dwell's error
+(:class:`ringqa.pipeline.simulate.StemCheck`). On the Oncentra example the cut is not harmless:
+the cable buckles in the 193 mm shaft under friction, and the whole channel's runs put the dwells
+0.3-0.6 mm from the cut runs and from each other.
 """
 
 from __future__ import annotations

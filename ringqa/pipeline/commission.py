@@ -10,8 +10,8 @@ Steps (issue 5; Straathof et al. 2024, section 2.4):
 3. Simulate the source cable at the advances ``s_ref - p`` (the cable length that would put the
    source centre at arc length ``s_ref - p`` if the cable followed the centreline).
 4. Centreline dwells: the same relative positions at arc length ``s_ref - p``, direction = tangent.
-5. Distances per dwell to the reference (3D, and split into along-channel, radial in the ring
-   plane and out of the ring plane) and angles between source directions.
+5. Distances per dwell to the reference (3D, and split into along-channel, radial and
+   out-of-plane parts in the applicator frame) and angles between source directions.
 6. Standard plan on the reference dwells every 5 mm (+ the tandem where the applicator has one,
    identical in all three plans), equal times scaled to the prescription at Point A; the times are
    transferred unchanged to the simulated and centreline dwells; TG-43 doses at the dose points.
@@ -38,7 +38,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ringqa.errors import named_warning, split_warning
+from ringqa.errors import RingQAError, named_warning, split_warning
+from ringqa.geometry.families import family_name_of
 from ringqa.geometry.frame import frame_of
 from ringqa.pipeline.deviations import (
     DwellColumns,
@@ -65,7 +66,13 @@ from ringqa.pipeline.inputs import (
     load_input,
     loaded_text,
 )
-from ringqa.pipeline.measured_points import centreline_grid, compare_measured_points, is_sparse
+from ringqa.pipeline.measured_points import (
+    attach_measured,
+    centreline_grid,
+    compare_measured_points,
+    has_dense_path,
+    is_sparse,
+)
 from ringqa.pipeline.reference import review_reference
 from ringqa.pipeline.result import CommissioningResult, RunSettings, Timings
 from ringqa.pipeline.settings import CommissionSettings
@@ -86,10 +93,18 @@ from ringqa.pipeline.verdicts import (
     conclusion,
     verdict_meanings,
 )
-from ringqa.provenance import Provenance, tg43_data_files
+from ringqa.provenance import Provenance, display_path, tg43_data_files
 from ringqa.units import m_to_mm
 
-__all__ = ["ChannelRuns", "channel_label", "commission", "commission_channels", "default_channels"]
+__all__ = [
+    "ChannelChoice",
+    "ChannelRuns",
+    "channel_choice",
+    "channel_label",
+    "commission",
+    "commission_channels",
+    "default_channels",
+]
 
 log = logging.getLogger(__name__)
 
@@ -124,6 +139,76 @@ def default_channels(app) -> tuple[str, ...]:
     if getattr(app, "family", "ring") == "ring" and "ring" in names:
         return ("ring",)
     return names
+
+
+@dataclass(frozen=True)
+class ChannelChoice:
+    """The channels a run commissions when none is named (:func:`channel_choice`).
+
+    Attributes
+    ----------
+    names : tuple of str
+        The applicator's channel names to commission, in the applicator's order.
+    skipped : tuple of str
+        One sentence per channel with dwells that is NOT commissioned, and why (no reference
+        source path where one is required); the channels without a centreline are
+        :func:`unsimulated_channels`.
+    """
+
+    names: tuple[str, ...]
+    skipped: tuple[str, ...] = ()
+
+
+def _needs_reference(kind: str, require_measured) -> bool:
+    """A channel of an input of ``kind`` must have a reference (measured) source path
+    (:func:`~ringqa.pipeline.inputs.check_measured_path`'s rule)."""
+    if require_measured is None:
+        return kind in ("folder", "file", "rtplan", "rtplan+rtstruct")
+    return bool(require_measured)
+
+
+def channel_choice(loaded, require_measured=None) -> ChannelChoice:
+    """The channels commissioned by default (issue 30): for an RT Plan, every plan channel with
+    dwells that has a centreline in the applicator (the plan's own channels: the example's ring
+    AND its tandem); without a plan, :func:`default_channels`. A channel without a reference
+    source path where one is required (user files, unless ``require_measured`` is False: the
+    command line's ``--centreline-reference``) is not commissioned but named in ``skipped``,
+    never dropped.
+
+    Parameters
+    ----------
+    loaded : LoadedInput
+    require_measured : bool or None
+        As :attr:`CommissionSettings.require_measured`.
+
+    Returns
+    -------
+    ChannelChoice
+    """
+    app = loaded.applicator
+    plan = getattr(loaded, "rtplan", None)
+    with_dwells = {
+        str(ch.number): ch
+        for ch in (getattr(plan, "channels", ()) or ())
+        if len(np.asarray(ch.positions_mm).reshape(-1, 3))
+    }
+    candidates = [c for c in app.channels if str(getattr(c, "label", "")) in with_dwells]
+    if not candidates:
+        return ChannelChoice(default_channels(app))
+    needs = _needs_reference(loaded.kind, require_measured)
+    names, skipped = [], []
+    for c in candidates:
+        if needs and getattr(c, "measured_path_m", None) is None:
+            ch = with_dwells[str(c.label)]
+            skipped.append(
+                f"Channel {c.label} ({ch.name or c.name}) has "
+                f"{len(np.asarray(ch.positions_mm).reshape(-1, 3))} dwells and a centreline but "
+                "no reference source path: NOT COMMISSIONED (--centreline-reference compares it "
+                f"with its centreline; --channel {c.label} names it)."
+            )
+        else:
+            names.append(c.name)
+    return ChannelChoice(tuple(names), tuple(skipped))
 
 
 def channel_label(channel) -> str:
@@ -185,16 +270,26 @@ def commission_channels(
     loaded = _load(input, cfg)
     load_s = time.perf_counter() - t_start
     app = loaded.applicator
-    wanted = default_channels(app) if not channels else tuple(str(c) for c in channels)
+    skipped: tuple[str, ...] = ()
+    if channels:
+        wanted = tuple(str(c) for c in channels)
+    else:
+        choice = channel_choice(loaded, cfg.require_measured)
+        wanted, skipped = choice.names or default_channels(app), choice.skipped
     names = tuple(dict.fromkeys(_channel_name(app, w) for w in wanted))
     for n in names:
         channel_of(app, n)  # refuses an unknown channel, naming those there are
+    if cfg.measured is not None and len(names) > 1:
+        raise RingQAError(
+            f"--measured {cfg.measured}: {len(names)} channels ({', '.join(names)}) are "
+            "commissioned; a measured path belongs to one: name it with --channel"
+        )
     results = tuple(
         _commission_loaded(input, loaded, dataclasses.replace(cfg, channel=n), engine=engine,
                            progress=progress, t_start=time.perf_counter(), load_s=load_s)
         for n in names
     )  # fmt: skip
-    return ChannelRuns(results, unsimulated_channels(loaded))
+    return ChannelRuns(results, (*unsimulated_channels(loaded), *skipped))
 
 
 def _load(input, cfg):
@@ -261,17 +356,26 @@ def commission(
     t_start = time.perf_counter()
     loaded = _load(input, cfg)
     load_s = time.perf_counter() - t_start
+    others: tuple[str, ...] = ()
+    if cfg.channel == "ring":  # no channel named: the default choice's first channel
+        choice = channel_choice(loaded, cfg.require_measured)
+        if choice.names and "ring" not in choice.names:
+            cfg = dataclasses.replace(cfg, channel=choice.names[0])
+        others = choice.skipped
     name = _channel_name(loaded.applicator, cfg.channel)
     if name != cfg.channel:
         cfg = dataclasses.replace(cfg, channel=name)
     return _commission_loaded(input, loaded, cfg, engine=engine, progress=progress,
-                              t_start=t_start, load_s=load_s)  # fmt: skip
+                              t_start=t_start, load_s=load_s, others=others)  # fmt: skip
 
 
-def _commission_loaded(input, loaded, cfg, *, engine, progress, t_start, load_s):
-    """:func:`commission` of an input already loaded, for the channel ``cfg.channel``."""
+def _commission_loaded(input, loaded, cfg, *, engine, progress, t_start, load_s, others=()):
+    """:func:`commission` of an input already loaded, for the channel ``cfg.channel``;
+    ``others``: sentences on the plan's channels this run leaves out (named warnings
+    ``plan.channel_not_commissioned``)."""
     app = loaded.applicator
-    log.info("%s: loaded %s (%s) in %.2f s", input, app.name, loaded.kind, load_s)
+    shown = display_path(input) if isinstance(input, str | Path) else input  # no install path
+    log.info("%s: loaded %s (%s) in %.2f s", shown, app.name, loaded.kind, load_s)
     files = loaded.files
     correction_notes: tuple[str, ...] = ()
     if cfg.centreline_correction is not None:
@@ -283,6 +387,11 @@ def _commission_loaded(input, loaded, cfg, *, engine, progress, t_start, load_s)
         files = (*files, Path(correction.path))
         correction_notes = (correction_note(correction),)
     ring = channel_of(app, cfg.channel)
+    own = (app, ring)  # the input's own channel (a library path that can carry the plan)
+    if cfg.measured is not None:  # --measured FILE: the clinic's path in place of the input's
+        attached = attach_measured(app, ring, cfg.measured)
+        app, ring = attached.applicator, attached.channel
+        files = (*files, Path(cfg.measured))
     check_measured_path(input, ring, cfg.channel, loaded.kind, cfg.require_measured)
     src = choose_source(cfg.source, cfg.sk_U, loaded.rtplan)
     cable = choose_cable(cfg.cable, src.source.name)
@@ -290,9 +399,17 @@ def _commission_loaded(input, loaded, cfg, *, engine, progress, t_start, load_s)
     check_clearance(app, ring, cable_r_m)
     reference = reference_dwells(app, ring, cfg.plan_step_mm)
     sparse = None  # a measured subset: compared at its own positions (pipeline.measured_points)
+    plan_path = ""
+    sparse_ring = ring
     if is_sparse(reference, cfg.plan_step_mm):
         sparse = (reference, review_reference(app, ring, reference, cfg.register, capsule_r_m))
-        reference = centreline_grid(app, ring, cfg.plan_step_mm)
+        if cfg.measured is not None and has_dense_path(*own, cfg.plan_step_mm):
+            app, ring = own  # the plan on the input's own (vendor/library) path
+            reference = reference_dwells(app, ring, cfg.plan_step_mm)
+            plan_path = "library"
+        else:
+            reference = centreline_grid(app, ring, cfg.plan_step_mm)
+            plan_path = "simulated"
     review = review_reference(app, ring, reference, cfg.register, capsule_r_m)
     compared_ref = review.registered
     registered = compared_ref.dwells if cfg.register != "none" and reference.kind == "measured" \
@@ -339,6 +456,7 @@ def _commission_loaded(input, loaded, cfg, *, engine, progress, t_start, load_s)
     plans = standard_plans(
         reference, registered, selection, simulated.dwells, centreline, tandem, points,
         src.source, prescription_gy=cfg.prescription_gy, sk_U=src.sk_U,
+        times_from=simulated.dwells if plan_path == "simulated" else None,
     )  # fmt: skip
     tables = dose_tables(app, loaded.rtplan, plans, points, src.source, src.sk_U, src.sk_given)
     dose_s = time.perf_counter() - t0
@@ -355,8 +473,10 @@ def _commission_loaded(input, loaded, cfg, *, engine, progress, t_start, load_s)
         measured_points = compare_measured_points(
             app, ring, *sparse, cable=cable.preset, scene_overrides=cfg.scene_overrides,
             limits_mm=cfg.position_limits_mm, engine=engine, stem_mm=cfg.stem_mm,
-            sd_mm=None if getattr(ring, "measured_sd_m", None) is None
-            else m_to_mm(ring.measured_sd_m), method=getattr(ring, "measured_method", ""),
+            sd_mm=None if getattr(sparse_ring, "measured_sd_m", None) is None
+            else m_to_mm(sparse_ring.measured_sd_m),
+            method=getattr(sparse_ring, "measured_method", ""), plan_path=plan_path,
+            plan_source=reference.source if plan_path == "library" else "",
         )  # fmt: skip
         verdicts = (*verdicts, measured_points.verdict())
     n_tandem = 0 if tandem is None else len(tandem.relative_position_mm)
@@ -372,6 +492,7 @@ def _commission_loaded(input, loaded, cfg, *, engine, progress, t_start, load_s)
         "the tandem is not simulated, so its dwells are the same in all plans."
     )
     warnings = collect_warnings(loaded, app, cfg, src, cable.preset, verdicts)
+    warnings += tuple(named_warning("plan.channel_not_commissioned", t) for t in others)
     warnings += tuple(  # the engine's work balance (issue 25): on the terminal and page 1
         named_warning("simulation.work_balance", w)
         for w in simulated.info.warnings
@@ -384,7 +505,8 @@ def _commission_loaded(input, loaded, cfg, *, engine, progress, t_start, load_s)
         *getattr(loaded, "notes", ()),
         *correction_notes,
         *kink_notes(app, ring),
-        *((reference_note(reference),) if measured_points is None else measured_points.lines()),
+        *((reference_note(reference),) if plan_path != "simulated" else ()),
+        *(() if measured_points is None else measured_points.lines()),
         *simulated.notes,
         *simulation_notes(simulated.info, cable),
         *tables.notes,
@@ -400,7 +522,11 @@ def _commission_loaded(input, loaded, cfg, *, engine, progress, t_start, load_s)
         scene=simulated.scene,
         centreline_correction=None if cfg.centreline_correction is None
         else str(cfg.centreline_correction),
+        calibration=None if cfg.calibration is None else dict(cfg.calibration),
     )  # fmt: skip
+    if cfg.calibration is not None and cfg.calibration.get("file"):
+        if Path(cfg.calibration["file"]).is_file():  # its SHA-256 in the provenance too
+            files = (*files, Path(cfg.calibration["file"]))
     folder = getattr(src.source, "folder", None)
     provenance = Provenance.now(
         inputs=files, settings=used.as_dict(),
@@ -428,6 +554,9 @@ def _commission_loaded(input, loaded, cfg, *, engine, progress, t_start, load_s)
         settings_origin=dict(cfg.settings_origin),
         warnings=warnings,
         channel=label,
+        measured_points=None if measured_points is None else measured_points.as_dict(),
+        family=family_name_of(app, ring),
+        frame_family=str(getattr(app, "family", "ring") or "ring"),
     )
 
 

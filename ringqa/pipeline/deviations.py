@@ -11,6 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
+from ringqa.geometry.frame import frame_of
 from ringqa.pipeline.dwells import PathDwells, PlanSelection, ReferenceDwells
 from ringqa.units import m_to_mm, mm_to_m
 
@@ -114,7 +115,7 @@ def compare_with_reference(
     Parameters
     ----------
     app : Applicator
-        Gives the ring frame (``ring_centre_m``, ``ring_normal``).
+        Gives the applicator frame (:func:`ringqa.geometry.frame.frame_of`: centre, normal).
     reference, simulated, centreline : PathDwells
         Each path's (n, 3) positions in mm and unit directions, in the same dwell order.
 
@@ -123,8 +124,9 @@ def compare_with_reference(
     Deviations
     """
     ref_pos, ref_dir = reference.positions_mm, reference.directions
-    centre = m_to_mm(np.asarray(app.ring_centre_m, dtype=float))
-    normal = np.asarray(app.ring_normal, dtype=float)
+    frame = frame_of(app)
+    centre = m_to_mm(np.asarray(frame.centre_m, dtype=float))
+    normal = np.asarray(frame.normal, dtype=float)
     return Deviations(
         simulated=deviation_components(ref_pos, ref_dir, simulated.positions_mm, centre, normal),
         centreline=deviation_components(ref_pos, ref_dir, centreline.positions_mm, centre, normal),
@@ -171,8 +173,9 @@ def centreline_offsets(app, channel, positions_mm) -> CentrelineOffsets:
     p = np.asarray(positions_mm, dtype=float).reshape(-1, 3)
     s, _ = channel.centreline.closest(mm_to_m(p))
     c = m_to_mm(np.asarray(channel.centreline.position(np.asarray(s)), dtype=float)).reshape(-1, 3)
-    centre = m_to_mm(np.asarray(app.ring_centre_m, dtype=float))
-    n = np.asarray(app.ring_normal, dtype=float)
+    frame = frame_of(app)
+    centre = m_to_mm(np.asarray(frame.centre_m, dtype=float))
+    n = np.asarray(frame.normal, dtype=float)
 
     def rho(x):
         d = x - centre

@@ -8,7 +8,7 @@ An RT Plan's own dwells and times are also dosed at its TPS points.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import pandas as pd
@@ -131,6 +131,7 @@ def standard_plans(
     *,
     prescription_gy: float,
     sk_U: float,
+    times_from: PathDwells | None = None,
 ) -> StandardPlans:
     """The reference plan and the same times on the simulated (and centreline) dwells.
 
@@ -152,6 +153,10 @@ def standard_plans(
         Mean Point A dose, Gy.
     sk_U : float
         Air-kerma strength, U.
+    times_from : PathDwells, optional
+        Set the equal times to the prescription on THESE dwells (the simulated path, when a
+        measured subset cannot carry the plan: :mod:`~ringqa.pipeline.measured_points`)
+        instead of on the reference's; every plan then carries those times.
 
     Returns
     -------
@@ -168,6 +173,22 @@ def standard_plans(
         sets, points_array_mm(points.standard[:2]), source, prescription_gy=prescription_gy,
         sk_U=sk_U, name=reference.kind,
     )  # fmt: skip
+    if times_from is not None:
+        basis = DwellSet(
+            "ring",
+            reference.relative_position_mm[in_plan],
+            times_from.positions_mm[in_plan],
+            times_from.directions[in_plan],
+        )
+        timed = standard_plan(
+            [basis] + ([tandem] if tandem is not None else []),
+            points_array_mm(points.standard[:2]),
+            source,
+            prescription_gy=prescription_gy,
+            sk_U=sk_U,
+            name=reference.kind,
+        )
+        ref_plan = replace(ref_plan, times_s=timed.times_s)
 
     def on(path: PathDwells, name: str) -> Plan:
         pos, dirs = path.positions_mm[in_plan], path.directions[in_plan]

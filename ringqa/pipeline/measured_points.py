@@ -5,9 +5,14 @@ A clinic's own measurement gives fewer positions (0, 5, 10, 25, 30, 50, 60 mm, o
 each with its own uncertainty. For such a *sparse* path (:func:`is_sparse`: it lacks some of the
 standard plan's relative positions):
 
-- the standard plan and the dwell-by-dwell comparison are built on the channel centreline every
-  plan step, as for an applicator without a measured path (:func:`centreline_grid`), and the
-  report says so;
+- the standard plan is built on the vendor/library path every plan step when the input has one
+  (an RT Plan with Oncentra's library, a folder with a dense path, with the subset given by
+  ``ringqa commission --measured FILE``: :func:`attach_measured`), and the dwell table compares
+  with it as for any dense reference; otherwise on the SIMULATED path every plan step (the
+  equal times set to the prescription on the simulated dwells, the centreline plan carrying the
+  same times; the dwell table compares the simulated path with the centreline grid,
+  :func:`centreline_grid`); the report and results.json (``measured_points``) say which
+  (:data:`PLAN_PATHS`) and which positions were measured;
 - the measured positions are compared with the simulated path at the SAME relative positions
   (the cable pushed to ``s_ref - p`` of each measured point; not the nearest simulated point):
   :func:`compare_measured_points`;
@@ -29,6 +34,7 @@ from typing import Any
 
 import numpy as np
 
+from ringqa.errors import RingQAError
 from ringqa.geometry.registration import FLAG_INFEASIBLE, FLAG_OUTSIDE
 from ringqa.pipeline.dwells import ReferenceDwells, reference_dwells
 from ringqa.pipeline.result import Verdict
@@ -38,9 +44,13 @@ __all__ = [
     "CHECK_MEASURED_POINTS",
     "DEFAULT_POINT_SD_MM",
     "NOT_RESOLVABLE",
+    "PLAN_PATHS",
+    "MeasuredAttachment",
     "MeasuredPoints",
+    "attach_measured",
     "centreline_grid",
     "compare_measured_points",
+    "has_dense_path",
     "is_sparse",
     "point_status",
 ]
@@ -53,6 +63,91 @@ NOT_RESOLVABLE = "NOT RESOLVABLE"
 DEFAULT_POINT_SD_MM = {"film": 0.75, "ct": 0.4, "panel": 0.4, "vendor": 0.2, "": 0.5}
 #: Coverage factor of the verdicts (2 sd).
 COVERAGE = 2.0
+#: Where the standard plan of a measured subset is built, and how the report says it.
+PLAN_PATHS = {
+    "library": "the input's own dense source path (the vendor/library path)",
+    "simulated": "the SIMULATED source path (no vendor/library path in the input)",
+}
+
+
+@dataclass(frozen=True, eq=False)
+class MeasuredAttachment:
+    """A ``--measured FILE`` attached to the input's channel (:func:`attach_measured`).
+
+    Attributes
+    ----------
+    applicator : Applicator
+        The applicator with the channel carrying the file's path.
+    channel : Channel
+        That channel.
+    own_channel : Channel
+        The channel as the input gave it (its own measured path, e.g. the library's, or none).
+    file : Path
+    """
+
+    applicator: Any
+    channel: Any
+    own_channel: Any
+    file: Any
+
+
+def attach_measured(app, ring, file) -> MeasuredAttachment:
+    """The channel ``ring`` of ``app`` with the measured path of ``file`` (CSV/JSON in mm, most
+    distal first, a ``relative_position_mm`` column; optional ``sd_mm`` / ``measured_sd_mm``
+    and ``method``) in place of its own.
+
+    Raises
+    ------
+    RingQAError
+        The file cannot be read, has no relative positions, or is not along the channel (the
+        message names the file, the field and the fix).
+    """
+    from pathlib import Path
+
+    from ringqa.errors import InputFileError
+    from ringqa.io.applicator_file import path_problem
+    from ringqa.io.points import read_point_set
+    from ringqa.units import mm_to_m
+
+    path = Path(file)
+    ps = read_point_set(path, kind="path")
+    if ps.relative_position_mm is None:
+        raise InputFileError(
+            path, "relative_position_mm: missing (a measured path given with --measured must "
+            "say where each position is along the path)",
+            "add a relative_position_mm column (mm, 0 = the most distal position), e.g. "
+            "0, 5, 10, 25 for a film subset",
+        )  # fmt: skip
+    rel_mm = np.asarray(ps.relative_position_mm, dtype=float)
+    gaps = np.diff(rel_mm)
+    even = gaps.size > 0 and np.allclose(gaps, gaps[0], rtol=0.0, atol=1e-6)
+    try:
+        new = dataclasses.replace(
+            ring,
+            measured_path_m=np.asarray(ps.points_m, dtype=float),
+            measured_step_m=float(mm_to_m(gaps[0])) if even else None,
+            measured_relative_m=mm_to_m(rel_mm),
+            measured_source=f"user file {path.name} (--measured)",
+            measured_sd_m=None if ps.sd_mm is None else mm_to_m(np.asarray(ps.sd_mm, float)),
+            measured_method=ps.method or "",
+        )
+    except RingQAError as exc:
+        raise InputFileError(path, str(exc), "correct the file's positions") from None
+    problem = path_problem(new, new.measured_path_m, new.measured_relative_m)
+    if problem:
+        raise InputFileError(path, *problem)
+    chans = tuple(new if c.name == ring.name else c for c in app.channels)
+    return MeasuredAttachment(dataclasses.replace(app, channels=chans), new, ring, path)
+
+
+def has_dense_path(app, ring, plan_step_mm: float) -> bool:
+    """``ring`` carries its own measured path at every standard plan position (a vendor /
+    library path that can carry the standard plan)."""
+    if getattr(ring, "measured_path_m", None) is None:
+        return False
+    if ring.measured_relative_positions_m is None:
+        return False
+    return not is_sparse(reference_dwells(app, ring, plan_step_mm), plan_step_mm)
 
 
 def is_sparse(reference: ReferenceDwells, plan_step_mm: float) -> bool:
@@ -119,6 +214,10 @@ class MeasuredPoints:
     limits_mm : tuple of float
         (recommended, required).
     source : str
+    plan_path : str
+        Where the standard plan was built (:data:`PLAN_PATHS`).
+    plan_source : str
+        That path's own source (the library's name), for ``"library"``.
     """
 
     relative_position_mm: np.ndarray
@@ -133,6 +232,8 @@ class MeasuredPoints:
     numerical_error_mm: np.ndarray
     limits_mm: tuple[float, float]
     source: str
+    plan_path: str = "simulated"
+    plan_source: str = ""
 
     def verdict(self) -> Verdict:
         """One verdict over the compared points: FAIL if any point fails, else WARN if any
@@ -166,11 +267,22 @@ class MeasuredPoints:
         d = self.distance_mm[used]
         sd = "assumed for " + (self.method or "an unstated method") if self.sd_assumed else \
             "as measured"  # fmt: skip
+        if self.plan_path == "library":
+            plan = (
+                f"The standard plan and the dwell table are built on {PLAN_PATHS['library']}"
+                + (f" ({self.plan_source})" if self.plan_source else "")
+                + " every plan step"
+            )
+        else:
+            plan = (
+                f"The standard plan is built on {PLAN_PATHS['simulated']} every plan step (its "
+                "equal times set to the prescription there; the centreline plan carries the "
+                "same times) and the dwell table compares the simulated path with the centreline"
+            )
         out = [
             f"Measured path: a subset of {self.relative_position_mm.size} positions ({rel} mm; "
             f"{self.source}; method {self.method or 'not stated'}; uncertainty {sd}, median "
-            f"{float(np.median(self.sd_mm)):.2f} mm). The standard plan and the dwell table are "
-            "built on the channel CENTRELINE every plan step; the measured positions are "
+            f"{float(np.median(self.sd_mm)):.2f} mm). {plan}; the measured positions are "
             "compared with the simulated path at the same relative positions.",
         ]
         if d.size:
@@ -191,6 +303,12 @@ class MeasuredPoints:
     def as_dict(self) -> dict:
         """Per point, for results files."""
         return {
+            "plan_path": self.plan_path,
+            "plan_path_text": PLAN_PATHS.get(self.plan_path, self.plan_path),
+            "plan_source": self.plan_source,
+            "source": self.source,
+            "method": self.method,
+            "sd_assumed": self.sd_assumed,
             "relative_position_mm": self.relative_position_mm.tolist(),
             "distance_mm": self.distance_mm.tolist(),
             "sd_mm": self.sd_mm.tolist(),
@@ -212,6 +330,8 @@ def compare_measured_points(
     stem_mm: float | None = None,
     sd_mm=None,
     method: str = "",
+    plan_path: str = "simulated",
+    plan_source: str = "",
 ) -> MeasuredPoints:
     """Simulate the cable to the measured relative positions and compare (module docstring).
 
@@ -231,6 +351,8 @@ def compare_measured_points(
     sd_mm : (m,) array_like or None
         Each point's uncertainty (None: :data:`DEFAULT_POINT_SD_MM` of ``method``).
     method : str
+    plan_path, plan_source : str
+        Where the standard plan was built (:data:`PLAN_PATHS`), for the report.
 
     Returns
     -------
@@ -263,4 +385,6 @@ def compare_measured_points(
         numerical_error_mm=np.asarray(sim.numerics.error_mm, dtype=float),
         limits_mm=(float(rec), float(req)),
         source=measured.source,
+        plan_path=plan_path,
+        plan_source=plan_source,
     )

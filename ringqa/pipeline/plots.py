@@ -113,6 +113,15 @@ def project(xyz, geometry):
     return d @ e1, d @ e2, d @ n
 
 
+def frame_words(res):
+    """The report words of the frame ``res`` is drawn in (its applicator's family:
+    :class:`ringqa.geometry.families.FamilyWords`; a ring's for an unknown family)."""
+    from ringqa.geometry.families import FAMILIES
+
+    family = FAMILIES.get(getattr(res, "frame_family", "ring")) or FAMILIES["ring"]
+    return family.words
+
+
 def path_label(path: str, reference: str) -> str:
     """How a path (or its plan) is named in legends and tables."""
     if path == reference == "centreline":
@@ -239,13 +248,14 @@ def positions_figure(res, title: str | None = None):
         ax2.plot(u, h, **kw)
     r = geo.ring_radius_mm
     lim = r + 8
+    plane = frame_words(res).plane
     ax1.set_xlim(-lim, lim)
     ax1.set_ylim(-lim, lim)
     ax1.set_aspect("equal")
-    ax1.set_xlabel("patient left (mm), in the ring plane")
-    ax1.set_ylabel("in the ring plane, perpendicular (mm)")
+    ax1.set_xlabel(f"patient left (mm), in the {plane}")
+    ax1.set_ylabel(f"in the {plane}, perpendicular (mm)")
     ax1.set_title(
-        "projected onto the ring plane (seen from cranial); numbers: relative position (mm)",
+        f"projected onto the {plane} (seen from cranial); numbers: relative position (mm)",
         fontsize=9,
     )
     ax1.plot(0, 0, "k+")
@@ -254,9 +264,9 @@ def positions_figure(res, title: str | None = None):
     ax1.legend(fontsize=6.5, loc="lower left", bbox_to_anchor=(1.02, 0.0), borderaxespad=0.0)
     ax1.grid(alpha=0.3)
     ax2.set_xlim(-lim, lim)
-    ax2.set_xlabel("patient left (mm), in the ring plane")
-    ax2.set_ylabel("cranial (mm), orthogonal to the ring plane")
-    ax2.set_title("orthogonal to the ring plane (seen from anterior/posterior)", fontsize=9)
+    ax2.set_xlabel(f"patient left (mm), in the {plane}")
+    ax2.set_ylabel(f"cranial (mm), orthogonal to the {plane}")
+    ax2.set_title(f"orthogonal to the {plane} (seen from anterior/posterior)", fontsize=9)
     ax2.grid(alpha=0.3)
     _, _, hh = project(d[["x_mm", "y_mm", "z_mm"]].to_numpy(), geo)
     span = max(3.0, float(np.max(np.abs(hh))) * 1.3) if hh.size else 3.0
@@ -363,8 +373,8 @@ def deviations_figure(res, title: str | None = None):
     ax.axhline(0, color="0.5", lw=0.6)
     ax.set_ylabel("component (mm)")
     ax.set_title(
-        "along = distal positive; radial = outward in the ring plane; out-of-plane = "
-        "cranial positive",
+        f"along = distal positive; radial = outward in the {frame_words(res).plane}; "
+        "out-of-plane = cranial positive",
         fontsize=8,
     )
     ax.legend(fontsize=6.5, ncol=2)
@@ -474,7 +484,11 @@ def dose_points_figure(res, title: str | None = None):
         ax.set_xlim(cx - half, cx + half)
         ax.set_ylim(cy - half, cy + half)
     for ax, ylabel, view in (
-        (ax1, "in the ring plane (mm)", "ring plane (seen from cranial)"),
+        (
+            ax1,
+            f"in the {frame_words(res).plane} (mm)",
+            f"{frame_words(res).plane} (seen from cranial)",
+        ),
         (ax2, "cranial (mm)", "orthogonal view"),
     ):
         ax.set_xlabel("patient left (mm)")
@@ -491,13 +505,19 @@ def dose_points_figure(res, title: str | None = None):
 def dose_points_caption(res) -> str:
     """Where the dose points are, in words (mm)."""
     spec = res.settings.dose_points
-    return (
-        f"A L/R = Point A left/right: {spec.point_a_lateral_mm:g} mm lateral of the ring "
-        f"axis, {spec.point_a_height_mm:g} mm cranial of the ring channel plane. S L/R = "
-        f"lateral ring surface, {spec.surface_offset_mm:g} mm outside the channel "
-        "centreline in the ring plane (outer surface of the Ring CT/MR mesh). 5 L/R = "
-        f"{spec.depth_mm:g} mm deeper. Purple: the RT Plan's own points."
+    words = frame_words(res)
+    text = (
+        f"A L/R = Point A left/right: {spec.point_a_lateral_mm:g} mm lateral of the "
+        f"{words.axis}, {spec.point_a_height_mm:g} mm cranial of the {words.origin}. "
     )
+    kinds = set(res.doses["kind"].astype(str)) if "kind" in res.doses else set()
+    if "surface" in kinds:  # the ring's own points (issue 30: only for rings)
+        text += (
+            f"S L/R = lateral ring surface, {spec.surface_offset_mm:g} mm outside the channel "
+            f"centreline in the {words.plane} (outer surface of the Ring CT/MR mesh). 5 L/R = "
+            f"{spec.depth_mm:g} mm deeper. "
+        )
+    return text + "Purple: the RT Plan's own points."
 
 
 def accuracy_figure(res, table: pd.DataFrame, title: str | None = None):

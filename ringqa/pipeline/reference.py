@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ringqa.errors import RingQAError
+from ringqa.geometry.frame import frame_of
 from ringqa.geometry.registration import (
     FLAG_INFEASIBLE,
     FLAG_OUTSIDE,
@@ -186,7 +187,8 @@ def review_reference(
                                None, None, reference, empty, empty)  # fmt: skip
     points_m = mm_to_m(reference.dwells.positions_mm)
     rel_m = mm_to_m(reference.relative_position_mm)
-    frame = (np.asarray(app.ring_centre_m, dtype=float), np.asarray(app.ring_normal, dtype=float))
+    frame = (np.asarray(frame_of(app).centre_m, dtype=float),
+             np.asarray(frame_of(app).normal, dtype=float))  # fmt: skip
     try:
         raw = check_reference_path(points_m, channel, capsule_radius_m, frame, relative_m=rel_m)
         on = int(np.count_nonzero(raw.on_channel))

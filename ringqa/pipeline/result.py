@@ -185,6 +185,10 @@ class RunSettings:
         The simulated scene in user units (empty if it could not be written).
     centreline_correction : str or None
         The centreline correction file spliced over the channel, if any.
+    calibration : dict or None
+        The cable calibration file whose values the scene uses (``file``, ``sha256``,
+        ``command``, ...; :attr:`CommissionSettings.calibration`); in ``as_dict`` only when
+        there is one.
     """
 
     source: str
@@ -202,10 +206,11 @@ class RunSettings:
     scene_overrides: dict[str, Any]
     scene: dict[str, Any]
     centreline_correction: str | None = None
+    calibration: dict[str, Any] | None = None
 
     def as_dict(self) -> dict:
         """The ``results.json`` ``settings`` section (also the provenance's settings)."""
-        return {
+        out = {
             "source": self.source,
             "sk_U": self.sk_U,
             "prescription_gy": self.prescription_gy,
@@ -222,6 +227,9 @@ class RunSettings:
             "stem_mm": self.stem_mm,
             "centreline_correction": self.centreline_correction,
         }
+        if self.calibration is not None:
+            out["calibration"] = dict(self.calibration)
+        return out
 
 
 @dataclass(frozen=True)
@@ -413,6 +421,37 @@ class Timings:
 #: named input checks that are notes (the file was read correctly; shown, not alarming)
 NOTE_CHECKS = ("csv.encoding",)
 
+#: The report's writers of a result, by kind (``"pdf"``: ``writer(result, path, fields=,
+#: notes=, accuracy=, sections=)``; ``"html"``: ``writer(result, path)``). The pipeline names
+#: this seam and the report layer fills it when imported (:mod:`ringqa.report` registers its
+#: writers), so the data still flows one way and no module is looked up by its name.
+REPORT_WRITERS: dict[str, Any] = {}
+
+
+def register_report_writer(kind: str, writer) -> None:
+    """Register the report layer's writer of ``kind`` (``"pdf"``, ``"html"``) in
+    :data:`REPORT_WRITERS` (replacing an earlier one)."""
+    REPORT_WRITERS[str(kind)] = writer
+
+
+def report_writer(kind: str):
+    """The registered writer of ``kind``.
+
+    Raises
+    ------
+    RingQAError
+        None registered: ``ringqa.report`` has not been imported (the message says so).
+    """
+    writer = REPORT_WRITERS.get(kind)
+    if writer is None:
+        from ringqa.errors import RingQAError
+
+        raise RingQAError(
+            f"no {kind} report writer registered: import ringqa.report first (it registers its "
+            f"writers), or call ringqa.report.write_{kind}(result, path)"
+        )
+    return writer
+
 
 @dataclass(frozen=True, eq=False)
 class CommissioningResult:
@@ -474,6 +513,15 @@ class CommissioningResult:
     channel : str
         The channel commissioned, as the CSV tables' ``channel`` column names it: the plan's
         channel number, or the channel's name for file inputs (``""``: ``settings.channel``).
+    measured_points : dict or None
+        A measured path that is a subset (:mod:`ringqa.pipeline.measured_points`): which path
+        the standard plan was built on and each measured position with its distance, sd and
+        status (results.json ``measured_points``); None for a dense reference.
+    family : str
+        The channel's applicator family (:mod:`ringqa.geometry.families`: its report words).
+    frame_family : str
+        The applicator's family, whose frame the positions are projected in (its words name
+        the frame's plane and axis: a ring applicator's tandem is shown in the ring plane).
     """
 
     applicator: str
@@ -497,6 +545,9 @@ class CommissioningResult:
     settings_origin: dict[str, str] = field(default_factory=dict)
     warnings: tuple[str, ...] = ()
     channel: str = ""
+    measured_points: dict | None = None
+    family: str = "ring"
+    frame_family: str = "ring"
 
     def warning_records(self) -> list[dict]:
         """The results.json ``warnings``: ``name``, ``severity`` (``note`` for
@@ -618,11 +669,9 @@ class CommissioningResult:
         -------
         pathlib.Path
         """
-        # The report layer sits after the pipeline (DEVELOPERS.md): it is looked up when called,
-        # so the pipeline never imports it at module level and the data still flows one way.
-        import importlib
-
-        writer = importlib.import_module("ringqa.report.pdf").write_pdf
+        # The report layer sits after the pipeline (DEVELOPERS.md): it registers its writer in
+        # REPORT_WRITERS when imported (ringqa.report), so the data still flows one way.
+        writer = report_writer("pdf")
         return writer(
             self, path, fields=fields, notes=notes or (), accuracy=accuracy, sections=sections
         )
@@ -639,6 +688,4 @@ class CommissioningResult:
         -------
         pathlib.Path
         """
-        import importlib
-
-        return importlib.import_module("ringqa.report.html").write_html(self, path)
+        return report_writer("html")(self, path)

@@ -72,7 +72,7 @@ class CommissionSettings:
         stem; None: the whole channel). See :mod:`ringqa.geometry.stem`.
     cross_check : bool
         Also run the flexible-element engine and compare its dwells with the reported ones
-        (``--cross-check``; :func:`ringqa.pipeline.simulate.cross_check_run`).
+        (on by default; ``--no-cross-check``; :func:`ringqa.pipeline.simulate.start_cross_check`).
     centreline_correction : str, Path or None
         A CT/film centreline segment (CSV/JSON, mm, proximal -> distal, in the applicator's frame)
         spliced over the channel's library centreline (``--centreline-correction``;
@@ -91,6 +91,15 @@ class CommissionSettings:
     lumen_mm : float or None
         Lumen diameter (mm) of the channels read from a structure set (``--lumen-mm``; None:
         the per-applicator lumen table).
+    measured : str or Path or None
+        A measured source path file (CSV/JSON, mm; any subset of relative positions with
+        ``sd_mm`` and ``method``: :mod:`ringqa.pipeline.measured_points`) of the channel, in
+        place of the input's own (``--measured``); the input's own dense path (an RT Plan's
+        library path) then carries the standard plan.
+    calibration : mapping or None
+        The cable calibration file the scene keys came from (``[calibration]`` of a
+        ``ringqa calibrate`` calibrated_cable.toml given as configuration): ``file``,
+        ``sha256`` and its ``[calibration]`` keys; named in results.json and the report.
 
     Raises
     ------
@@ -111,12 +120,14 @@ class CommissionSettings:
     dose_action_pct: float = DOSE_ACTION_PCT
     register: str = "none"
     stem_mm: float | None = DEFAULT_STEM_MM
-    cross_check: bool = False
+    cross_check: bool = True
     centreline_correction: str | Path | None = None
     require_measured: bool | None = None
     settings_origin: Mapping[str, str] = field(default_factory=dict)
     structures: str | Path | None = None
     lumen_mm: float | None = None
+    measured: str | Path | None = None
+    calibration: Mapping[str, Any] | None = None
 
     def __post_init__(self) -> None:
         def keep(name: str, value) -> None:
@@ -183,6 +194,11 @@ class CommissionSettings:
                 f"--stem-mm {self.stem_mm!r}: must be a length in mm > 0 (the straight channel "
                 "simulated before the first bend, e.g. 60), or None for the whole channel"
             )
+        if self.measured is not None and not isinstance(self.measured, str | Path):
+            raise RingQAError(
+                f"--measured {self.measured!r}: give the path of a measured source path file "
+                "(CSV/JSON, mm)"
+            )
         corr = self.centreline_correction
         if corr is not None and not isinstance(corr, str | Path):
             raise RingQAError(
@@ -218,6 +234,369 @@ class CommissionSettings:
 
 
 @dataclass(frozen=True)
+class Setting:
+    """One commissioning setting: its configuration key, unit, default, range, meaning,
+    command-line option, :class:`CommissionSettings` field and ``results.json`` key (the one
+    table every place reads: :data:`SETTINGS`).
+
+    Attributes
+    ----------
+    key : str
+        ``table.name`` as written in the file.
+    unit : str
+        User unit (``mm``, ``Gy``, ``%``, ``U``; ``""`` for text, flags and choices).
+    default : object
+        Built-in default (None: decided by the input, e.g. the RT Plan's source).
+    kind : str
+        ``"number"``, ``"int"``, ``"text"``, ``"choice"`` or ``"flag"``.
+    low, high : float
+        Allowed range of a number (``low`` exclusive when ``low_open``).
+    low_open : bool
+        ``low`` itself is not allowed (``> low``).
+    choices : tuple of str
+        Allowed values of a choice.
+    option : str
+        The command-line option that overrides it (``""``: none).
+    doc : str
+        What it means (docs table).
+    field : str
+        The :class:`CommissionSettings` field it sets (``""``: none; the report's fields).
+    results_key : str or None
+        Its key in ``results.json`` ``settings`` (None: not recorded there).
+    metavar : str
+        The option's value placeholder in ``--help`` (``MM``, ``GY``; flags: ``""``).
+    help : str
+        The option's ``--help`` text (default: :attr:`doc`).
+    negatable : bool
+        A flag that also has ``--no-<name>`` (argparse's BooleanOptionalAction).
+    """
+
+    key: str
+    unit: str
+    default: Any
+    kind: str
+    doc: str
+    low: float = 0.0
+    high: float = math.inf
+    low_open: bool = True
+    choices: tuple[str, ...] = ()
+    option: str = ""
+    field: str = ""
+    results_key: str | None = None
+    metavar: str = ""
+    help: str = ""
+    negatable: bool = False
+
+    @property
+    def dest(self) -> str:
+        """The option's argparse destination (``--sk-u`` -> ``sk_u``; ``""``: no option)."""
+        return self.option.lstrip("-").replace("-", "_")
+
+    @property
+    def allowed(self) -> str:
+        """The allowed values in words (``"> 0 and <= 100"``, ``"none, rigid"``)."""
+        if self.kind == "choice":
+            return "one of " + ", ".join(self.choices)
+        if self.kind == "text":
+            return "text"
+        if self.kind == "flag":
+            return "true or false"
+        lo = f"{'>' if self.low_open else '>='} {self.low:g}"
+        return lo if math.isinf(self.high) else f"{lo} and <= {self.high:g}"
+
+    def problem(self, value) -> str | None:
+        """What is wrong with ``value`` (None if nothing)."""
+        if self.kind == "flag":
+            return None if isinstance(value, bool) else "must be true or false"
+        if self.kind in ("text", "choice"):
+            if not isinstance(value, str):
+                return "must be text (in quotes)"
+            if self.kind == "choice" and value not in self.choices:
+                return f"allowed: {self.allowed}"
+            return None
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            return f"must be a number ({self.allowed})"
+        if self.kind == "int" and not isinstance(value, int):
+            return f"must be a whole number ({self.allowed})"
+        if not math.isfinite(value):
+            return f"must be a finite number ({self.allowed})"
+        too_low = value <= self.low if self.low_open else value < self.low
+        if too_low or value > self.high:
+            unit = f" {self.unit}" if self.unit else ""
+            return f"out of range: allowed {self.allowed}{unit}"
+        return None
+
+
+def _num(
+    key,
+    unit,
+    default,
+    doc,
+    low=0.0,
+    high=math.inf,
+    low_open=True,
+    option="",
+    kind="number",
+    **names,
+):
+    return Setting(key, unit, default, kind, doc, low, high, low_open, (), option, **names)
+
+
+#: The cable models a commissioning run can simulate.
+CABLES = ("flexitron", "microselectron")
+
+#: THE settings table: every configuration key outside ``[scene]`` (in the order of
+#: docs/config.md) with its unit, default, range, meaning, command-line option (and its help),
+#: field and results.json key. ``ringqa commission``'s options are made from it
+#: (:func:`ringqa.cli.commission.add_setting_options`), the configuration is checked against it
+#: (:meth:`Setting.problem`), docs/config.md's table is printed from it.
+SETTINGS: tuple[Setting, ...] = (
+    _num(
+        "tolerances.position_recommended_mm",
+        "mm",
+        POSITION_RECOMMENDED_MM,
+        "recommended source-position tolerance (PASS up to it)",
+        high=10.0,
+        field="position_limits_mm",
+        results_key="position_limits_mm",
+    ),
+    _num(
+        "tolerances.position_required_mm",
+        "mm",
+        POSITION_REQUIRED_MM,
+        "required source-position tolerance (WARN up to it, FAIL beyond); >= recommended",
+        high=10.0,
+        field="position_limits_mm",
+        results_key="position_limits_mm",
+    ),
+    _num(
+        "tolerances.dose_action_pct",
+        "%",
+        DOSE_ACTION_PCT,
+        "dose-difference action level",
+        high=100.0,
+        option="--dose-action-pct",
+        field="dose_action_pct",
+        results_key="dose_action_pct",
+        metavar="PCT",
+        help="dose-difference action level, %% (default 5)",
+    ),
+    _num(
+        "plan.prescription_gy",
+        "Gy",
+        PRESCRIPTION_GY,
+        "mean Point A dose of the standard plan",
+        high=50.0,
+        option="--prescription-gy",
+        field="prescription_gy",
+        results_key="prescription_gy",
+        metavar="GY",
+        help="mean Point A dose of the standard plan, Gy (default 7)",
+    ),
+    _num(
+        "plan.step_mm",
+        "mm",
+        PLAN_STEP_MM,
+        "dwell spacing of the standard plan (a multiple of the reference path's step)",
+        high=50.0,
+        field="plan_step_mm",
+        results_key="plan_step_mm",
+    ),
+    _num(
+        "plan.tandem_dwells",
+        "",
+        TANDEM_DWELLS,
+        "tandem dwells of the standard plan when the tandem has no measured path (0: none)",
+        high=100,
+        low_open=False,
+        kind="int",
+        field="tandem_dwells",
+        results_key="tandem_dwells",
+    ),
+    _num(
+        "dose_points.point_a_height_mm",
+        "mm",
+        DosePointSpec().point_a_height_mm,
+        "height of Point A above the ring channel's plane",
+        high=100.0,
+        low_open=False,
+        field="point_spec",
+        results_key="dose_points",
+    ),
+    _num(
+        "dose_points.point_a_lateral_mm",
+        "mm",
+        DosePointSpec().point_a_lateral_mm,
+        "distance of Point A from the ring's axis",
+        high=100.0,
+        low_open=False,
+        field="point_spec",
+        results_key="dose_points",
+    ),
+    _num(
+        "dose_points.surface_offset_mm",
+        "mm",
+        DosePointSpec().surface_offset_mm,
+        "lateral ring surface outside the channel centreline",
+        high=50.0,
+        low_open=False,
+        field="point_spec",
+        results_key="dose_points",
+    ),
+    _num(
+        "dose_points.depth_mm",
+        "mm",
+        DosePointSpec().depth_mm,
+        "depth of the deeper vaginal points beyond the surface",
+        high=50.0,
+        low_open=False,
+        field="point_spec",
+        results_key="dose_points",
+    ),
+    Setting(
+        "simulation.source",
+        "",
+        None,
+        "text",
+        "TG-43 source (flexisource, mhdr-v2, ...; default: the RT Plan's, else flexisource)",
+        option="--source",
+        field="source",
+        results_key="source",
+        metavar="NAME",
+        help="TG-43 source (default: the RT Plan's, else flexisource)",
+    ),
+    _num(
+        "simulation.sk_u",
+        "U",
+        None,
+        "source air-kerma strength (default: the RT Plan's)",
+        high=1e6,
+        option="--sk-u",
+        field="sk_U",
+        results_key="sk_U",
+        metavar="U",
+        help="source air-kerma strength, U (default: the RT Plan's; needed to check a plan "
+        "without one against its planning-system doses)",
+    ),
+    Setting(
+        "simulation.cable",
+        "",
+        None,
+        "choice",
+        "cable model (default: the cable of the plan's source)",
+        choices=CABLES,
+        option="--cable",
+        field="cable",
+        results_key="cable",
+        metavar="NAME",
+        help="source cable model (flexitron, microselectron; default: the cable of the plan's "
+        "source)",
+    ),
+    Setting(
+        "simulation.register",
+        "",
+        "none",
+        "choice",
+        "registration of the reference path to the channel",
+        choices=REGISTER_MODES,
+        option="--register",
+        field="register",
+        results_key="register",
+        metavar="MODE",
+        help="how the reference source path is aligned with the channel before comparing: "
+        "none (default: as supplied), plane-height or rigid",
+    ),
+    _num(
+        "simulation.stem_mm",
+        "mm",
+        DEFAULT_STEM_MM,
+        "straight channel simulated before the first bend",
+        high=2000.0,
+        option="--stem-mm",
+        field="stem_mm",
+        results_key="stem_mm",
+        metavar="MM",
+        help="straight channel simulated before the first bend, mm (default 60)",
+    ),
+    Setting(
+        "simulation.whole_channel",
+        "",
+        False,
+        "flag",
+        "simulate the whole channel (ignores stem_mm)",
+        option="--whole-channel",
+        field="stem_mm",
+        results_key="stem_mm",
+        help="simulate the whole channel (however long its straight shaft)",
+    ),
+    Setting(
+        "simulation.cross_check",
+        "",
+        True,
+        "flag",
+        "also run the flexible-element engine and compare its dwells (the cross-check; "
+        "--no-cross-check turns it off)",
+        option="--cross-check",
+        field="cross_check",
+        negatable=True,
+        help="also run the flexible-element engine (model.formulation = flexible) and compare "
+        "its dwells; a disagreement above max(0.2 mm, 2 x the numerical errors) fails the "
+        "numerics (on by default; --no-cross-check turns it off and the report says so)",
+    ),
+    Setting("report.institution", "", "", "text", "hospital / department"),
+    Setting("report.physicist", "", "", "text", "the physicist who signs"),
+    Setting("report.afterloader", "", "", "text", "afterloader model and serial number"),
+    Setting("report.applicator_serial", "", "", "text", "applicator serial or part number"),
+    Setting(
+        "report.source_calibration",
+        "",
+        "",
+        "text",
+        "source serial and calibration (certificate, date)",
+    ),
+    Setting("report.notes", "", "", "text", "free notes printed above the signature block"),
+    Setting(
+        "report.strict",
+        "",
+        False,
+        "flag",
+        "exit status 1 when a verdict is FAIL or ACTION (for scripts; the files are written "
+        "either way)",
+        option="--strict",
+        help="exit status 1 when a verdict is FAIL or ACTION (the files are written either "
+        "way; configuration key report.strict)",
+    ),
+    # the [calibration] table ringqa calibrate writes into calibrated_cable.toml: the
+    # commissioning report names the file (with its SHA-256) and these (CommissionSettings
+    # .calibration)
+    Setting(
+        "calibration.command",
+        "",
+        "",
+        "text",
+        "the ringqa calibrate command that wrote this file (a calibrated cable)",
+        field="calibration",
+    ),
+    Setting(
+        "calibration.created_utc",
+        "",
+        "",
+        "text",
+        "when the calibration was made (UTC)",
+        field="calibration",
+    ),
+    Setting(
+        "calibration.calibration_json_sha256",
+        "",
+        "",
+        "text",
+        "SHA-256 of the calibration.json written beside this file (the fit's record)",
+        field="calibration",
+    ),
+)
+
+
+@dataclass(frozen=True)
 class SettingNames:
     """Every name one commissioning setting goes by (:data:`SETTING_NAMES`).
 
@@ -244,43 +623,51 @@ class SettingNames:
     note: str = ""
 
 
+def _names(field: str, results_key: str | None, note: str = "", flags=(), keys=()) -> SettingNames:
+    """A row of :data:`SETTING_NAMES`: the configuration keys and options of ``field`` read from
+    :data:`SETTINGS` (a negatable flag's ``--no-`` form too), plus the options and keys that
+    are not configuration keys (``flags``, ``keys``)."""
+    rows = [s for s in SETTINGS if s.field == field]
+    options = [s.option for s in rows if s.option]
+    options += ["--no-" + s.option[2:] for s in rows if s.option and s.negatable]
+    return SettingNames(field, (*(s.key for s in rows), *keys), (*options, *flags), results_key,
+                        note)  # fmt: skip
+
+
 #: The names of every commissioning setting, one row per :class:`CommissionSettings` field (but
-#: ``settings_origin``, which records where the others came from). A test checks each name
+#: ``settings_origin``, which records where the others came from); the configuration keys and
+#: their options come from :data:`SETTINGS`, so a name is written once. A test checks each name
 #: against the configuration's keys, the command line's options and results.json, so a renamed
 #: or new setting fails until this table says what it is called where.
 SETTING_NAMES: tuple[SettingNames, ...] = (
-    SettingNames("source", ("simulation.source",), ("--source",), "source"),
-    SettingNames("sk_U", ("simulation.sk_u",), ("--sk-u",), "sk_U",
-                 "sk_U in Python and results.json, sk_u in the configuration and --sk-u"),
-    SettingNames("prescription_gy", ("plan.prescription_gy",), ("--prescription-gy",),
-                 "prescription_gy"),
-    SettingNames("cable", ("simulation.cable",), ("--cable",), "cable"),
-    SettingNames("channel", (), ("--channel",), "channel"),
-    SettingNames("point_spec", ("dose_points.point_a_height_mm", "dose_points.point_a_lateral_mm",
-                                "dose_points.surface_offset_mm", "dose_points.depth_mm"),
-                 (), "dose_points", "point_spec in Python, dose_points elsewhere"),
-    SettingNames("plan_step_mm", ("plan.step_mm",), (), "plan_step_mm"),
-    SettingNames("tandem_dwells", ("plan.tandem_dwells",), (), "tandem_dwells"),
-    SettingNames("position_limits_mm", ("tolerances.position_recommended_mm",
-                                        "tolerances.position_required_mm"), (),
-                 "position_limits_mm", "one pair in Python and results.json, two keys in the "
-                 "configuration"),
-    SettingNames("dose_action_pct", ("tolerances.dose_action_pct",), ("--dose-action-pct",),
-                 "dose_action_pct"),
-    SettingNames("register", ("simulation.register",), ("--register",), "register",
-                 "register here; registration in summary.csv and the reference check"),
-    SettingNames("stem_mm", ("simulation.stem_mm", "simulation.whole_channel"),
-                 ("--stem-mm", "--whole-channel"), "stem_mm",
-                 "None (the whole channel) is simulation.whole_channel / --whole-channel"),
-    SettingNames("cross_check", ("simulation.cross_check",), ("--cross-check", "--no-cross-check"),
-                 None, "its outcome is results.json numerical_check.cross_check"),
-    SettingNames("centreline_correction", (), ("--centreline-correction",),
-                 "centreline_correction"),
-    SettingNames("require_measured", (), ("--centreline-reference",), None,
-                 "require_measured = not --centreline-reference (the same concept, inverted)"),
-    SettingNames("scene_overrides", ("scene.*",), ("--set",), "scene_overrides"),
-    SettingNames("structures", (), ("--structures",), None,
-                 "the file is in the provenance's inputs"),
-    SettingNames("lumen_mm", (), ("--lumen-mm",), None,
-                 "said in the notes (each channel's lumen and where it comes from)"),
+    _names("source", "source"),
+    _names("sk_U", "sk_U",
+           "sk_U in Python and results.json, sk_u in the configuration and --sk-u"),
+    _names("prescription_gy", "prescription_gy"),
+    _names("cable", "cable"),
+    _names("channel", "channel", flags=("--channel",)),
+    _names("point_spec", "dose_points", "point_spec in Python, dose_points elsewhere"),
+    _names("plan_step_mm", "plan_step_mm"),
+    _names("tandem_dwells", "tandem_dwells"),
+    _names("position_limits_mm", "position_limits_mm",
+           "one pair in Python and results.json, two keys in the configuration"),
+    _names("dose_action_pct", "dose_action_pct"),
+    _names("register", "register",
+           "register here; registration in summary.csv and the reference check"),
+    _names("stem_mm", "stem_mm",
+           "None (the whole channel) is simulation.whole_channel / --whole-channel"),
+    _names("cross_check", None, "its outcome is results.json numerical_check.cross_check"),
+    _names("centreline_correction", "centreline_correction",
+           flags=("--centreline-correction",)),
+    _names("require_measured", None,
+           "require_measured = not --centreline-reference (the same concept, inverted)",
+           flags=("--centreline-reference",)),
+    _names("scene_overrides", "scene_overrides", flags=("--set",), keys=("scene.*",)),
+    _names("structures", None, "the file is in the provenance's inputs", flags=("--structures",)),
+    _names("lumen_mm", None, "said in the notes (each channel's lumen and where it comes from)",
+           flags=("--lumen-mm",)),
+    _names("measured", None, "the file is in the provenance's inputs; its points in results.json "
+           "measured_points", flags=("--measured",)),
+    _names("calibration", None, "the [calibration] table of a calibrated_cable.toml; results.json "
+           "settings.calibration (only when one is used) adds the file and its SHA-256"),
 )  # fmt: skip

@@ -23,8 +23,9 @@ import pandas as pd
 from ringqa.errors import InputFileError
 from ringqa.jsonio import write_json
 from ringqa.outdir import MARKER_NAME, marker_record, staged_output
+from ringqa.pipeline.result import register_report_writer
 from ringqa.report.fields import ReportFields
-from ringqa.report.pdf import write_batch_pdf, write_pdf
+from ringqa.report.pdf import draw_ahead, write_batch_pdf, write_channels_pdf, write_pdf
 from ringqa.report.tables import SCHEMA, results_dict, write_batch_tables, write_tables
 from ringqa.textio import read_csv_table
 
@@ -36,6 +37,7 @@ __all__ = [
     "results_dict",
     "write_batch",
     "write_batch_pdf",
+    "write_channels_pdf",
     "write_pdf",
     "write_report",
     "write_tables",
@@ -43,6 +45,18 @@ __all__ = [
 
 
 ACCURACY_COLUMNS = ("time_s", "max_err_mm", "status")
+
+
+def _write_html(result, path):
+    """report.html of ``result`` (:func:`ringqa.report.html.write_html`, imported when used)."""
+    from ringqa.report.html import write_html
+
+    return write_html(result, path)
+
+
+# the pipeline's named seam (CommissioningResult.publish_pdf / publish_html)
+register_report_writer("pdf", write_pdf)
+register_report_writer("html", _write_html)
 
 
 def read_accuracy_csv(path) -> pd.DataFrame:
@@ -61,9 +75,25 @@ def read_accuracy_csv(path) -> pd.DataFrame:
 
 def _write_one(
     result, folder: Path, pdf: bool, accuracy=None, fields=None, export=None, sections=(),
-    extra_files=None, html: bool | None = None,
+    extra_files=None, html: bool | None = None, files=None, ahead: bool = False,
 ) -> None:  # fmt: skip
-    write_tables(result, folder)
+    # ahead: the PDF's costliest figures are drawn in a forked process (when a core is free)
+    # while the tables, report.html and the rest of the PDF are made here
+    drawn = draw_ahead(result) if pdf and ahead else None
+    try:
+        _write_files(result, folder, pdf, accuracy, fields, export, sections, extra_files, html,
+                     drawn, files)  # fmt: skip
+    finally:
+        if drawn is not None:
+            drawn.cancel()
+
+
+def _write_files(result, folder, pdf, accuracy, fields, export, sections, extra_files, html,
+                 drawn, files=None) -> None:  # fmt: skip
+    if files is None:
+        write_tables(result, folder)
+    else:
+        write_tables(result, folder, files)
     if pdf if html is None else html:
         from ringqa.report.html import write_html
 
@@ -77,7 +107,7 @@ def _write_one(
     if pdf:
         write_pdf(
             result, folder / "report.pdf", accuracy=accuracy, fields=fields, sections=sections,
-            notes=_export_note(export),
+            notes=_export_note(export), drawn=drawn,
         )  # fmt: skip
 
 
@@ -107,6 +137,8 @@ def write_report(
     export: bool = False,
     sections: Sequence = (),
     extra_files: Mapping[str, bytes] | None = None,
+    html: bool | None = None,
+    files: Sequence[str] | None = None,
 ) -> Path:
     """Write one applicator's files into ``out_dir`` (staged: all or nothing).
 
@@ -117,7 +149,9 @@ def write_report(
     ``sections``: extra report pages, callables ``section(result) -> list of reportlab
     flowables`` (see :func:`ringqa.report.pdf.write_pdf`). ``extra_files``: more files of the
     run (name -> bytes, e.g. the uncertainty sweep's ``uncertainty.csv``), written in the same
-    staged folder (all or nothing).
+    staged folder (all or nothing). ``html``: write report.html (default: when ``pdf``).
+    ``files``: results.json's list of the files written (default
+    :data:`ringqa.report.tables.FILES`).
 
     Returns
     -------
@@ -127,7 +161,8 @@ def write_report(
     accuracy = None if accuracy_csv is None else read_accuracy_csv(accuracy_csv)
     (checked,) = _checked_exports([result], export)
     with staged_output(out_dir) as stage:
-        _write_one(result, stage, pdf, accuracy, fields, checked, sections, extra_files)
+        _write_one(result, stage, pdf, accuracy, fields, checked, sections, extra_files, html,
+                   files, ahead=True)  # fmt: skip
     return Path(out_dir)
 
 

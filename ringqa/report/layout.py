@@ -203,10 +203,15 @@ def figure_image(fig, width: float = FRAME_WIDTH, dpi: int = FIGURE_DPI) -> Flow
     to reportlab as pixels (no PNG encoding and decoding on the way; the PDF stores them
     Flate-compressed, lossless).
     """
+    return pixel_image(*figure_pixels(fig, dpi), width)
+
+
+def figure_pixels(fig, dpi: int = FIGURE_DPI):
+    """A matplotlib Figure drawn by the Agg canvas at ``dpi``: its pixels (rows x columns x 3,
+    uint8, C order) and its size (width, height in inches). Picklable: a figure may be drawn in
+    another process (:func:`pixel_image` makes the flowable)."""
     import numpy as np
     from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from PIL import Image as PILImage
-    from reportlab.lib.utils import ImageReader
 
     if not isinstance(fig.canvas, FigureCanvasAgg):
         FigureCanvasAgg(fig)
@@ -214,9 +219,17 @@ def figure_image(fig, width: float = FRAME_WIDTH, dpi: int = FIGURE_DPI) -> Flow
     fig.canvas.draw()
     rgb = np.asarray(fig.canvas.buffer_rgba())[..., :3]
     w_in, h_in = fig.get_size_inches()
-    return PixelImage(
-        ImageReader(PILImage.fromarray(np.ascontiguousarray(rgb))), width, width * h_in / w_in
-    )
+    return np.ascontiguousarray(rgb), (float(w_in), float(h_in))
+
+
+def pixel_image(rgb, size_in: tuple[float, float], width: float = FRAME_WIDTH) -> Flowable:
+    """Pixels of :func:`figure_pixels` (and its size) as an embedded image ``width`` points
+    wide, its aspect kept."""
+    from PIL import Image as PILImage
+    from reportlab.lib.utils import ImageReader
+
+    w_in, h_in = size_in
+    return PixelImage(ImageReader(PILImage.fromarray(rgb)), width, width * h_in / w_in)
 
 
 class PixelImage(Flowable):

@@ -13,7 +13,8 @@ applicator:
    notes), where the reference path comes from and what its checks found (registration and its
    transform), the numbers "as supplied | registered" side by side with the simulation's
    numerical error, the free notes, the signature block and the references used on the page.
-2. Dwell positions like the paper's Figure 6 (ring plane and orthogonal view).
+2. Dwell positions like the paper's Figure 6 (the frame's plane, e.g. the ring plane, and the
+   orthogonal view).
 3. Deviation per dwell: 3D distance (with the simulation's numerical error),
    along/radial/out-of-plane components, angle of orientation; flagged reference positions shaded.
 4. Dose points: map and the dose table of the standard plans (differences to the reference plan
@@ -54,8 +55,10 @@ from ringqa.pipeline.numbers import (
 )
 from ringqa.pipeline.numbers import fmt as _fmt_number
 from ringqa.pipeline.plots import (
+    DEVIATIONS_SIZE,
     FLAG_COLOURS,
     FLAG_NAMES,
+    POSITIONS_SIZE,
     accuracy_caption,
     accuracy_figure,
     batch_distances_figure,
@@ -63,11 +66,13 @@ from ringqa.pipeline.plots import (
     deviations_figure,
     dose_points_caption,
     dose_points_figure,
+    frame_words,
     positions_figure,
     reference_flags,
     reference_name,
 )
 from ringqa.report import layout
+from ringqa.report.cross_check import cross_check_figure, cross_check_page, failed_cross_check
 from ringqa.report.fields import ReportFields
 from ringqa.report.layout import badge, grid_table, heading, para
 from ringqa.units import m_to_mm
@@ -771,6 +776,88 @@ def summary_flowables(result, fields: ReportFields | None = None, notes=()) -> l
 
 
 # ---------------------------------------------------------------------------------------------
+# Figures drawn ahead, in a forked process (the second core), while this one lays out the rest
+# ---------------------------------------------------------------------------------------------
+
+#: the report's figures :func:`draw_ahead` can draw in another process: maker, size (inches)
+AHEAD_FIGURES: dict[str, tuple[Callable, tuple[float, float]]] = {
+    "positions": (positions_figure, POSITIONS_SIZE),
+    "deviations": (deviations_figure, DEVIATIONS_SIZE),
+}
+
+
+class DrawnAhead:
+    """The report figures of one result (:data:`AHEAD_FIGURES`) being drawn in a forked child
+    process (:class:`ringqa.pipeline.forked.ForkedCall`) while this process writes the tables,
+    report.html and the rest of the PDF; the PDF waits for their pixels only when it draws
+    their page. Without a free core (or ``os.fork``) they are drawn here when first needed:
+    the pixels, and so the PDF, are the same either way (the child is a copy of this process,
+    matplotlib's state included). Give it to :func:`write_pdf` (``drawn=``)."""
+
+    def __init__(self, result, fork: bool | None = None) -> None:
+        from ringqa.pipeline.forked import ForkedCall, second_core_free
+
+        self.result = result
+        fork = second_core_free() if fork is None else fork
+        self._call = ForkedCall(lambda: _draw_figures(result, tuple(AHEAD_FIGURES)), fork)
+        self._pixels: dict | None = None
+
+    @property
+    def forked(self) -> bool:
+        """The figures are being drawn in a child process (until their pixels arrive)."""
+        return self._call.forked
+
+    def pixels(self, name: str):
+        """``(rgb, size_in)`` of figure ``name`` (waits for the child the first time)."""
+        if self._pixels is None:
+            self._pixels = self._call.result()
+        return self._pixels[name]
+
+    def cancel(self) -> None:
+        """Stop the child if its figures are no longer needed."""
+        self._call.cancel()
+
+
+def draw_ahead(result, fork: bool | None = None) -> DrawnAhead:
+    """Start drawing ``result``'s costliest report figures in a forked process (see
+    :class:`DrawnAhead`; ``fork``: None = when a core is free)."""
+    return DrawnAhead(result, fork)
+
+
+def _draw_figures(result, names) -> dict:
+    return {name: layout.figure_pixels(AHEAD_FIGURES[name][0](result)) for name in names}
+
+
+class _AheadImage(layout.PixelImage):
+    """A figure of :class:`DrawnAhead`: its size is known at once (the figure's size), its
+    pixels are fetched when its page is drawn."""
+
+    def __init__(self, drawn: DrawnAhead, name: str, width: float) -> None:
+        w_in, h_in = (float(x) for x in AHEAD_FIGURES[name][1])
+        super().__init__(None, width, width * h_in / w_in)
+        self._drawn, self._name = drawn, name
+
+    def draw(self):
+        if self.reader is None:
+            rgb, size_in = self._drawn.pixels(self._name)
+            self.reader = layout.pixel_image(rgb, size_in, self.width).reader
+        super().draw()
+
+
+#: the figures being drawn ahead for the report being written (set by :func:`write_pdf`)
+_AHEAD: list[DrawnAhead] = []
+
+
+def _figure(name: str, res, width: float):
+    """Report figure ``name`` of ``res``, ``width`` points wide: drawn ahead when
+    :func:`write_pdf` was given it for ``res``, else drawn now."""
+    for drawn in _AHEAD:
+        if drawn.result is res:
+            return _AheadImage(drawn, name, width)
+    return layout.figure_image(AHEAD_FIGURES[name][0](res), width)
+
+
+# ---------------------------------------------------------------------------------------------
 # The other pages
 # ---------------------------------------------------------------------------------------------
 
@@ -780,11 +867,11 @@ def positions_flowables(res) -> list:
     return [
         heading("Dwell positions (paper Figure 6 [1])", 1),
         para(
-            "Projected onto the ring plane (seen from cranial; numbers: relative position, mm) "
-            "and orthogonal to it. Reference as supplied and registered, simulated, centreline; "
-            "circled: flagged reference positions."
+            f"Projected onto the {frame_words(res).plane} (seen from cranial; numbers: relative "
+            "position, mm) and orthogonal to it. Reference as supplied and registered, "
+            "simulated, centreline; circled: flagged reference positions."
         ),
-        layout.figure_image(positions_figure(res), 0.95 * layout.FRAME_WIDTH),
+        _figure("positions", res, 0.95 * layout.FRAME_WIDTH),
         *_references(PAPER_REFERENCE),
     ]
 
@@ -794,7 +881,7 @@ def deviations_flowables(res) -> list:
     return [
         heading(f"Deviations from the {reference_name(res)}", 1),
         para(deviation_caption(res)),
-        layout.figure_image(deviations_figure(res), 0.86 * layout.FRAME_WIDTH),
+        _figure("deviations", res, 0.86 * layout.FRAME_WIDTH),
     ]
 
 
@@ -867,10 +954,10 @@ def dwell_table_flowables(res) -> list:
         para(
             "sim. = simulated, cl. = centreline, ref. = reference position (as supplied / "
             "registered), num. error = the simulation's numerical error. "
-            "along = distal positive, radial = outward in the ring plane, out of plane = cranial "
-            "positive; angle between source orientations. Shaded rows: reference position "
-            "infeasible (cannot lie in the lumen, red) or outside the channel (left out of the "
-            "verdicts, grey).",
+            f"along = distal positive, radial = outward in the {frame_words(res).plane}, out of "
+            "plane = cranial positive; angle between source orientations. Shaded rows: "
+            "reference position infeasible (cannot lie in the lumen, red) or outside the "
+            "channel (left out of the verdicts, grey).",
             "small",
         ),
         grid_table(
@@ -1014,17 +1101,28 @@ def report_story(
 ) -> list:
     """All flowables of one applicator's report, page breaks included (see the module
     docstring for the pages). ``sections`` add pages after the standard ones."""
-    pages = [
-        summary_flowables(result, fields, notes),
+    pages = [summary_flowables(result, fields, notes), *detail_pages(result)]
+    if accuracy is not None:
+        pages.append(accuracy_flowables(result, accuracy))
+    pages += [list(section(result)) for section in sections]
+    return _joined(pages)
+
+
+def detail_pages(result) -> list[list]:
+    """The pages after page 1 of one channel's report: positions, deviations, dose points,
+    the dwell table and the settings (one list of flowables per page)."""
+    return [
         positions_flowables(result),
+        *([page] if (page := cross_check_page(result)) else []),  # a failed cross-check
         deviations_flowables(result),
         doses_flowables(result),
         dwell_table_flowables(result),
         settings_flowables(result),
     ]
-    if accuracy is not None:
-        pages.append(accuracy_flowables(result, accuracy))
-    pages += [list(section(result)) for section in sections]
+
+
+def _joined(pages: Sequence[list]) -> list:
+    """The pages' flowables with a page break between pages."""
     story: list = []
     for k, page in enumerate(pages):
         if k:
@@ -1037,6 +1135,8 @@ def report_figures(result, accuracy: pd.DataFrame | None = None) -> list:
     """The report's figures of one CommissioningResult (positions, deviations, dose points,
     accuracy when given), as :class:`matplotlib.figure.Figure` (no pyplot state to close)."""
     figs = [positions_figure(result), deviations_figure(result), dose_points_figure(result)]
+    if failed_cross_check(result) is not None:
+        figs.append(cross_check_figure(result))
     if accuracy is not None:
         figs.append(accuracy_figure(result, accuracy))
     return figs
@@ -1050,6 +1150,7 @@ def write_pdf(
     notes: Sequence[str] | str = (),
     accuracy: pd.DataFrame | None = None,
     sections: Sequence[Section] = (),
+    drawn: DrawnAhead | None = None,
 ) -> Path:
     """Write the report PDF of one CommissioningResult.
 
@@ -1069,6 +1170,8 @@ def write_pdf(
     sections : sequence of callables, optional
         Extra pages: each ``section(result)`` returns reportlab flowables (build them with
         :mod:`ringqa.report.layout`); each starts on a new page after the standard pages.
+    drawn : DrawnAhead, optional
+        ``result``'s figures already being drawn in another process (:func:`draw_ahead`).
 
     Returns
     -------
@@ -1076,7 +1179,17 @@ def write_pdf(
     """
     if isinstance(notes, str):
         notes = (notes,)
-    story = report_story(result, fields=fields, notes=notes, accuracy=accuracy, sections=sections)
+    if drawn is not None and drawn.result is not result:
+        drawn = None
+    if drawn is not None:
+        _AHEAD.append(drawn)
+    try:
+        story = report_story(
+            result, fields=fields, notes=notes, accuracy=accuracy, sections=sections
+        )
+    finally:
+        if drawn is not None:
+            _AHEAD.remove(drawn)
     return layout.build_pdf(
         path,
         story,
@@ -1202,3 +1315,162 @@ def write_batch_pdf(batch, path: Path, *, fields: ReportFields | None = None) ->
 
 def _esc(text) -> str:
     return escape(str(text))
+
+
+# ---------------------------------------------------------------------------------------------
+# Several channels of one input: one report, a section per channel, one conclusion (issue 30)
+# ---------------------------------------------------------------------------------------------
+
+#: The order of the overall verdicts, best first (the front page's box takes the worst).
+VERDICT_ORDER = ("PASS", "WARN", "FAIL", "ACTION", "ERROR")
+
+
+def family_words(result):
+    """The report words of ``result``'s channel family
+    (:class:`ringqa.geometry.families.FamilyWords`; the ring's for an unknown family)."""
+    from ringqa.geometry.families import FAMILIES
+
+    family = FAMILIES.get(getattr(result, "family", "ring")) or FAMILIES["ring"]
+    return family.words
+
+
+def channel_title(result) -> str:
+    """A channel section's title: ``Channel 1 (ring): ring channel of the ring applicator``."""
+    words = family_words(result)
+    name = result.settings.channel
+    label = result.channel or name
+    named = f" ({name})" if name and name != label else ""
+    return f"Channel {label}{named}: {words.channel} ({words.title})"
+
+
+def channel_verdict_rows(results) -> list[list[str]]:
+    """The front page's verdict table: one row per channel and verdict (channel, family,
+    check, value, status); the channel named on its first row only."""
+    from ringqa.pipeline.numbers import fmt_verdict_value
+
+    rows = []
+    for res in results:
+        words = family_words(res)
+        first = True
+        for v in res.verdicts:
+            rows.append([
+                channel_title(res).split(":")[0] if first else "",
+                words.title if first else "",
+                v.check,
+                fmt_verdict_value(v.value, v.unit, v.check),
+                v.status,
+            ])  # fmt: skip
+            first = False
+    return rows
+
+
+def worst_verdict(results, not_simulated=()) -> str:
+    """The worst overall verdict of the channels (FAIL when a channel with dwells was left
+    out: a channel never passes unseen)."""
+    verdicts = [r.summary.verdict for r in results]
+    if not_simulated:
+        verdicts.append("FAIL")
+    known = [v for v in verdicts if v in VERDICT_ORDER]
+    return max(known, key=VERDICT_ORDER.index) if known else "FAIL"
+
+
+def channels_front_flowables(
+    results, conclusion: str, not_simulated: Sequence[str] = (), fields=None, notes=()
+) -> list:
+    """The front page of a several-channel report: the physicist's fields, the one conclusion
+    over every channel, the verdict table per channel, the channels not commissioned (by name,
+    with why), free notes and the signature block."""
+    f = fields or ReportFields()
+    first = results[0]
+    w = layout.FRAME_WIDTH
+    status = worst_verdict(results, not_simulated)
+    rows = channel_verdict_rows(results)
+    for row in rows:  # the status on its colour, as on page 1 of a one-channel report
+        row[-1] = para(badge(row[-1]), "cell", markup=True)
+    story = [
+        heading("Commissioning report", 0),
+        para(first.applicator, "h1"),
+        _fields_table(field_rows(first, f)),
+        layout.spacer(2),
+        heading(f"Conclusion over all {len(results)} channels commissioned", 1),
+        _conclusion_box(TextItem("conclusion", conclusion, status)),
+        *(
+            para(
+                f"{badge(r.summary.verdict)}&nbsp; {escape(channel_title(r).split(':')[0])}: "
+                f"{escape(r.conclusion)}",
+                markup=True,
+            )
+            for r in results
+        ),
+        layout.spacer(1.5),
+        heading("Verdicts per channel", 1),
+        grid_table(
+            [["channel", "family", "check", "value", "status"], *rows],
+            [0.2 * w, 0.16 * w, 0.38 * w, 0.13 * w, 0.13 * w],
+            align="LEFT",
+        ),
+        para(
+            "Each channel's section (in this order) gives its run, verdicts, notes, reference "
+            "path, numerical error, positions, deviations, dose points and settings.",
+            "small",
+        ),
+    ]
+    if not_simulated:
+        story.append(heading("Channels with dwells NOT commissioned", 1))
+        story += [para(f"• {_esc(text)}", "note", markup=True) for text in not_simulated]
+    return [*story, *_free_notes([f.notes, *notes]), signature_block(f)]
+
+
+def channel_section_flowables(result) -> list:
+    """A channel's first page in a several-channel report: its title (number, name, family),
+    then page 1 of a one-channel report (the run, verdicts and conclusion, notes, reference
+    path, numbers as supplied | registered, numerical error) without the physicist's fields
+    and signature, which the front page carries once."""
+    return [
+        heading(channel_title(result), 0),
+        *items_flowables(page1_items(result)),
+        *_references(PAPER_REFERENCE),
+    ]
+
+
+def write_channels_pdf(
+    results,
+    path: Path,
+    *,
+    conclusion: str,
+    not_simulated: Sequence[str] = (),
+    fields: ReportFields | None = None,
+    notes: Sequence[str] = (),
+) -> Path:
+    """One report.pdf for several channels of one input: a front page with the one conclusion
+    and the verdict table per channel (:func:`channels_front_flowables`), then a section per
+    channel with the pages of a one-channel report (:func:`channel_section_flowables`,
+    :func:`detail_pages`), under the same running header and footer.
+
+    Parameters
+    ----------
+    results : sequence of CommissioningResult
+        The channels, in the order of their sections (at least one).
+    path : pathlib.Path
+    conclusion : str
+        The one conclusion over every channel.
+    not_simulated : sequence of str
+        One sentence per channel with dwells that was not commissioned.
+    fields, notes
+        As :func:`write_pdf`.
+
+    Returns
+    -------
+    pathlib.Path
+    """
+    pages = [channels_front_flowables(results, conclusion, not_simulated, fields, notes)]
+    for res in results:
+        pages += [channel_section_flowables(res), *detail_pages(res)]
+    first = results[0]
+    return layout.build_pdf(
+        path,
+        _joined(pages),
+        page_stamp(first),
+        title=f"ringqa commissioning report: {first.applicator}",
+        subject="HDR gynaecological applicator commissioning, every channel",
+    )

@@ -27,8 +27,9 @@ FLOAT_FORMAT = "%.6g"
 FILES = ("dwells.csv", "doses.csv", "plan_dwells.csv", "summary.csv", "report.pdf", "report.html")
 
 
-def results_dict(result: CommissioningResult) -> dict:
-    """The results.json content of one CommissioningResult (stable keys, plain JSON data)."""
+def results_dict(result: CommissioningResult, files=FILES) -> dict:
+    """The results.json content of one CommissioningResult (stable keys, plain JSON data);
+    ``files``: what the run writes into its folder (default :data:`FILES`)."""
     points = (
         result.doses[result.doses["plan"] == result.reference][
             ["point", "kind", "x_mm", "y_mm", "z_mm"]
@@ -57,7 +58,7 @@ def results_dict(result: CommissioningResult) -> dict:
             "geometry": result.geometry.as_dict(),
             "timings_s": result.timings.as_dict(),
             "provenance": result.provenance.as_dict(),
-            "files": FILES,
+            "files": list(files),
             "conclusion": result.conclusion,
             "reference_check": (
                 result.reference_check.as_dict() if result.reference_check is not None else None
@@ -65,6 +66,8 @@ def results_dict(result: CommissioningResult) -> dict:
             "numerical_check": result.numerics.as_dict() if result.numerics is not None else None,
         }
     )
+    if getattr(result, "measured_points", None) is not None:  # a measured subset
+        data["measured_points"] = to_jsonable(result.measured_points)
     out = relative_paths(data, base)
     # the input as given (two inputs of one batch stay apart), as summary.csv names it
     out["input"] = out["summary"]["input"] = result.input_label
@@ -101,7 +104,7 @@ def with_channel(result: CommissioningResult, df: pd.DataFrame) -> pd.DataFrame:
     return out
 
 
-def write_tables(result: CommissioningResult, folder: Path) -> list[Path]:
+def write_tables(result: CommissioningResult, folder: Path, files=FILES) -> list[Path]:
     """Write dwells.csv, doses.csv, plan_dwells.csv, summary.csv and results.json into folder
     (dwells, doses and summary with the ``channel`` column: :func:`with_channel`)."""
     folder = Path(folder)
@@ -115,7 +118,7 @@ def write_tables(result: CommissioningResult, folder: Path) -> list[Path]:
     ):
         df.to_csv(folder / name, index=False, float_format=FLOAT_FORMAT, encoding=csv_encoding(df))
         out.append(folder / name)
-    write_json(folder / "results.json", results_dict(result), indent=2)
+    write_json(folder / "results.json", results_dict(result, files), indent=2)
     out.append(folder / "results.json")
     return out
 
@@ -160,3 +163,47 @@ def write_batch_tables(batch: BatchResult, folder: Path) -> list[Path]:
     }
     write_json(folder / "batch.json", info, indent=2)
     return [folder / "summary.csv", folder / "batch.json"]
+
+
+#: results.json of a several-channel run (issue 30): the one conclusion and a section per channel
+CHANNELS_SCHEMA = "ringqa.commission-channels/2"
+
+
+def channels_results_dict(
+    results, not_simulated, conclusion: str, folders, *, files=FILES, channel_files=FILES
+) -> dict:
+    """The results.json of several channels of one input: ``conclusion`` (one for every
+    channel), ``passed``, ``not_simulated`` (one sentence per channel with dwells left out) and
+    ``channels``: per channel its ``channel`` (the tables' column), ``name``, ``family``,
+    ``folder`` (its files), ``passed``, ``conclusion``, ``max_numerical_error_mm``,
+    ``solve_time_s`` and ``results`` (that channel's whole results.json, :func:`results_dict`,
+    listing ``channel_files``); ``files``: what the run writes beside them.
+    """
+    channels = []
+    for res, folder in zip(results, folders, strict=True):
+        channels.append(
+            {
+                "channel": channel_of_result(res),
+                "name": res.settings.channel,
+                "family": getattr(res, "family", "ring"),
+                "folder": folder,
+                "passed": res.passed,
+                "conclusion": res.conclusion,
+                "max_numerical_error_mm": None if res.numerics is None else res.numerics.max_mm,
+                "solve_time_s": res.timings.as_dict().get("simulation_s"),
+                "results": results_dict(res, channel_files),
+            }
+        )
+    first = results[0]
+    return to_jsonable(
+        {
+            "schema": CHANNELS_SCHEMA,
+            "applicator": first.applicator,
+            "input": first.input_label,
+            "passed": not not_simulated and all(r.passed for r in results),
+            "conclusion": conclusion,
+            "not_simulated": list(not_simulated),
+            "channels": channels,
+            "files": list(files),
+        }
+    )

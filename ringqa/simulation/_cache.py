@@ -17,9 +17,36 @@ _ROOT = Path(__file__).resolve().parent
 _checked = False
 
 
-def _engine_files() -> list[Path]:
-    """Every module of the engine (sorted: the hash must not depend on the listing order)."""
-    return sorted(_ROOT.rglob("*.py"))
+def _engine_files(exclude: str | None = None) -> list[Path]:
+    """Every module of the engine (sorted: the hash must not depend on the listing order),
+    without the package ``exclude`` (a folder name under ringqa/simulation)."""
+    files = sorted(_ROOT.rglob("*.py"))
+    if exclude is None:
+        return files
+    return [f for f in files if f.relative_to(_ROOT).parts[0] != exclude]
+
+
+def _digest(files: list[Path]) -> str:
+    h = hashlib.sha256()
+    for f in files:
+        h.update(str(f.relative_to(_ROOT)).encode())
+        h.update(f.read_bytes())
+    return h.hexdigest()
+
+
+def _drop(folder: Path, stamp: Path, digest: str) -> None:
+    """Remove the cached kernels under ``folder`` and stamp ``digest``."""
+    for cache in folder.rglob("__pycache__"):
+        for p in cache.glob("*.nb[ic]"):
+            p.unlink(missing_ok=True)
+    stamp.parent.mkdir(parents=True, exist_ok=True)
+    stamp.write_text(digest)
+
+
+#: the flexible engine (``model.formulation = "flexible"``): its kernels call the rigid engine's
+#: contact, friction and band kernels, so they are dropped with those; an edit of the flexible
+#: engine alone drops only its own cache (the rigid engine never calls it)
+_FLEXIBLE = "flexible"
 
 
 def ensure_fresh_kernel_cache() -> None:
@@ -29,18 +56,14 @@ def ensure_fresh_kernel_cache() -> None:
         return
     _checked = True
     try:
-        h = hashlib.sha256()
-        for f in _engine_files():
-            h.update(str(f.relative_to(_ROOT)).encode())
-            h.update(f.read_bytes())
-        digest = h.hexdigest()
+        digest = _digest(_engine_files(exclude=_FLEXIBLE))
         stamp = _ROOT / "solvers" / "__pycache__" / "ringqa_kernels.sha256"
-        if stamp.is_file() and stamp.read_text().strip() == digest:
-            return
-        for cache in _ROOT.rglob("__pycache__"):
-            for p in cache.glob("*.nb[ic]"):
-                p.unlink(missing_ok=True)
-        stamp.parent.mkdir(parents=True, exist_ok=True)
-        stamp.write_text(digest)
+        if not (stamp.is_file() and stamp.read_text().strip() == digest):
+            _drop(_ROOT, stamp, digest)
+        flex = _ROOT / _FLEXIBLE
+        digest = _digest(_engine_files())
+        stamp = flex / "__pycache__" / "ringqa_kernels.sha256"
+        if not (stamp.is_file() and stamp.read_text().strip() == digest):
+            _drop(flex, stamp, digest)
     except OSError:  # pragma: no cover - read-only install: numba caches elsewhere
         pass

@@ -24,7 +24,7 @@ import os
 from collections.abc import Callable, Iterator, Sequence
 
 from ringqa.errors import RingQAError
-from ringqa.sweep.runner import Job, SampleRecord, run_batch
+from ringqa.sweep.runner import Job, SampleRecord, run_batch, run_ticking_batch
 
 __all__ = ["auto_batch_size", "batches", "connect", "one_core", "stream", "warm_worker"]
 
@@ -186,7 +186,8 @@ def _stream(client, job, todo, batch_size, on_batch, nominal, task, task_args) -
     # warm each worker once (numba cache); workers that join later warm on their first task
     if nominal is not None:
         with contextlib.suppress(Exception):
-            client.run(warm_worker, job, list(nominal), task is not run_batch)
+            client.run(warm_worker, job, list(nominal),
+                       task not in (run_batch, run_ticking_batch))  # fmt: skip
     futures = [
         client.submit(task, job, b, *task_args, pure=False, retries=2)
         for b in batches(todo, batch_size)

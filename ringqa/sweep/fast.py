@@ -39,7 +39,7 @@ from typing import Any
 
 import numpy as np
 
-from ringqa.sweep.runner import Job, SampleRecord, commission_settings
+from ringqa.sweep.runner import Job, SampleRecord, commission_settings, tick
 
 __all__ = [
     "DEFAULT_BUDGET_S",
@@ -453,20 +453,6 @@ def run_cheap_batch(
         out.append(cheap_sample(job, i, v, err, budget_s))
         tick(progress)
     return out
-
-
-def tick(queue: str | None) -> None:
-    """Put one item on the ``distributed.Queue`` named ``queue`` (nothing without a name, or
-    outside a worker; a failure is ignored: it only moves a progress bar)."""
-    if queue is None:
-        return
-    try:
-        from distributed import Queue, get_worker
-
-        get_worker()
-        Queue(queue).put(1, timeout=1)
-    except Exception:
-        return
 
 
 def calibrate_one(job: Job, index: int, values: Sequence) -> dict:

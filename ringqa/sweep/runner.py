@@ -20,7 +20,16 @@ import numpy as np
 
 from ringqa.pipeline.uncertainty import PERTURBATION_KEYS, Perturbation, perturbed_engine
 
-__all__ = ["DWELL_QUANTITIES", "POINT_QUANTITIES", "Job", "SampleRecord", "run_batch", "run_sample"]
+__all__ = [
+    "DWELL_QUANTITIES",
+    "POINT_QUANTITIES",
+    "Job",
+    "SampleRecord",
+    "run_batch",
+    "run_sample",
+    "run_ticking_batch",
+    "tick",
+]
 
 #: per-dwell outputs kept for each sample (mm); ``shift_mm`` is computed later from x, y, z
 DWELL_QUANTITIES = (
@@ -188,3 +197,29 @@ def run_batch(job: Job, batch: Sequence[tuple[int, Sequence]]) -> list[SampleRec
 
     simulate.CONCURRENT_RUNS = False
     return [run_sample(job, i, v) for i, v in batch]
+
+
+def run_ticking_batch(
+    job: Job, batch: Sequence[tuple[int, Sequence]], progress: str | None = None
+) -> list[SampleRecord]:
+    """:func:`run_batch` that tells the ``distributed.Queue`` named ``progress`` of every
+    finished sample (:func:`tick`): the command's bar moves per sample, not per task."""
+    out = []
+    for item in batch:
+        out += run_batch(job, [item])
+        tick(progress)
+    return out
+
+
+def tick(queue: str | None) -> None:
+    """Put one item on the ``distributed.Queue`` named ``queue`` (nothing without a name, or
+    outside a worker; a failure is ignored: it only moves a progress bar)."""
+    if queue is None:
+        return
+    try:
+        from distributed import Queue, get_worker
+
+        get_worker()
+        Queue(queue).put(1, timeout=1)
+    except Exception:
+        return

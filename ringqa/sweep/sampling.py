@@ -2,7 +2,11 @@
 
 - ``method = "random"``: sample i draws its values from ``numpy.random.default_rng([seed, i])``
   in spec order (normal, uniform, lognormal); grid parameters take the combination
-  ``i mod G`` of their full factorial (G combinations, first parameter slowest).
+  ``i mod G`` of their full factorial (G combinations, first parameter slowest). Normal
+  parameters named in the spec's ``[correlation]`` draw their standard normals ``z`` in the
+  same order and take ``mean + sd (L z)`` with ``L L^T`` the correlation matrix
+  (:meth:`~ringqa.sweep.spec.Correlation.factor`): one multivariate normal (with the identity
+  matrix, the same numbers as independent draws).
 - ``method = "sobol"``: SALib's Saltelli/Sobol design (``SALib.sample.sobol``, first and total
   order, seeded), N (D + 2) rows for N = ``samples`` and D parameters.
 
@@ -47,7 +51,26 @@ def sample_values(spec: SweepSpec, i: int) -> list:
     rng = np.random.default_rng([spec.seed, int(i)])
     combos = _grid(spec)
     combo = iter(combos[int(i) % len(combos)])
-    return [next(combo) if p.distribution == "grid" else _draw(p, rng) for p in spec.parameters]
+    corr = getattr(spec, "correlation", None)
+    if corr is None:
+        return [next(combo) if p.distribution == "grid" else _draw(p, rng)
+                for p in spec.parameters]  # fmt: skip
+    out: list = []
+    z: dict[str, float] = {}
+    for p in spec.parameters:
+        if p.distribution == "grid":
+            out.append(next(combo))
+        elif p.key in corr.keys:
+            z[p.key] = float(rng.standard_normal())  # the draw rng.normal would make
+            out.append(None)
+        else:
+            out.append(_draw(p, rng))
+    mixed = corr.factor() @ np.array([z[k] for k in corr.keys])
+    for j, p in enumerate(spec.parameters):
+        if p.key in corr.keys:
+            u = float(mixed[corr.keys.index(p.key)])
+            out[j] = float(p.args["mean"] + p.args["sd"] * u)
+    return out
 
 
 def _salib_problem(spec: SweepSpec) -> dict:

@@ -18,12 +18,14 @@ from pathlib import Path
 from typing import Any
 
 from ringqa.errors import RingQAError
+from ringqa.pipeline.settings import SETTINGS
 from ringqa.pipeline.uncertainty import PERTURBATION_KEYS
 from ringqa.textio import read_toml
 
 __all__ = [
     "DISTRIBUTIONS",
     "METHODS",
+    "Correlation",
     "Parameter",
     "SweepSpec",
     "SweepSpecError",
@@ -47,17 +49,18 @@ METHODS = ("random", "sobol")
 NUMERICS = ("calibrated", "full")
 #: default number of calibration samples of a calibrated sweep
 CALIBRATION_SAMPLES = 6
-#: CommissionSettings fields a spec may set in its [settings] table
+#: The commissioning settings (CommissionSettings fields) a spec's [settings] table may set.
+SWEEP_SETTING_FIELDS = (
+    "source", "cable", "prescription_gy", "dose_action_pct", "register", "stem_mm", "sk_U",
+)  # fmt: skip
+#: Their names in a spec's [settings] table: the configuration keys' names (the settings table,
+#: :data:`ringqa.pipeline.settings.SETTINGS`: ``sk_u``), and ``centreline_reference`` (the
+#: option --centreline-reference, which has no configuration key).
 SETTINGS_KEYS = (
-    "source",
-    "cable",
-    "prescription_gy",
-    "dose_action_pct",
-    "register",
-    "stem_mm",
-    "sk_u",
+    *(s.key.split(".")[-1] for s in SETTINGS if s.field in SWEEP_SETTING_FIELDS
+      and s.kind != "flag"),
     "centreline_reference",
-)
+)  # fmt: skip
 TOP_KEYS = (
     "description",
     "input",
@@ -71,6 +74,7 @@ TOP_KEYS = (
     "settings",
     "set",
     "parameters",
+    "correlation",
 )
 PARAM_FIELDS = ("distribution", "mean", "sd", "low", "high", "median", "sigma", "values", "source")
 #: largest number of samples a spec may ask for
@@ -115,6 +119,37 @@ class Parameter:
             "lognormal": lambda: a["median"],
             "grid": lambda: a["values"][0],
         }[self.distribution]()
+
+
+@dataclass(frozen=True)
+class Correlation:
+    """Correlated normal parameters (the spec's ``[correlation]`` table): the named keys are
+    drawn from ONE multivariate normal with their means and sds and this correlation matrix,
+    e.g. the covariance of a fit (``ringqa calibrate``'s ``calibration_sweep.toml``).
+
+    Attributes
+    ----------
+    keys : tuple of str
+        Varied parameters with ``distribution = "normal"``, at least two.
+    matrix : tuple of tuple of float
+        (k, k) correlation matrix: symmetric, unit diagonal, positive semi-definite.
+    """
+
+    keys: tuple[str, ...]
+    matrix: tuple[tuple[float, ...], ...]
+
+    def factor(self):
+        """(k, k) ``L`` with ``L L^T`` = the matrix: ``L z`` of independent standard normals
+        ``z`` has this correlation (Cholesky; a singular matrix, |r| = 1, through its
+        eigen-decomposition)."""
+        import numpy as np
+
+        r = np.asarray(self.matrix, dtype=float)
+        try:
+            return np.linalg.cholesky(r)
+        except np.linalg.LinAlgError:
+            w, v = np.linalg.eigh(r)
+            return v * np.sqrt(np.clip(w, 0.0, None))
 
 
 @dataclass(frozen=True)
@@ -166,6 +201,7 @@ class SweepSpec:
     numerics: str = "calibrated"
     calibration_samples: int = CALIBRATION_SAMPLES
     sample_budget_s: float | None = None
+    correlation: Correlation | None = None
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -347,6 +383,7 @@ def spec_from_dict(data: Mapping, origin: str = "<spec>") -> SweepSpec:
                 f"{origin}: parameters.{grid[0]}: a grid cannot be part of a Sobol design (use "
                 'method = "random", or a continuous distribution)'
             )
+    correlation = _correlation(origin, data.get("correlation"), params, method)
     return SweepSpec(
         path=origin,
         input=inp,
@@ -362,7 +399,68 @@ def spec_from_dict(data: Mapping, origin: str = "<spec>") -> SweepSpec:
         numerics=str(numerics),
         calibration_samples=int(n_cal),
         sample_budget_s=None if budget is None else float(budget),
+        correlation=correlation,
     )
+
+
+#: tolerance of the correlation matrix's symmetry, unit diagonal and semi-definiteness
+CORRELATION_TOL = 1.0e-6
+
+
+def _correlation(origin: str, spec: Any, params, method: str) -> Correlation | None:
+    """The ``[correlation]`` table, checked (:class:`Correlation`)."""
+    if spec is None:
+        return None
+    where = f"{origin}: correlation"
+    example = ('[correlation] keys = ["contact.mu_k", "instrument.ei_scale"], '
+               "matrix = [[1, -0.3], [-0.3, 1]]")  # fmt: skip
+    if not isinstance(spec, Mapping):
+        raise SweepSpecError(f"{where}: must be a table, e.g. {example}")
+    for f in spec:
+        if f not in ("keys", "matrix", "source"):
+            raise _unknown(origin, "correlation.", f, ("keys", "matrix", "source"))
+    keys = spec.get("keys")
+    normal = {p.key for p in params if p.distribution == "normal"}
+    if not (isinstance(keys, list) and len(keys) >= 2 and all(isinstance(k, str) for k in keys)
+            and len(set(keys)) == len(keys)):  # fmt: skip
+        raise SweepSpecError(f"{where}.keys = {keys!r}: give two or more different varied keys, "
+                             f"e.g. {example}")  # fmt: skip
+    for k in keys:
+        if k not in normal:
+            raise SweepSpecError(
+                f'{where}.keys: {k} is not a varied parameter with distribution = "normal" '
+                "(only normal parameters can be correlated: give it a [parameters] table with "
+                "mean and sd)"
+            )
+    if method != "random":
+        raise SweepSpecError(
+            f'{where}: correlated parameters need method = "random" (a Sobol design draws '
+            "the parameters independently)"
+        )
+    matrix = spec.get("matrix")
+    n = len(keys)
+    rows = matrix if isinstance(matrix, list) else []
+    if not (len(rows) == n and all(isinstance(r, list) and len(r) == n and all(_num(x) for x in r)
+                                   for r in rows)):  # fmt: skip
+        raise SweepSpecError(f"{where}.matrix: give a {n} x {n} table of numbers (one row per "
+                             f"key, in the order of keys), e.g. {example}")  # fmt: skip
+    import numpy as np
+
+    r = np.asarray(rows, dtype=float)
+    if not np.allclose(np.diag(r), 1.0, rtol=0.0, atol=CORRELATION_TOL):
+        raise SweepSpecError(f"{where}.matrix: its diagonal must be 1 (a correlation matrix)")
+    if not np.allclose(r, r.T, rtol=0.0, atol=CORRELATION_TOL):
+        i, j = np.unravel_index(int(np.argmax(np.abs(r - r.T))), r.shape)
+        raise SweepSpecError(
+            f"{where}.matrix: not symmetric (row {i + 1}, column {j + 1}: {r[i, j]:g} vs "
+            f"{r[j, i]:g}); give the same correlation both ways"
+        )
+    if np.any(np.abs(r) > 1.0 + CORRELATION_TOL) or np.linalg.eigvalsh(r).min() < -CORRELATION_TOL:
+        raise SweepSpecError(
+            f"{where}.matrix: not a correlation matrix (not positive semi-definite, or |r| > 1): "
+            "take it from a fit's covariance (ringqa calibrate's calibration.json)"
+        )
+    return Correlation(tuple(keys), tuple(tuple(float(x) for x in row) for row in rows))
 
 
 def _parameter(origin: str, key: str, spec: Any, keys: Mapping[str, Any]) -> Parameter:

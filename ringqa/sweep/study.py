@@ -18,6 +18,7 @@ scheduler have all been checked):
 from __future__ import annotations
 
 import contextlib
+import os
 import platform
 import signal
 import sys
@@ -31,11 +32,12 @@ import pandas as pd
 
 from ringqa.errors import RingQAError
 from ringqa.outdir import HANDLED_SIGNALS, check_writable, staged_output
+from ringqa.progress import status_line
 from ringqa.provenance import display_path
 from ringqa.sweep.analysis import failure_report, sensitivity, sensitivity_reason, summary
 from ringqa.sweep.execute import auto_batch_size
 from ringqa.sweep.fast import NumericalBound, calibrate, cheap_sample, run_cheap_batch
-from ringqa.sweep.runner import Job, SampleRecord, commission_settings
+from ringqa.sweep.runner import Job, SampleRecord, commission_settings, run_ticking_batch
 from ringqa.sweep.sampling import design, n_runs, salib_problem
 from ringqa.sweep.spec import SweepSpec
 from ringqa.sweep.store import SAMPLES_NAME, SampleStore, StoredSamples, read_samples
@@ -108,7 +110,9 @@ def calibration_indices(n_runs: int, k: int) -> list[int]:
     return sorted({int(np.rint(x)) for x in np.linspace(0, n_runs - 1, k)})
 
 
-def _calibrate(cl, job: Job, table, spec: SweepSpec, nom_rec, nom_cheap, nominal) -> NumericalBound:
+def _calibrate(
+    cl, job: Job, table, spec: SweepSpec, nom_rec, nom_cheap, nominal, progress: bool = False
+) -> NumericalBound:
     """The numerical bound of a calibrated sweep: the nominal run (already run both ways here)
     and ``spec.calibration_samples - 1`` design samples run both ways on the cluster."""
     from ringqa.sweep.execute import one_core
@@ -128,6 +132,16 @@ def _calibrate(cl, job: Job, table, spec: SweepSpec, nom_rec, nom_cheap, nominal
     futures = [
         cl.submit(calibrate_one, job, i, v, pure=False) for i, v in zip(idx, vals, strict=True)
     ]
+    if progress:  # each calibration sample runs the engine twice: its own bar, per sample
+        from distributed import wait
+
+        from ringqa.progress import progress_bar
+
+        with progress_bar(total=len(futures), desc="ringqa sweep: calibrating the numerical "
+                          "check", unit="sample", file=sys.stderr) as bar:  # fmt: skip
+            for fut in futures:
+                wait([fut])
+                bar.update(1)
     results = [nominal_point, *cl.gather(futures)]
     return calibrate(results, len(nom_rec.dwell_ids))
 
@@ -184,6 +198,7 @@ def run_sweep(
             cl = stack.enter_context(connect(scheduler, workers))
         cluster_s = time.perf_counter() - t_cluster
         t0 = time.perf_counter()
+        status_line("ringqa sweep: the nominal run (every parameter at its centre)", progress)
         nom_rec, reference_mm, nom_res = _nominal(job, nominal)
         nominal_s = time.perf_counter() - t0
         cheap = spec.numerics == "calibrated"
@@ -200,6 +215,9 @@ def run_sweep(
         # a local cluster starts after the nominal run warmed the numba cache
         if cl is None and not partial:
             t_cluster = time.perf_counter()
+            n_start = workers or os.cpu_count() or 1
+            status_line(f"ringqa sweep: starting {n_start} worker process(es); each loads the "
+                        "numerical kernels once", progress)  # fmt: skip
             cl = stack.enter_context(connect(None, workers))
             cluster_s = time.perf_counter() - t_cluster
         n_workers = 0 if cl is None else len(cl.scheduler_info().get("workers", {}))
@@ -214,7 +232,8 @@ def run_sweep(
             if cheap:
                 bound = st.numerical_bound()
                 if bound is None and cl is not None:
-                    bound = _calibrate(cl, job, table, spec, nom_rec, nom_cheap, nominal)
+                    bound = _calibrate(cl, job, table, spec, nom_rec, nom_cheap, nominal,
+                                       progress)  # fmt: skip
                     st.set_numerical_bound(bound)
             calibration_s = time.perf_counter() - t_cal
             sample_s = nom_cheap.seconds if cheap else nom_rec.seconds
@@ -240,7 +259,10 @@ def run_sweep(
                                (err, budget_s, ticks),
                                None if ticks is None else (ticks, shown.ticked))  # fmt: skip
                     elif todo:
-                        stream(cl, job, todo, batch_size, on_batch, nominal)
+                        ticks = f"ringqa-sweep-{uuid.uuid4().hex}" if progress else None
+                        stream(cl, job, todo, batch_size, on_batch, nominal, run_ticking_batch,
+                               (ticks,),
+                               None if ticks is None else (ticks, shown.ticked))  # fmt: skip
             finally:
                 bar.close()
             run_s = time.perf_counter() - t_run

@@ -269,3 +269,24 @@ def test_cached_run_with_nan_positions_round_trips():
     back = RunRecord.from_json(line)
     np.testing.assert_array_equal(back.positions_mm, pos)
     assert back.overrides == {"solver.increment_mm": 0.5} and back.times_s == (0.25,)
+
+
+def test_progress_weights_follow_the_run_cost(fake_scene, fake_simulator):
+    """The progress bar's weights (ringqa.accuracy.runs.run_costs): for every default grid run
+    the predicted units are proportional to the fake simulator's solve time (elements x steps,
+    tests/accuracy/conftest.py) within 5 % (the rigid capsule, one element in every run, is
+    the only part that does not scale); reference level k costs 4^k times the finest grid run
+    (element length and increment both 1/4 of the scene's: 16 units), i.e. 64, 256, 1024."""
+    from ringqa.accuracy.grid import dedupe_grid, default_grid
+    from ringqa.accuracy.runs import run_costs
+
+    grid = dedupe_grid(fake_scene, [{}, *default_grid(fake_scene)])
+    costs = run_costs(fake_scene, grid, 3, repeats=1)
+    times = [
+        fake_simulator(scene_with_overrides(fake_scene, ov) if ov else fake_scene).solve_time_s
+        for ov in grid
+    ]
+    ratio = np.asarray(times) / np.asarray(costs[: len(grid)])
+    assert ratio.max() / ratio.min() < 1.05
+    assert costs[len(grid) :] == [64.0, 256.0, 1024.0]
+    assert run_costs(fake_scene, grid, 1, repeats=3)[0] == 3.0  # the scene's own run, 3 repeats

@@ -57,12 +57,28 @@ def test_kernel_label_names_the_effects_of_newton():
     assert kernel_label(Disp(rows), "(int64,)") == "TG-43 dose: rows"
 
 
-def test_warmup_command(capsys):
+def test_warmup_command(capsys, monkeypatch):
     """``ringqa warmup`` runs the commissioning scene of both cable presets commission picks
-    (Flexitron, microSelectron) and says so on stdout."""
+    (Flexitron, microSelectron) and says so on stdout; it also runs commission's cross-check
+    scene once through the flexible engine (whose kernels a first commission would otherwise
+    compile: ~20 s of CPU), and afterwards that engine's Newton kernel has a cached
+    signature."""
+    import ringqa.simulation.flexible as flexible
+    from ringqa.simulation.flexible import kernels
+
+    seen = []
+    real = flexible.run_flexible
+
+    def spy(scene, advances_m, progress=False):
+        seen.append(scene.model.formulation)
+        return real(scene, advances_m, progress)
+
+    monkeypatch.setattr(flexible, "run_flexible", spy)
     assert main(["warmup"]) == 0
     out = capsys.readouterr().out
     assert "flexitron, microselectron cables" in out
+    assert seen == ["flexible"]
+    assert kernels.newton.signatures
 
 
 def test_precompile_leaves_match_the_kernels():

@@ -41,7 +41,7 @@ CHANGED = {
     "simulation.register": "rigid",
     "simulation.stem_mm": 50.0,
     "simulation.whole_channel": True,
-    "simulation.cross_check": True,
+    "simulation.cross_check": False,
     "report.institution": "St Elsewhere, Radiotherapy",
     "report.physicist": "J. Jansen",
     "report.afterloader": "Flexitron #123",
@@ -49,6 +49,9 @@ CHANGED = {
     "report.source_calibration": "cert. 99, 2026-01-05",
     "report.notes": "Ring with new CT markers",
     "report.strict": True,
+    "calibration.command": "ringqa calibrate ring26x60 --measured film.csv --out cal",
+    "calibration.created_utc": "2026-11-28T22:00:00Z",
+    "calibration.calibration_json_sha256": "ab" * 32,
 }
 
 
@@ -70,6 +73,8 @@ def _attr(settings: CommissionSettings, fields, key: str):
     """The CommissionSettings / ReportFields value a key maps to."""
     table, name = key.split(".", 1)
     spec = settings.point_spec
+    if table == "calibration":  # the calibration file's record (named in the report)
+        return (settings.calibration or {}).get(name)
     return {
         "tolerances.position_recommended_mm": settings.position_limits_mm[0],
         "tolerances.position_required_mm": settings.position_limits_mm[1],

@@ -38,6 +38,10 @@ def test_trimming_keeps_positions_and_shifts_arc_lengths():
     assert t.channel.lumen.seg_s[1] == pytest.approx(0.1 - t.dropped_m, abs=1e-12)
     assert t.channel.measured_source == "test path" and t.channel.measured_step_m == 2.5e-3
     assert first_bend_m(t.channel) == pytest.approx(0.060, abs=1e-3)
+    # the same cable advance plus the dropped length reaches the same dwell on the whole channel
+    # (what the numerical check's whole-channel runs rely on, pipeline.simulate.StemCheck)
+    assert t.channel.s_ref_m == pytest.approx(ch.s_ref_m - t.dropped_m, abs=1e-12)
+    assert t.channel.length_m == pytest.approx(ch.length_m - t.dropped_m, abs=1e-6)
 
 
 def test_a_short_stem_is_left_alone():

@@ -230,29 +230,49 @@ def test_import_with_structures_writes_each_channel(pair, tmp_path):
 @pytest.mark.slow
 def test_commission_every_channel_end_to_end(pair, tmp_path):
     """ringqa commission RP --structures RS --lumen-mm 2: the real engine on the three channels
-    (the ovoids' 45 deg, 15 mm bends: no refusal, no stabilised step), channel folders, the
-    combined CSVs with the channel column and channels.json; --channel 2 --channel 3 restricts
-    it to the ovoids."""
+    (the ovoids' 45 deg, 15 mm bends: no refusal, no stabilised step); one report.pdf (front
+    page with the one conclusion, a section per channel, no ring words) and results.json with a
+    section per channel; the combined CSVs with the channel column; --channel 2 --channel 3
+    restricts it to the ovoids."""
     import json
 
     import pandas as pd
 
     from ringqa.cli import main
+    from tests.report.conftest import pdf_pages_text
 
     plan, rs = pair
     out = tmp_path / "all"
     args = ["commission", str(plan), "--structures", str(rs), "--lumen-mm", "2",
-            "--centreline-reference", "--no-pdf", "--quiet"]  # fmt: skip
+            "--centreline-reference", "--quiet"]  # fmt: skip
     assert main([*args, "--out", str(out)]) == 0
-    record = json.loads((out / "channels.json").read_text())
+    record = json.loads((out / "results.json").read_text())
+    assert record["schema"] == "ringqa.commission-channels/2"
     assert [c["channel"] for c in record["channels"]] == ["1", "2", "3"]
+    assert [c["family"] for c in record["channels"]] == ["tandem", "ovoid", "ovoid"]
     assert record["not_simulated"] == []
+    assert record["conclusion"].startswith("3 channels commissioned")
     for c in record["channels"]:
-        res = json.loads((out / c["folder"] / "results.json").read_text())
+        res = c["results"]  # the channel's whole results.json, also in its folder
+        assert res == json.loads((out / c["folder"] / "results.json").read_text())
+        assert "report.pdf" not in res["files"] and "report.html" in res["files"]  # as written
+        assert {f for f in res["files"]} <= {p.name for p in (out / c["folder"]).iterdir()}
         assert res["simulation"]["status"] == 0
         assert res["simulation"]["settings"]["n_stabilised_steps"] == 0
         assert res["numerical_check"]["max_numerical_error_mm"] < 0.1
+        assert c["max_numerical_error_mm"] == res["numerical_check"]["max_numerical_error_mm"]
     assert set(pd.read_csv(out / "summary.csv")["channel"].astype(str)) == {"1", "2", "3"}
+    # ONE report: a front page with the conclusion and every channel's verdicts, then a section
+    # per channel headed with its number and family; no ring words on these channels' pages
+    pages = pdf_pages_text(out / "report.pdf")
+    assert record["conclusion"] in " ".join(pages[0].split())
+    heads = [p.splitlines()[0] for p in pages if p.startswith("Channel ")]
+    assert heads == ["Channel 1 (Tandem): tandem channel (tandem)",
+                     "Channel 2 (Ovoid L): ovoid channel (ovoid)",
+                     "Channel 3 (Ovoid R): ovoid channel (ovoid)"]  # fmt: skip
+    text = " ".join(pages).lower()
+    assert "ring plane" not in text and "ring surface" not in text and "ring axis" not in text
+    assert not list(out.glob("channel-*/report.pdf"))
     out2 = tmp_path / "ovoids"
-    assert main([*args, "--channel", "2", "--channel", "3", "--out", str(out2)]) == 0
+    assert main([*args, "--no-pdf", "--channel", "2", "--channel", "3", "--out", str(out2)]) == 0
     assert set(pd.read_csv(out2 / "dwells.csv")["channel"].astype(str)) == {"2", "3"}

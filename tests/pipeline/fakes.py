@@ -113,6 +113,26 @@ def make_applicator(*, measured_offset_m=0.5e-3, n_measured=30, step=2.5e-3, tan
     )  # fmt: skip
 
 
+def sim_result(status, message, advances_mm, source_pos_m, source_dir=None, **fields):
+    """A REAL :class:`ringqa.simulation.SimResult` of a stand-in engine: the given rows, the
+    per-advance arrays it does not model NaN (tip, forces, arc length, offset) and
+    ``fields`` (``warnings``, ``solve_time_s``, ``n_elements``, ``settings``, ...) as given."""
+    from ringqa.simulation.result import SimResult
+
+    adv = np.asarray(advances_mm, dtype=float).reshape(-1)
+    pos = np.asarray(source_pos_m, dtype=float).reshape(-1, 3)
+    n = pos.shape[0]
+    dirs = np.full((n, 3), np.nan) if source_dir is None else np.asarray(source_dir, float)
+    nan = np.full(n, np.nan)
+    base = {"n_elements": 0, "solve_time_s": 0.0}
+    return SimResult(
+        status=int(status), message=str(message), advances_mm=adv, source_pos_m=pos,
+        source_dir=dirs.reshape(-1, 3), tip_pos_m=np.full((n, 3), np.nan), push_force_n=nan,
+        contact_force_n=np.zeros((n, 0)), newton_iters=np.zeros(n, dtype=np.int64), s_m=nan,
+        offset_m=nan, **{**base, **fields},
+    )  # fmt: skip
+
+
 def fake_scene_factory(r_o=0.45e-3):
     """``scene_for_channel`` of the fake engine: a scene of one cable section of radius r_o."""
 
@@ -189,9 +209,8 @@ def fake_simulator(offset_m=0.3e-3, z_m=0.0, jam_after=None, along_m=0.0, exact=
         status, msg = 0, "ok"
         if jam_after is not None:
             pos, dirs, status, msg = pos[:jam_after], dirs[:jam_after], 1, "push force above 50 N"
-        return SimpleNamespace(status=status, message=msg, advances_mm=adv, source_pos_m=pos,
-                               source_dir=dirs, warnings=warnings, solve_time_s=0.01, n_elements=12,
-                               settings={"fake": True})  # fmt: skip
+        return sim_result(status, msg, adv, pos, dirs, warnings=tuple(warnings), solve_time_s=0.01,
+                          n_elements=12, settings={"fake": True})  # fmt: skip
 
     simulate.calls = calls
     return simulate
@@ -206,16 +225,8 @@ def centreline_simulator(offset_m=0.0):
         adv = np.asarray(advances_mm, dtype=float)
         s = adv * 1e-3
         pos = np.atleast_2d(cl.position(s)) + offset_m * np.atleast_2d(cl.normal(s))
-        return SimpleNamespace(
-            status=0,
-            message="",
-            advances_mm=adv,
-            source_pos_m=pos,
-            source_dir=np.atleast_2d(cl.tangent(s)),
-            warnings=(),
-            solve_time_s=0.0,
-            n_elements=0,
-            settings={"stand_in": True},
+        return sim_result(
+            0, "", adv, pos, np.atleast_2d(cl.tangent(s)), settings={"stand_in": True}
         )
 
     return simulate

@@ -56,9 +56,11 @@ def _sparse_folder(tmp_path, rel_mm, offset_mm=0.4):
 
 def test_sparse_measured_path_commissioned_end_to_end(tmp_path):
     """Film positions 0, 5, 10, 25, 30, 50 mm (no 15, 20, ...): once refused ("the standard
-    plan needs reference positions every 5 mm"); now the plan is built on the centreline every
-    5 mm, the measured points are compared with the simulated path at their own relative
-    positions, and the verdict and notes name them."""
+    plan needs reference positions every 5 mm"); now, with no vendor/library path in the input,
+    the plan is built on the SIMULATED path every 5 mm (its equal times set so that the mean
+    Point A dose of the simulated plan is the 7 Gy prescription; the centreline plan carries
+    the same times), the measured points are compared with the simulated path at their own
+    relative positions, and the verdict, notes and results (measured_points) name them."""
     rel = [0.0, 5.0, 10.0, 25.0, 30.0, 50.0]
     folder = _sparse_folder(tmp_path, rel)
     res = commission(folder, CommissionSettings(cable="flexitron"))
@@ -67,5 +69,103 @@ def test_sparse_measured_path_commissioned_end_to_end(tmp_path):
     notes = " ".join(res.notes)
     assert "a subset of 6 positions (0, 5, 10, 25, 30, 50 mm" in notes
     assert "method film" in notes and "as measured" in notes
-    assert "built on the channel CENTRELINE" in notes
+    assert "built on the SIMULATED source path" in notes
     assert res.reference == "centreline"
+    mp = res.measured_points
+    assert mp["plan_path"] == "simulated" and mp["relative_position_mm"] == rel
+    point_a = res.doses[res.doses["kind"] == "point_a"]
+    sim = point_a[point_a["plan"] == "simulated"]["dose_gy"].mean()
+    cl = point_a[point_a["plan"] == "centreline"]["dose_gy"].mean()
+    assert sim == pytest.approx(7.0, rel=1e-9)
+    assert abs(cl - 7.0) > 1e-3  # the centreline plan keeps the simulated plan's times
+
+
+def _film_subset(
+    tmp_path, every=4, sd=0.3, rows=None, columns="x_mm,y_mm,z_mm,relative_position_mm,sd_mm"
+):
+    """Every ``every``-th position of the example plan's library path as a film file."""
+    from ringqa.datasets import example_plan
+
+    ring = load_input(example_plan()).applicator.channel("ring")
+    pts = np.asarray(ring.measured_path_m) * 1e3
+    rel = np.asarray(ring.measured_relative_positions_m) * 1e3
+    rows = range(0, len(pts), every) if rows is None else rows
+    lines = ["# method = film", columns]
+    for k in rows:
+        x, y, z = pts[k]
+        vals = [f"{x:.4f}", f"{y:.4f}", f"{z:.4f}", f"{rel[k]:g}", f"{sd:g}"]
+        lines.append(",".join(vals[: len(columns.split(","))]))
+    path = tmp_path / "film.csv"
+    path.write_text("\n".join(lines) + "\n")
+    return path, rel[list(rows)]
+
+
+@pytest.mark.slow
+def test_subset_of_an_rt_plan_keeps_the_plan_on_the_library_path(tmp_path):
+    """The example RT Plan with ``measured = film subset`` (every 4th library position, sd
+    0.3 mm): the standard plan and the dwell table stay on the plan's library path, so the
+    dwells and doses are those of the plan alone, cell for cell; the measured points are
+    compared at their own positions (one more verdict), results name the plan's path and the
+    measured positions, and the film file is in the provenance's inputs."""
+    from ringqa.datasets import example_plan
+
+    film, rel = _film_subset(tmp_path)
+    plan = example_plan()
+    dense = commission(plan)
+    sub = commission(plan, CommissionSettings(measured=film))
+    import pandas as pd
+
+    pd.testing.assert_frame_equal(sub.dwells, dense.dwells)
+    pd.testing.assert_frame_equal(sub.doses, dense.doses)
+    assert sub.reference == "measured"
+    assert [v.check for v in sub.verdicts] == [
+        *(v.check for v in dense.verdicts),
+        CHECK_MEASURED_POINTS,
+    ]
+    mp = sub.measured_points
+    assert mp["plan_path"] == "library" and "Oncentra" in mp["plan_source"] + str(sub.notes)
+    assert mp["relative_position_mm"] == pytest.approx(rel.tolist())
+    assert mp["method"] == "film" and mp["sd_mm"] == pytest.approx([0.3] * rel.size)
+    # the measured points ARE library positions: the distances are the library comparison's,
+    # up to the file's 4 decimals (<= 0.9e-4 mm) and the subset's own run stopping at fewer
+    # advances (its load steps differ; measured 4e-5 mm, far inside the 0.03 mm numerical error)
+    d = sub.dwells[sub.dwells["path"] == "simulated"].set_index("relative_position_mm")
+    assert np.allclose(mp["distance_mm"], d.loc[rel, "dist_to_measured_mm"], atol=1e-3)
+    notes = " ".join(sub.notes)
+    assert "built on the input's own dense source path" in notes
+    assert any(str(film) == str(p) or p.endswith("film.csv") for p in sub.provenance.inputs)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        ({"columns": "x_mm,y_mm,z_mm"}, r"film\.csv: relative_position_mm: missing.*add a "
+         r"relative_position_mm column"),
+        ({"rows": [0, 8, 4, 12]}, r"film\.csv.*relative_position_mm"),
+    ],
+)  # fmt: skip
+def test_measured_file_refusals_name_file_field_and_fix(tmp_path, kwargs, match):
+    from ringqa.datasets import example_plan
+    from ringqa.errors import RingQAError
+
+    film, _ = _film_subset(tmp_path, **kwargs)
+    with pytest.raises(RingQAError, match=match):
+        commission(example_plan(), CommissionSettings(measured=film))
+
+
+def test_dense_measured_file_is_the_reference(tmp_path):
+    """``measured = FILE`` holding every library position (a dense path, sd 0.3 mm): it is the
+    reference itself (no subset: no measured-points verdict), and the dwell table is the plan's
+    own up to the file's 4 decimals (<= 0.9e-4 mm per coordinate)."""
+    from ringqa.datasets import example_plan
+
+    film, _rel = _film_subset(tmp_path, every=1)
+    plan = example_plan()
+    dense = commission(plan)
+    own = commission(plan, CommissionSettings(measured=film))
+    assert own.measured_points is None and own.reference == "measured"
+    assert CHECK_MEASURED_POINTS not in [v.check for v in own.verdicts]
+    a = dense.dwells["dist_to_measured_mm"].to_numpy()
+    b = own.dwells["dist_to_measured_mm"].to_numpy()
+    assert np.allclose(a, b, atol=2e-4)
+    assert "film.csv" in " ".join(own.notes)

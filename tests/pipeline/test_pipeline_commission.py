@@ -234,9 +234,10 @@ def test_non_convergence_is_retried_with_a_finer_increment(fakes):
         tried.append(scene.solver.increment_m)
         res = good(scene, advances_mm=advances_mm)
         if scene.solver.increment_m > 0.6e-3 or picky.never:
-            res.status, res.message = -1, "Newton did not converge"
-            res.source_pos_m = res.source_pos_m.copy()
-            res.source_pos_m[-4:] = np.nan
+            pos = res.source_pos_m.copy()
+            pos[-4:] = np.nan
+            res = dataclasses.replace(res, status=-1, message="Newton did not converge",
+                                      source_pos_m=pos)  # fmt: skip
         return res
 
     engine = dataclasses.replace(fakes.engine(picky, factory), scene_with_overrides=with_overrides)

@@ -172,9 +172,9 @@ def test_an_error_that_does_not_shrink_is_a_warning(fakes):
 
     def sim(scene, advances_mm=None, progress=False):
         res = base(scene, advances_mm=advances_mm)
-        res.source_pos_m = res.source_pos_m.copy()
-        res.source_pos_m[:, 2] += 0.2e-3 * (-1) ** len(refined)
-        return res
+        pos = res.source_pos_m.copy()
+        pos[:, 2] += 0.2e-3 * (-1) ** len(refined)
+        return dataclasses.replace(res, source_pos_m=pos)
 
     engine = dataclasses.replace(fakes.engine(sim), refine=flip)
     res = _run(fakes, engine=engine)

@@ -71,3 +71,27 @@ def test_a_name_that_differs_says_so(row):
     names = (tails | flags | {row.results_key or row.field}) - {row.field}
     if names - {"set"}:
         assert row.note, (row.field, names)
+
+
+def test_commission_options_are_made_from_the_settings_table():
+    """Each row of SETTINGS with an option is an option of ringqa commission with the row's
+    help, placeholder and default None (the configuration decides what is not given), and
+    option_keys() maps it back to the row's configuration key: the option is written once, in
+    the table."""
+    import argparse
+
+    from ringqa.cli.commission import add_parser, option_keys
+    from ringqa.pipeline.settings import SETTINGS
+
+    sub = argparse.ArgumentParser().add_subparsers()
+    add_parser(sub)
+    parser = sub.choices["commission"]
+    actions = {a.option_strings[0]: a for a in parser._actions if a.option_strings}
+    rows = [s for s in SETTINGS if s.option]
+    assert len(rows) >= 10
+    for s in rows:
+        action = actions[s.option]
+        assert action.help == (s.help or s.doc) and action.default is None
+        if s.kind != "flag":
+            assert action.metavar == s.metavar
+        assert option_keys()[action.dest] == s.key

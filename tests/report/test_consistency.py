@@ -47,7 +47,7 @@ import pytest
 import ringqa
 from ringqa.cli import main
 from ringqa.datasets import example_plan
-from ringqa.pipeline.numbers import DIST_MM, DOSE_PCT, SIGNED_PCT, fmt, fmt_verdict_value
+from ringqa.pipeline.numbers import DIST_MM, DOSE_GY, DOSE_PCT, SIGNED_PCT, fmt, fmt_verdict_value
 from ringqa.pipeline.verdicts import CHECK_CENTRELINE, CHECK_NUMERICS, CHECK_SIMULATED
 from tests.report.conftest import pdf_pages_text
 
@@ -264,3 +264,65 @@ def test_batch_box_plot_is_the_summary(batch_run):
     for box, tag in ((data[0], "centreline"), (data[1], "sim")):
         assert np.median(box) == pytest.approx(row[f"median_dist_{tag}_registered_mm"], abs=1e-5)
         assert np.max(box) == pytest.approx(row[f"max_dist_{tag}_registered_mm"], abs=1e-5)
+
+
+@pytest.fixture(scope="module")
+def channels_run(tmp_path_factory):
+    """``ringqa commission --example --register plane-height --centreline-reference``: the
+    example's ring (channel 1) AND its tandem (channel 2, compared with its centreline) in one
+    report."""
+    out = tmp_path_factory.mktemp("consistency") / "channels"
+    code = main(["commission", "--example", "--register", "plane-height",
+                 "--centreline-reference", "--out", str(out), "--quiet"])  # fmt: skip
+    assert code == 0
+    return out
+
+
+def test_several_channels_numbers_agree(channels_run, example_run):
+    """One report for two channels: the front page's conclusion is results.json's, its verdict
+    table prints every channel's verdict values (in the verdict's form) and statuses, every
+    verdict text and channel conclusion is in the PDF, each channel's section prints its
+    dose-table cells from doses.csv; the combined CSVs hold each channel folder's rows; the
+    ring channel's numbers are the one-channel example's, digit for digit."""
+    record = json.loads((channels_run / "results.json").read_text())
+    pages = pdf_pages_text(channels_run / "report.pdf")
+    front, text = flat(pages[0]), flat(" ".join(pages))
+    assert [c["channel"] for c in record["channels"]] == ["1", "2"]
+    assert flat(record["conclusion"]) in front
+    read = {"keep_default_na": False, "na_values": [""], "dtype": {"channel": str}}
+    combined = {name: pd.read_csv(channels_run / name, **read)
+                for name in ("dwells.csv", "doses.csv", "summary.csv")}  # fmt: skip
+    for ch in record["channels"]:
+        info = ch["results"]
+        assert info == json.loads((channels_run / ch["folder"] / "results.json").read_text())
+        for v in info["verdicts"]:
+            shown = fmt_verdict_value(v["value"], v["unit"], v["check"])
+            assert f"{v['check']} {shown} {v['status']}" in front, (ch["channel"], v["check"])
+            assert flat(v["text"]) in text, (ch["channel"], v["check"])
+        assert flat(info["conclusion"]) in text
+        for name, table in combined.items():
+            own = pd.read_csv(channels_run / ch["folder"] / name, **read)
+            rows = table[table["channel"] == ch["channel"]].reset_index(drop=True)
+            assert list(table.columns)[-1] == "channel"
+            rows = rows[list(own.columns)]  # a column of the other channel only: left out
+            if name == "doses.csv":
+                own = own[own["channel"] != "all"].reset_index(drop=True)
+            if name == "summary.csv":
+                rows, own = rows.drop(columns="solve_time_s"), own.drop(columns="solve_time_s")
+            pd.testing.assert_frame_equal(  # the same cells (5 and 5.0 alike)
+                rows, own, check_exact=True, check_dtype=False, obj=f"{ch['folder']}/{name}"
+            )
+        doses = combined["doses.csv"]
+        mine = doses[(doses["channel"] == ch["channel"]) & (doses["kind"] != "tps")]
+        registered = info["summary"]["registration"] != "none"
+        for row in mine[mine["plan"].isin(["simulated", "centreline"])].itertuples():
+            if row.plan == info["reference"]:
+                continue  # the reference plan: its doses, no difference
+            raw, reg = fmt(row.diff_pct, SIGNED_PCT), fmt(row.diff_registered_pct, SIGNED_PCT)
+            cell = f"({raw} / {reg} %)" if registered else f"{fmt(row.dose_gy, DOSE_GY)} ({raw} %)"
+            assert cell in text, (ch["channel"], row.plan, row.point, cell)
+    # the ring channel = the one-channel example (the same comparison, the same digits)
+    for name in ("dwells.csv", "doses.csv"):
+        single = pd.read_csv(example_run / name, **read)
+        rows = combined[name][combined[name]["channel"].isin(["1", "all"])].reset_index(drop=True)
+        pd.testing.assert_frame_equal(rows, single, check_exact=True, check_dtype=False, obj=name)

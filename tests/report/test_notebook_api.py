@@ -61,3 +61,18 @@ def test_publish_pdf(fake_result, tmp_path):
     first = " ".join(" ".join(pages[:2]).split())
     assert "Dr. B. Checker" in first and "Ring 3 of the spare set." in first
     assert f"page 1/{len(pages)}" in " ".join(pages[0].split())
+
+
+def test_publish_pdf_reaches_the_report_through_the_named_seam(fake_result, tmp_path, monkeypatch):
+    """The pipeline names the seam (pipeline.result.REPORT_WRITERS) and ringqa.report fills it
+    when imported; with nothing registered publish_pdf says what to import instead of looking a
+    module up by its name."""
+    from ringqa.errors import RingQAError
+    from ringqa.pipeline import result as result_module
+    from ringqa.report import write_pdf
+
+    assert result_module.REPORT_WRITERS["pdf"] is write_pdf
+    monkeypatch.setattr(result_module, "REPORT_WRITERS", {})
+    with pytest.raises(RingQAError, match=r"import ringqa\.report"):
+        fake_result.publish_pdf(tmp_path / "r.pdf")
+    assert not (tmp_path / "r.pdf").exists()

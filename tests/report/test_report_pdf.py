@@ -175,3 +175,28 @@ def test_example_report_titles_not_cut():
     date = info["provenance"]["created_utc"][:10]
     assert_stamped(pages, EXAMPLE_APPLICATOR, software, date, f"input SHA-256 {digest[:12]}")
     assert "library part ID: ring 110350-06" in _flat(pages[0])
+
+
+@pytest.mark.parametrize("fork", [True, False])
+def test_figures_drawn_ahead_give_the_same_pdf(fake_result, tmp_path, monkeypatch, fork):
+    """The positions and deviation figures drawn in a forked process (draw_ahead, the second
+    core) or drawn late in this one give a PDF byte for byte equal to the plain one (reportlab's
+    invariant mode: no time stamp or random id in the file), and the figures are drawn once:
+    three figures in all (in the child when forked: none of the two drawn here again)."""
+    from reportlab import rl_config
+
+    import ringqa.pipeline.plots as plots
+    from ringqa.pipeline.forked import can_fork
+    from ringqa.report.pdf import draw_ahead
+
+    monkeypatch.setattr(rl_config, "invariant", 1)
+    write_pdf(fake_result, tmp_path / "plain.pdf")
+    made = []
+    real = plots.new_figure
+    monkeypatch.setattr(plots, "new_figure", lambda size: made.append(size) or real(size))
+    drawn = draw_ahead(fake_result, fork=fork)
+    forked = drawn.forked
+    assert forked == (fork and can_fork())
+    write_pdf(fake_result, tmp_path / "ahead.pdf", drawn=drawn)
+    assert (tmp_path / "ahead.pdf").read_bytes() == (tmp_path / "plain.pdf").read_bytes()
+    assert len(made) == (1 if forked else 3)  # the dose map here; the other two in the child

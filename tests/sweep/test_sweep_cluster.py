@@ -95,6 +95,24 @@ def test_sweep_through_scheduler_address_resumes_and_is_worker_independent(
     assert record["partial"] is True and record["n_ok"] == 5
 
 
+@pytest.mark.slow
+def test_full_numerics_bar_moves_per_sample(local_cluster, tmp_path, spec_writer, capsys,
+                                            monkeypatch):  # fmt: skip
+    """numerics = "full" with 3 samples in ONE task (batch_size = 3): the bar still says 1/3,
+    2/3 and 3/3 (each sample ticks when it finishes on the worker), not 0/3 until the task is
+    done; the nominal run is announced before it starts."""
+    monkeypatch.setenv("RINGQA_PROGRESS_INTERVAL_S", "0")
+    spec = spec_writer(tmp_path, samples=3)
+    addr = local_cluster.scheduler_address
+    args = ["sweep", str(spec), "--out", str(tmp_path / "out"), "--scheduler", addr,
+            "--set", "numerics=full", "--set", "batch_size=3"]  # fmt: skip
+    assert main(args) == 0
+    err = capsys.readouterr().err
+    assert "ringqa sweep: the nominal run" in err
+    for k in (1, 2, 3):
+        assert f"ringqa sweep: {k}/3 sample" in err, err
+
+
 def test_a_different_spec_does_not_mix_into_finished_samples(
     local_cluster, tmp_path, spec_writer, capsys
 ):

@@ -62,11 +62,21 @@ class FamilyWords:
         The channel ("ring channel").
     span : str
         The part simulated without a measured path ("the circular part of the ring").
+    plane : str
+        The plane across the applicator frame's cranial axis, in which positions are projected
+        and the radial deviation lies (default "transverse plane"; a ring names its own).
+    axis : str
+        The frame's cranial axis through its origin (Point A is lateral of it).
+    origin : str
+        What the frame's origin lies in (Point A's height is above it: "ring channel plane").
     """
 
     title: str
     channel: str
     span: str
+    plane: str = "transverse plane"
+    axis: str = "applicator axis"
+    origin: str = "frame origin"
 
 
 @dataclass(frozen=True, eq=False)

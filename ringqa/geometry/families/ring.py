@@ -58,7 +58,14 @@ def _unit(vec, name: str) -> np.ndarray:
 
 
 #: The report's words for this family.
-WORDS = FamilyWords("ring applicator", "ring channel", "the circular part of the ring")
+WORDS = FamilyWords(
+    "ring applicator",
+    "ring channel",
+    "the circular part of the ring",
+    "ring plane",
+    "ring axis",
+    "ring channel plane",
+)
 
 
 @dataclass(frozen=True)

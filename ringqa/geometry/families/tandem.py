@@ -80,7 +80,14 @@ def tandem_frame(tandem, others=(), left=None, right=None) -> Frame:
 
 
 #: The report's words for this family.
-WORDS = FamilyWords("tandem", "tandem channel", "the distal part of the tandem")
+WORDS = FamilyWords(
+    "tandem",
+    "tandem channel",
+    "the distal part of the tandem",
+    "plane across the tandem axis",
+    "tandem axis",
+    "frame origin",
+)
 
 
 @dataclass(frozen=True)

@@ -9,11 +9,13 @@ friction with the rigid engine's laws; the outputs at the requested advances in 
 the channel by the increment), its own Newton, a failed step cut into halves and then retried with
 a viscous tether to the predictor (the fallback stabilisation, counted and reported).
 
-Supported: quasi-static solver; contact; friction none / Coulomb / Stribeck; gravity; constant
-or stepwise forward motion (pauses cost nothing quasi-statically); jams (push force above
+Supported: quasi-static solver; contact; friction none / Coulomb / Stribeck; gravity; torsion
+(``effects.torsion``: a twist angle per node, GJ on the elements, the friction moment; the driven
+end's twist held, as the rigid engine's); constant or stepwise forward motion (pauses cost
+nothing quasi-statically); jams (push force above
 ``solver.jam_force_n``, or the tip moving less than 10 % of the input over
 ``solver.jam_length_m``). Refused with a :class:`~ringqa.errors.SceneError` naming the key: the
-dynamic solver (inertia), torsion, wall damping, retraction and backward stepping, an always-on
+dynamic solver (inertia), wall damping, retraction and backward stepping, an always-on
 stabilisation, ``outputs.trajectory``.
 """
 
@@ -30,7 +32,7 @@ from ringqa.simulation import _kernels as CK
 from ringqa.simulation.channel import ChannelTable
 from ringqa.simulation.effects.friction import LAWS
 from ringqa.simulation.flexible import kernels as FK
-from ringqa.simulation.flexible.rod import ND, build_rod, contact_samples
+from ringqa.simulation.flexible.rod import build_rod, contact_samples
 from ringqa.simulation.result import (
     STATUS_FAILED,
     STATUS_JAMMED,
@@ -64,9 +66,6 @@ def check_supported(scene) -> None:
                          f"quasi-static only (no inertia); {fix}")  # fmt: skip
     if scene.effects.inertia:
         raise SceneError(f"effects.inertia: not modelled by the flexible engine; {fix}")
-    if scene.effects.torsion:
-        raise SceneError(f"effects.torsion: not modelled by the flexible engine (an isotropic "
-                         f"rod's twist couples only through friction); {fix}")  # fmt: skip
     if scene.effects.wall_damping:
         raise SceneError(f"effects.wall_damping: not modelled by the flexible engine; {fix}")
     m = scene.motion
@@ -111,11 +110,21 @@ class FlexModel:
             )
         self.rod = rod
         rigid = {k for k, sec in enumerate(inst.sections) if sec.rigid}
-        self.rigid_elements = [e for e in range(rod.n_elements) if int(rod.el_section[e]) in rigid]
+        self.rigid_elements = np.asarray(
+            [e for e in range(rod.n_elements) if int(rod.el_section[e]) in rigid], dtype=np.int64
+        )
         nn = rod.n_nodes
         self.n_nodes = nn
-        self.n_all = ND * nn
-        self.n_free = ND * (nn - 1)
+        # coordinates per node and per contact sample: a twist angle each with torsion only (a
+        # scene without it carries no twist unknown at all)
+        self.torsion = bool(scene.effects.torsion)
+        self.nd = nd = FK.ND_TWIST if self.torsion else FK.ND
+        self.ns = ns = 4 if self.torsion else 3
+        if self.torsion and not np.all(rod.el_gj > 0.0):
+            raise SceneError("effects.torsion: every instrument section needs gj_nm2 > 0 (set "
+                             "gj_nm2, or switch torsion off)")  # fmt: skip
+        self.n_all = nd * nn
+        self.n_free = nd * (nn - 1)
         rb_min = float(np.min(tb.seg_rb))
         ro_max = float(np.max(rod.el_ro))
         if ro_max >= rb_min:
@@ -146,11 +155,11 @@ class FlexModel:
         self.samp_w = np.zeros(P)
         self.samp_F = np.zeros(P)
         self.samp_dF = np.zeros(P)
-        self.qs = np.zeros(3 * (P + 1))
-        self.qs_prev = np.zeros(3 * (P + 1))
-        self.qs_start = np.zeros(3 * (P + 1))
-        self.rs = np.zeros(3 * (P + 1))
-        self.Bs = np.zeros((3 * (P + 1), 3 * FK.KL_S + 1))
+        self.qs = np.zeros(ns * (P + 1))
+        self.qs_prev = np.zeros(ns * (P + 1))
+        self.qs_start = np.zeros(ns * (P + 1))
+        self.rs = np.zeros(ns * (P + 1))
+        self.Bs = np.zeros((ns * (P + 1), 2 * (2 * ns - 1) + 1))
         # contact law parameters (the rigid engine's Contact unit reads the same keys)
         self.k_wall = float(c.stiffness_n_m)
         self.transition = -1.0 if c.transition_m is None else float(c.transition_m)
@@ -179,7 +188,8 @@ class FlexModel:
         self.el_w = np.ascontiguousarray(rod.el_mu[:, None] * g[None, :])
         # arrays
         self.r = np.zeros(self.n_all)
-        self.B = np.zeros((self.n_all, 3 * FK.KL + 1))
+        self.B = np.zeros((self.n_all, 2 * (2 * nd - 1) + 1))
+        self.chords = np.zeros(rod.n_elements)
         self.out = np.zeros(3)
         self.f_ext = np.zeros(self.n_all)
         self.counters = np.zeros(3, dtype=np.int64)
@@ -218,10 +228,11 @@ class FlexModel:
         """The rod laid along the (extended) centreline with the source centre at advance u."""
         q = np.zeros(self.n_all)
         sig = self.rod.sigma
+        nd = self.nd
         for k in range(self.n_nodes):
             s = u + self.cft - sig[k]
-            q[ND * k : ND * k + 3] = self.table.point(s)
-            q[ND * k + 3 : ND * k + 6] = -self.table.tangent(s)
+            q[nd * k : nd * k + 3] = self.table.point(s)
+            q[nd * k + 3 : nd * k + 6] = -self.table.tangent(s)
             self.node_s[k] = s
             self.node_s2[k] = s - TANGENT_PROBE_M
         for i in range(self.P):
@@ -231,39 +242,33 @@ class FlexModel:
         return q
 
     def prescribe(self, q: np.ndarray, u: float) -> None:
-        """Clamp the driven proximal node on the approach axis for input advance ``u``."""
+        """Clamp the driven proximal node on the approach axis for input advance ``u`` (its
+        twist, with torsion, stays 0: the afterloader holds the cable's end)."""
         k = self.n_nodes - 1
+        nd = self.nd
         s = u + self.cft - self.rod.sigma[k]
-        q[ND * k : ND * k + 3] = self.table.point(s)
-        q[ND * k + 3 : ND * k + 6] = -self.table.tangent(s)
+        q[nd * k : nd * k + 3] = self.table.point(s)
+        q[nd * k + 3 : nd * k + 6] = -self.table.tangent(s)
 
     def predict(self, q: np.ndarray, du: float, u_new: float) -> None:
         """Predictor (in place): every node and its tangent slid ``du`` along the channel, the
         driven node clamped at ``u_new``, then each element's chord put back to its length before
         the slide, from the driven end towards the tip (a node slid at an offset from the
         centreline into a bend of another curvature changes its chord by ~1e-3, which the axial
-        penalty EA = 1e6 N answers with ~1 kN), and a rigid element's tangents along its chord."""
-        nn = self.n_nodes
-        qv = q.reshape(nn, ND)
-        chords = np.linalg.norm(qv[:-1, :3] - qv[1:, :3], axis=1)
+        penalty EA = 1e6 N answers with ~1 kN), and a rigid element's tangents along its chord (a
+        slid tangent off the chord by 1e-3 bends the stiff capsule with ~50 N). The twist angles
+        are not slid (the Bishop frame does not twist along the channel)."""
+        FK.chord_lengths(q, self.nd, self.chords)
         self.slide(q, du)
         self.prescribe(q, u_new)
-        for e in range(nn - 2, -1, -1):
-            c = qv[e, :3] - qv[e + 1, :3]
-            qv[e, :3] = qv[e + 1, :3] + c * (chords[e] / np.linalg.norm(c))
-        # a rigid element (the capsule) stays straight: its end tangents along its chord (a
-        # slid tangent off the chord by 1e-3 bends the stiff capsule with ~50 N)
-        for e in self.rigid_elements:
-            ch = qv[e, :3] - qv[e + 1, :3]
-            ch /= np.linalg.norm(ch)
-            for k in (e, e + 1):
-                qv[k, 3:] = -ch * np.linalg.norm(qv[k, 3:])
+        FK.restore_chords(q, self.nd, self.chords, self.rigid_elements)
 
     def slide(self, q: np.ndarray, du: float) -> None:
         """Every node and its tangent slid ``du`` along the channel (in place)."""
         nn = self.n_nodes
-        x = np.ascontiguousarray(q.reshape(nn, ND)[:, :3])
-        t = q.reshape(nn, ND)[:, 3:]
+        nd = self.nd
+        x = np.ascontiguousarray(q.reshape(nn, nd)[:, :3])
+        t = q.reshape(nn, nd)[:, 3:6]
         tl = np.linalg.norm(t, axis=1)
         x2 = np.ascontiguousarray(x + TANGENT_PROBE_M * t / tl[:, None])
         out = np.empty_like(x)
@@ -275,9 +280,9 @@ class FlexModel:
         CK.slide_points(h, pos, tan, x2, self.node_s2, du, out2, s_out2)
         tn = out2 - out
         tn *= (tl / np.linalg.norm(tn, axis=1))[:, None]
-        qv = q.reshape(nn, ND)
+        qv = q.reshape(nn, nd)
         qv[:, :3] = out
-        qv[:, 3:] = tn
+        qv[:, 3:6] = tn
         self.node_s[:] = s_out
         self.node_s2[:] = s_out2
         self.samp_s += du
@@ -288,7 +293,8 @@ class FlexModel:
         v_reg = max(self.v_reg, self.slip_min / dt)
         ch = self._chan
         st, it, res = FK.newton(
-            q, self.rod.el_len, self.rod.el_ei, self.el_ea, self.el_w, self.samp_el,
+            q, self.nd, self.ns, self.rod.el_len, self.rod.el_ei, self.rod.el_gj, self.el_ea,
+            self.el_w, self.samp_el,
             self.samp_xi, self.samp_link, self.samp_alpha, self.samp_ro, self.samp_wt, ch.h,
             ch.pos, ch.tan, ch.flat_normal, ch.kappa_min_flat, ch.seg_s, ch.seg_rb, ch.seg_ra,
             ch.seg_flat, self.transition, self.max_frac, self.k_wall, self.contact_on,
@@ -301,14 +307,16 @@ class FlexModel:
         return int(st), int(it), float(res)
 
     def sample_positions(self, q: np.ndarray, out: np.ndarray) -> None:
-        """The contact samples' positions of state ``q`` into ``out`` (flat, 3 (P + 1))."""
-        FK.sample_positions(q, self.rod.el_len, self.samp_el, self.samp_xi, out)
+        """The contact samples' positions (and twists) of state ``q`` into ``out`` (flat,
+        ns (P + 1))."""
+        FK.sample_positions(q, self.nd, self.ns, self.rod.el_len, self.samp_el, self.samp_xi,
+                            out)  # fmt: skip
 
     def push_force(self) -> float:
         """Axial force of the driver (N, > 0 pushing): the residual at the clamped node along
         the entry tangent."""
         k = self.n_nodes - 1
-        return float(np.dot(self.r[ND * k : ND * k + 3], self.table.tan[0]))
+        return float(np.dot(self.r[self.nd * k : self.nd * k + 3], self.table.tan[0]))
 
     def source(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Source centre (3,), unit direction to the tip (3,), tip (3,) of state ``q``."""
@@ -318,7 +326,9 @@ class FlexModel:
         cc = np.empty(4)
         FK.hermite(self.src_xi, L, hh)
         FK.hermite_d1(self.src_xi, L, cc)
-        blk = q[ND * e : ND * e + 12].reshape(4, 3)
+        nd = self.nd
+        blk = np.concatenate((q[nd * e : nd * e + 6], q[nd * (e + 1) : nd * (e + 1) + 6]))
+        blk = blk.reshape(4, 3)
         src = hh @ blk
         d = -(cc @ blk)
         d /= np.linalg.norm(d)
@@ -326,7 +336,13 @@ class FlexModel:
 
     def nodes(self, q: np.ndarray) -> np.ndarray:
         """Node positions (n_nodes, 3)."""
-        return q.reshape(self.n_nodes, ND)[:, :3].copy()
+        return q.reshape(self.n_nodes, self.nd)[:, :3].copy()
+
+    def twist(self, q: np.ndarray) -> np.ndarray:
+        """Twist angle of every node (n_nodes,) (rad; zeros without torsion)."""
+        if not self.torsion:
+            return np.zeros(self.n_nodes)
+        return q.reshape(self.n_nodes, self.nd)[:, 6].copy()
 
 
 def _targets(scene, advances_m: np.ndarray, u_start: float) -> list[tuple[float, list[int]]]:
@@ -476,6 +492,7 @@ def run_flexible(scene, advances_m: np.ndarray, progress: bool = False) -> SimRe
         "solver": asdict(scene.solver),
         "effects": asdict(scene.effects),
         "effects_assembled": ["bending", "axial"]
+        + (["torsion"] if model.torsion else [])
         + (["gravity"] if np.any(model.el_w) else [])
         + (["contact"] if model.contact_on else [])
         + (["friction"] if model.law else []),
@@ -483,7 +500,7 @@ def run_flexible(scene, advances_m: np.ndarray, progress: bool = False) -> SimRe
         "n_nodes": nn,
         "n_contact_samples": model.P,
         "model_length_m": float(model.rod.sigma[-1]),
-        "dof_per_node": ND,
+        "dof_per_node": model.nd,
         "clearance_m": model.clearance,
         "time_step_s": None,
         "total_newton_iters": int(total_iters),
@@ -575,7 +592,7 @@ def _take_step(model: FlexModel, q: np.ndarray, u: float, du: float):
                     model.last_correction = qc - q_plain
                 wf += model.out[2]
                 if tether:
-                    dx = (qc - q_ref).reshape(-1, ND)[:-1, :3]
+                    dx = (qc - q_ref).reshape(-1, model.nd)[:-1, :3]
                     wst += 0.5 * kt * float(np.sum(dx * dx))
             if ok:
                 return True, qc, iters, n_sub, int(tether), wf, wst, failed

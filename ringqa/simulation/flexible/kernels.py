@@ -1,7 +1,10 @@
 """Numba kernels of the flexible engine: Hermite beam elements, contact along them, Newton.
 
-State ``q`` (6 per node): position ``x`` (m) and tangent ``t = dr/dsigma`` (-) of every node,
-node 0 the distal tip. Element e (length L, nodes e and e+1) is the cubic Hermite curve
+State ``q`` (``nd`` per node): position ``x`` (m) and tangent ``t = dr/dsigma`` (-) of every node,
+node 0 the distal tip (``nd = 6``); with torsion (``nd = 7``) also the twist angle ``phi`` (rad) of
+the cross-section about the tangent, measured from the centreline's rotation-minimising (Bishop)
+frame, in which the twist rate is ``phi'`` exactly. Element e (length L, nodes e and e+1) is the
+cubic Hermite curve
 
     r(xi) = h1 x_e + h2 t_e + h3 x_{e+1} + h4 t_{e+1},   xi = (sigma - sigma_e) / L in [0, 1],
     h1 = 1 - 3 xi^2 + 2 xi^3,  h2 = L (xi - 2 xi^2 + xi^3),
@@ -14,12 +17,21 @@ node 0 the distal tip. Element e (length L, nodes e and e+1) is the cubic Hermit
   in q (the Hermite beam matrix EI / L^3 [12, 6L, -12, 6L; ...] on each coordinate);
 - axial ``EA / 2 int (|r'| - 1)^2 dsigma``, the stiff inextensibility penalty, integrated with 2
   Gauss points (reduced: a cubic cannot keep |r'| = 1 everywhere along a circular arc, and full
-  integration would lock the element's bending against the penalty).
+  integration would lock the element's bending against the penalty);
+- torsion (``nd = 7``) ``GJ / 2 int phi'^2 dsigma`` with ``phi`` linear along the element:
+  ``GJ / (2 L) (phi_{e+1} - phi_e)^2``. For an isotropic rod the twist measured from the Bishop
+  frame needs no bending-torsion coupling term (the Bishop frame does not twist, and an
+  isotropic section's bending energy does not depend on the twist); the twist meets the
+  centreline only through friction, as in the rigid engine (:mod:`ringqa.simulation.effects.
+  torsion`): a twist rate ``dphi/dt`` slides the surface at ``r_o dphi/dt (t x n)`` and the
+  friction moment ``r_o (n x F_t) . t`` loads ``phi``.
 
 Contact and friction are the rigid engine's laws, called unchanged on the sample points
 (:mod:`ringqa.simulation.effects.contact`, :mod:`ringqa.simulation.effects.friction`): the samples
-are handed to those kernels as a "chain" of points (link i = sample i, fraction 0), their forces
-and 3x3 stiffnesses read back and spread to the element's DOFs with h1..h4. Everything here sees
+are handed to those kernels as a "chain" of points (link i = sample i, fraction 0; ``ns = 3``
+coordinates, 4 with torsion: the sample's twist, linear between the element's nodes), their forces
+and 3x3 (4x4) stiffnesses read back and spread to the element's DOFs with h1..h4 (the twist with
+``1 - xi, xi``). Everything here sees
 arrays and scalars only (SI).
 """
 
@@ -34,13 +46,33 @@ from ringqa.simulation.band import band_solve
 from ringqa.simulation.effects.contact import SKIP_FAR, apply_normal, contact_geometry
 from ringqa.simulation.effects.friction import friction_kernel
 
-#: half-bandwidth of the Jacobian: an element couples its two nodes' 12 coordinates
-KL = 11
-#: half-bandwidth of the sample points' scratch band (3 coordinates per "node")
+#: coordinates per node without / with torsion (position, tangent; and the twist angle)
+ND = 6
+ND_TWIST = 7
+#: half-bandwidth of the Jacobian: an element couples its two nodes' 2 nd coordinates
+#: (:func:`half_band`: 11, 13 with torsion)
+KL = 2 * ND - 1
+#: half-bandwidth of the sample points' scratch band (3 coordinates per "node", 4 with torsion)
 KL_S = 5
+#: largest change of a twist angle in one Newton step (rad)
+TWIST_STEP = 1.0
 #: Gauss points on [0, 1] (2-point rule) for the axial penalty
 G1 = 0.5 - 0.5 / math.sqrt(3.0)
 G2 = 0.5 + 0.5 / math.sqrt(3.0)
+
+
+@njit(cache=True, error_model="numpy")
+def half_band(nd):
+    """Half-bandwidth of a band matrix whose "nodes" carry ``nd`` coordinates each and couple to
+    their neighbours only (``2 nd - 1``)."""
+    return 2 * nd - 1
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def ix(b0, nd, k, d):
+    """Index of coordinate ``d`` of the element's k-th vector (0 x_e, 1 t_e, 2 x_f, 3 t_f), the
+    element's first node starting at ``b0``."""
+    return b0 + (k >> 1) * nd + (k & 1) * 3 + d
 
 
 @njit(cache=True, error_model="numpy")
@@ -64,13 +96,16 @@ def hermite_d1(xi, L, c):
 
 
 @njit(cache=True, error_model="numpy")
-def elastic(q, el_len, el_ei, el_ea, el_w, r, B, jac):
-    """Add bending, axial penalty and distributed load (gravity) of every element.
+def elastic(q, nd, el_len, el_ei, el_gj, el_ea, el_w, r, B, jac):
+    """Add bending, axial penalty, torsion (``nd = 7``) and distributed load (gravity) of every
+    element.
 
-    ``el_w`` (E, 3): the load per length on each element (N/m; gravity mu g). Returns the
-    stored energy (J; the load's potential included).
+    ``el_w`` (E, 3): the load per length on each element (N/m; gravity mu g); ``el_gj`` (E,):
+    torsional stiffness (N m^2; read only with ``nd = 7``). Returns the stored energy (J; the
+    load's potential included).
     """
     ne = el_len.shape[0]
+    kl = half_band(nd)
     kb = np.empty((4, 4))
     c = np.empty(4)
     a = np.empty(3)
@@ -80,7 +115,7 @@ def elastic(q, el_len, el_ei, el_ea, el_w, r, B, jac):
         L = el_len[e]
         EI = el_ei[e]
         EA = el_ea[e]
-        b0 = 6 * e
+        b0 = nd * e
         L2 = L * L
         L3 = L2 * L
         kb[0, 0] = 12.0 / L3
@@ -96,19 +131,33 @@ def elastic(q, el_len, el_ei, el_ea, el_w, r, B, jac):
         for i in range(4):
             for j in range(i):
                 kb[i, j] = kb[j, i]
-        # bending: per coordinate d, the dofs (x_e[d], t_e[d], x_f[d], t_f[d]) at b0 + 3 k + d
+        # bending: per coordinate d, the dofs (x_e[d], t_e[d], x_f[d], t_f[d]) at ix(b0, nd, k, d)
         for d in range(3):
             for i in range(4):
+                row = ix(b0, nd, i, d)
                 gi = 0.0
                 for j in range(4):
-                    gi += EI * kb[i, j] * q[b0 + 3 * j + d]
-                r[b0 + 3 * i + d] += gi
-                energy += 0.5 * gi * q[b0 + 3 * i + d]
+                    gi += EI * kb[i, j] * q[ix(b0, nd, j, d)]
+                r[row] += gi
+                energy += 0.5 * gi * q[row]
                 if jac:
                     for j in range(4):
-                        row = b0 + 3 * i + d
-                        col = b0 + 3 * j + d
-                        B[row, KL + col - row] += EI * kb[i, j]
+                        col = ix(b0, nd, j, d)
+                        B[row, kl + col - row] += EI * kb[i, j]
+        # torsion: GJ / (2 L) (phi_f - phi_e)^2
+        if nd == ND_TWIST:
+            i0 = b0 + 6
+            i1 = b0 + nd + 6
+            kt = el_gj[e] / L
+            dphi = q[i1] - q[i0]
+            energy += 0.5 * kt * dphi * dphi
+            r[i0] -= kt * dphi
+            r[i1] += kt * dphi
+            if jac:
+                B[i0, kl] += kt
+                B[i1, kl] += kt
+                B[i0, kl + i1 - i0] -= kt
+                B[i1, kl + i0 - i1] -= kt
         # axial penalty, 2 Gauss points of weight L / 2
         for g in range(2):
             xi = G1 if g == 0 else G2
@@ -116,7 +165,7 @@ def elastic(q, el_len, el_ei, el_ea, el_w, r, B, jac):
             for d in range(3):
                 a[d] = 0.0
                 for k in range(4):
-                    a[d] += c[k] * q[b0 + 3 * k + d]
+                    a[d] += c[k] * q[ix(b0, nd, k, d)]
             A = math.sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2])
             eps = A - 1.0
             wg = 0.5 * L
@@ -124,7 +173,7 @@ def elastic(q, el_len, el_ei, el_ea, el_w, r, B, jac):
             f = wg * EA * eps / A
             for k in range(4):
                 for d in range(3):
-                    r[b0 + 3 * k + d] += c[k] * f * a[d]
+                    r[ix(b0, nd, k, d)] += c[k] * f * a[d]
             if jac:
                 for d1 in range(3):
                     for d2 in range(3):
@@ -134,10 +183,10 @@ def elastic(q, el_len, el_ei, el_ea, el_w, r, B, jac):
                     for m in range(4):
                         ckm = c[k] * c[m]
                         for d1 in range(3):
-                            row = b0 + 3 * k + d1
+                            row = ix(b0, nd, k, d1)
                             for d2 in range(3):
-                                col = b0 + 3 * m + d2
-                                B[row, KL + col - row] += ckm * Ha[d1, d2]
+                                col = ix(b0, nd, m, d2)
+                                B[row, kl + col - row] += ckm * Ha[d1, d2]
         # distributed load w (N/m): consistent nodal loads int h_k w dsigma
         wl = el_w[e]
         if wl[0] != 0.0 or wl[1] != 0.0 or wl[2] != 0.0:
@@ -145,54 +194,73 @@ def elastic(q, el_len, el_ei, el_ea, el_w, r, B, jac):
             for k in range(4):
                 for d in range(3):
                     fk = ints[k] * wl[d]
-                    r[b0 + 3 * k + d] -= fk
-                    energy -= fk * q[b0 + 3 * k + d]
+                    r[ix(b0, nd, k, d)] -= fk
+                    energy -= fk * q[ix(b0, nd, k, d)]
     return energy
 
 
 @njit(cache=True, error_model="numpy")
-def sample_positions(q, el_len, samp_el, samp_xi, out):
-    """Positions of the contact samples (P, 3) into ``out`` as a flat (3 (P + 1),) array (the
-    last point a dummy: the contact kernels read a "next node" of every sample)."""
+def sample_positions(q, nd, ns, el_len, samp_el, samp_xi, out):
+    """Positions of the contact samples (P, 3) into ``out`` as a flat (ns (P + 1),) array (the
+    last point a dummy: the contact kernels read a "next node" of every sample). With
+    ``ns = 4`` (torsion) each sample also gets its twist (linear along the element) and the
+    dummy continues the last two samples' line (the friction kernel reads the "link" from a
+    sample to the next as the cable's axis there); with ``ns = 3`` the dummy repeats the last
+    sample."""
     h = np.empty(4)
     for i in range(samp_el.shape[0]):
         e = samp_el[i]
         hermite(samp_xi[i], el_len[e], h)
-        b0 = 6 * e
+        b0 = nd * e
         for d in range(3):
             v = 0.0
             for k in range(4):
-                v += h[k] * q[b0 + 3 * k + d]
-            out[3 * i + d] = v
+                v += h[k] * q[ix(b0, nd, k, d)]
+            out[ns * i + d] = v
+        if ns == 4:
+            xi = samp_xi[i]
+            out[ns * i + 3] = (1.0 - xi) * q[b0 + 6] + xi * q[b0 + nd + 6]
     P = samp_el.shape[0]
-    for d in range(3):
-        out[3 * P + d] = out[3 * (P - 1) + d]
+    for d in range(ns):
+        out[ns * P + d] = out[ns * (P - 1) + d]
+    if ns == 4 and P > 1:
+        for d in range(3):
+            out[ns * P + d] = 2.0 * out[ns * (P - 1) + d] - out[ns * (P - 2) + d]
 
 
 @njit(cache=True, error_model="numpy")
-def scatter_samples(el_len, samp_el, samp_xi, rs, Bs, r, B, jac):
-    """Spread the samples' residuals ``rs`` and 3x3 stiffnesses (the diagonal blocks of the
-    scratch band ``Bs``) to the elements' DOFs with the shape functions h1..h4."""
+def scatter_samples(nd, ns, el_len, samp_el, samp_xi, rs, Bs, r, B, jac):
+    """Spread the samples' residuals ``rs`` and ns x ns stiffnesses (the diagonal blocks of the
+    scratch band ``Bs``) to the elements' DOFs: positions with the shape functions h1..h4, a
+    sample's twist (``ns = 4``) with ``1 - xi, xi`` to its element's two twist angles."""
     h = np.empty(4)
+    w_phi = np.empty(2)
+    kl = half_band(nd)
+    kls = half_band(ns)
     for i in range(samp_el.shape[0]):
-        bi = 3 * i
+        bi = ns * i
         nz = False
-        for d in range(3):
+        for d in range(ns):
             if rs[bi + d] != 0.0:
                 nz = True
         if jac and not nz:
-            for d1 in range(3):
-                for d2 in range(3):
-                    if Bs[bi + d1, KL_S + d2 - d1] != 0.0:
+            for d1 in range(ns):
+                for d2 in range(ns):
+                    if Bs[bi + d1, kls + d2 - d1] != 0.0:
                         nz = True
         if not nz:
             continue
         e = samp_el[i]
         hermite(samp_xi[i], el_len[e], h)
-        b0 = 6 * e
+        b0 = nd * e
         for k in range(4):
             for d in range(3):
-                r[b0 + 3 * k + d] += h[k] * rs[bi + d]
+                r[ix(b0, nd, k, d)] += h[k] * rs[bi + d]
+        if ns == 4:
+            w_phi[0] = 1.0 - samp_xi[i]
+            w_phi[1] = samp_xi[i]
+            for k in range(2):
+                r[b0 + k * nd + 6] += w_phi[k] * rs[bi + 3]
         if jac:
             for k in range(4):
                 for m in range(4):
@@ -200,21 +268,34 @@ def scatter_samples(el_len, samp_el, samp_xi, rs, Bs, r, B, jac):
                     if hkm == 0.0:
                         continue
                     for d1 in range(3):
-                        row = b0 + 3 * k + d1
+                        row = ix(b0, nd, k, d1)
                         for d2 in range(3):
-                            col = b0 + 3 * m + d2
-                            B[row, KL + col - row] += hkm * Bs[bi + d1, KL_S + d2 - d1]
+                            col = ix(b0, nd, m, d2)
+                            B[row, kl + col - row] += hkm * Bs[bi + d1, kls + d2 - d1]
+            if ns == 4:
+                for k in range(2):
+                    pk = b0 + k * nd + 6
+                    for m in range(4):
+                        for d in range(3):
+                            col = ix(b0, nd, m, d)
+                            # twist row, position column; position row, twist column
+                            B[pk, kl + col - pk] += w_phi[k] * h[m] * Bs[bi + 3, kls + d - 3]
+                            B[col, kl + pk - col] += h[m] * w_phi[k] * Bs[bi + d, kls + 3 - d]
+                    for m in range(2):
+                        pm = b0 + m * nd + 6
+                        B[pk, kl + pm - pk] += w_phi[k] * w_phi[m] * Bs[bi + 3, kls]
 
 
 @njit(cache=True, error_model="numpy")
 def assemble(
-    q, el_len, el_ei, el_ea, el_w, samp_el, samp_xi, samp_link, samp_alpha, samp_ro, samp_wt,
-    h, pos, tan, nor, kappa_min_flat, seg_s, seg_rb, seg_ra, seg_flat, transition, max_frac,
-    k_wall, contact_on, samp_s, samp_p, samp_d, samp_n, samp_H, samp_z, samp_w, samp_F, samp_dF,
-    qs, qs_prev, qs_start, rs, Bs, law, mu_s, mu_k, v_brk, v_reg, dt, k_teth, q_ref, f_ext,
-    n_free, r, B, jac, out,
+    q, nd, ns, el_len, el_ei, el_gj, el_ea, el_w, samp_el, samp_xi, samp_link, samp_alpha, samp_ro,
+    samp_wt, h, pos, tan, nor, kappa_min_flat, seg_s, seg_rb, seg_ra, seg_flat, transition,
+    max_frac, k_wall, contact_on, samp_s, samp_p, samp_d, samp_n, samp_H, samp_z, samp_w, samp_F,
+    samp_dF, qs, qs_prev, qs_start, rs, Bs, law, mu_s, mu_k, v_brk, v_reg, dt, k_teth, q_ref,
+    f_ext, n_free, r, B, jac, out,
 ):  # fmt: skip
-    """Residual ``dU/dq - f_ext`` (and, when ``jac``, its banded Jacobian) of the whole rod.
+    """Residual ``dU/dq - f_ext`` (and, when ``jac``, its banded Jacobian) of the whole rod
+    (``nd`` coordinates per node, ``ns`` per contact sample: 6 and 3, with torsion 7 and 4).
 
     ``out`` (3,) receives the stored energy (elastic + gravity potential), the contact energy
     and the friction work over the step (from ``qs_start``). ``law`` 0: no friction. ``k_teth``
@@ -225,7 +306,7 @@ def assemble(
     r[:] = 0.0
     if jac:
         B[:, :] = 0.0
-    out[0] = elastic(q, el_len, el_ei, el_ea, el_w, r, B, jac)
+    out[0] = elastic(q, nd, el_len, el_ei, el_gj, el_ea, el_w, r, B, jac)
     for i in range(f_ext.shape[0]):
         if f_ext[i] != 0.0:
             r[i] -= f_ext[i]
@@ -233,48 +314,53 @@ def assemble(
     out[1] = 0.0
     out[2] = 0.0
     if contact_on:
-        sample_positions(q, el_len, samp_el, samp_xi, qs)
+        sample_positions(q, nd, ns, el_len, samp_el, samp_xi, qs)
+        kls = half_band(ns)
         out[1] = contact_geometry(
-            qs, 3, samp_link, samp_alpha, samp_ro, samp_wt, h, pos, tan, nor, kappa_min_flat,
+            qs, ns, samp_link, samp_alpha, samp_ro, samp_wt, h, pos, tan, nor, kappa_min_flat,
             seg_s, seg_rb, seg_ra, seg_flat, transition, max_frac, k_wall, samp_s, samp_p,
             samp_d, samp_n, samp_H, samp_z, samp_w, samp_F, samp_dF, SKIP_FAR,
         )  # fmt: skip
         rs[:] = 0.0
         if jac:
             Bs[:, :] = 0.0
-        apply_normal(3, KL_S, samp_link, samp_alpha, samp_n, samp_H, samp_F, samp_dF, rs, Bs, jac)
+        apply_normal(ns, kls, samp_link, samp_alpha, samp_n, samp_H, samp_F, samp_dF, rs, Bs,
+                     jac)  # fmt: skip
         if law != 0:
             out[2] = friction_kernel(
-                qs, qs_prev, qs_start, 3, KL_S, samp_link, samp_alpha, samp_ro, samp_p, samp_n,
-                samp_H, samp_F, samp_dF, law, mu_s, mu_k, v_brk, v_reg, dt, False, rs, Bs, jac,
+                qs, qs_prev, qs_start, ns, kls, samp_link, samp_alpha, samp_ro, samp_p, samp_n,
+                samp_H, samp_F, samp_dF, law, mu_s, mu_k, v_brk, v_reg, dt, ns == 4, rs, Bs, jac,
             )  # fmt: skip
-        scatter_samples(el_len, samp_el, samp_xi, rs, Bs, r, B, jac)
+        scatter_samples(nd, ns, el_len, samp_el, samp_xi, rs, Bs, r, B, jac)
     if k_teth > 0.0:
-        nn = q.shape[0] // 6
+        nn = q.shape[0] // nd
+        kl = half_band(nd)
         for k in range(nn - 1):
             for d in range(3):
-                i = 6 * k + d
+                i = nd * k + d
                 if i < n_free:
                     r[i] += k_teth * (q[i] - q_ref[i])
                     if jac:
-                        B[i, KL] += k_teth
+                        B[i, kl] += k_teth
 
 
 @njit(cache=True, error_model="numpy")
-def _merit(r, n_free, tan_scale):
+def _merit(r, nd, n_free, tan_scale):
     m = 0.0
     for i in range(n_free):
-        v = r[i] * (tan_scale if (i % 6) >= 3 else 1.0)
+        v = r[i] * (tan_scale if (i % nd) >= 3 else 1.0)
         m += v * v
     return m
 
 
 @njit(cache=True, error_model="numpy")
-def _converged(r, n_free, tol_f, tol_m):
+def _converged(r, nd, n_free, tol_f, tol_m):
+    """Position residuals (N) within ``tol_f``, tangent and twist residuals (N m) within
+    ``tol_m``."""
     worst = 0.0
     for i in range(n_free):
         v = abs(r[i])
-        if (i % 6) >= 3:
+        if (i % nd) >= 3:
             if v > tol_m:
                 return False, v / tol_m * tol_f
         elif v > tol_f:
@@ -285,7 +371,7 @@ def _converged(r, n_free, tol_f, tol_m):
 
 
 @njit(cache=True, error_model="numpy")
-def project_strains(q0, q, el_len, n_free, l_ref, M, lam):
+def project_strains(q0, q, nd, el_len, n_free, l_ref, M, lam):
     """Second-order correction of a Newton update ``q0 -> q`` (in place on ``q``): the smallest
     change (positions in m, tangents weighted by ``l_ref``) that gives every Gauss point's axial
     strain its LINEARISED value ``eps(q0) + deps/dq (q - q0)`` (one Gauss-Newton step on the
@@ -306,22 +392,23 @@ def project_strains(q0, q, el_len, n_free, l_ref, M, lam):
     cc = np.empty((m, 4))
     M[:, :] = 0.0
     w_t = 1.0 / (l_ref * l_ref)  # inverse weight of a tangent block
-    nfb = (n_free // 6) * 2  # free 3-blocks: x and t of every free node
+    nfb = (n_free // nd) * 2  # free 3-blocks: x and t of every free node
     for e in range(ne):
         L = el_len[e]
-        b0 = 6 * e
+        b0 = nd * e
         for g in range(2):
             i = 2 * e + g
             hermite_d1(G1 if g == 0 else G2, L, c)
             a00 = a01 = a02 = 0.0
             a0 = a1 = a2 = 0.0
             for k in range(4):
-                a00 += c[k] * q0[b0 + 3 * k]
-                a01 += c[k] * q0[b0 + 3 * k + 1]
-                a02 += c[k] * q0[b0 + 3 * k + 2]
-                a0 += c[k] * q[b0 + 3 * k]
-                a1 += c[k] * q[b0 + 3 * k + 1]
-                a2 += c[k] * q[b0 + 3 * k + 2]
+                bk = ix(b0, nd, k, 0)
+                a00 += c[k] * q0[bk]
+                a01 += c[k] * q0[bk + 1]
+                a02 += c[k] * q0[bk + 2]
+                a0 += c[k] * q[bk]
+                a1 += c[k] * q[bk + 1]
+                a2 += c[k] * q[bk + 2]
             A0 = math.sqrt(a00 * a00 + a01 * a01 + a02 * a02)
             A1 = math.sqrt(a0 * a0 + a1 * a1 + a2 * a2)
             lin = A0 + (a00 * (a0 - a00) + a01 * (a1 - a01) + a02 * (a2 - a02)) / A0
@@ -356,7 +443,7 @@ def project_strains(q0, q, el_len, n_free, l_ref, M, lam):
             if blk >= nfb:
                 continue
             wi = w_t if (k % 2) == 1 else 1.0
-            base = 6 * e + 3 * k
+            base = ix(nd * e, nd, k, 0)
             for d in range(3):
                 q[base + d] -= wi * cc[i, k] * lam[i] * ah[i, d]
 
@@ -370,24 +457,25 @@ WATCHDOG = 8
 
 @njit(cache=True, error_model="numpy")
 def newton(
-    q, el_len, el_ei, el_ea, el_w, samp_el, samp_xi, samp_link, samp_alpha, samp_ro, samp_wt,
-    h, pos, tan, nor, kappa_min_flat, seg_s, seg_rb, seg_ra, seg_flat, transition, max_frac,
-    k_wall, contact_on, samp_s, samp_p, samp_d, samp_n, samp_H, samp_z, samp_w, samp_F, samp_dF,
-    qs, qs_prev, qs_start, rs, Bs, law, mu_s, mu_k, v_brk, v_reg, dt, k_teth, q_ref, f_ext,
-    n_free, r, B, out, tol_f, tol_m, max_iter, max_step, tan_scale, counters,
+    q, nd, ns, el_len, el_ei, el_gj, el_ea, el_w, samp_el, samp_xi, samp_link, samp_alpha, samp_ro,
+    samp_wt, h, pos, tan, nor, kappa_min_flat, seg_s, seg_rb, seg_ra, seg_flat, transition,
+    max_frac, k_wall, contact_on, samp_s, samp_p, samp_d, samp_n, samp_H, samp_z, samp_w, samp_F,
+    samp_dF, qs, qs_prev, qs_start, rs, Bs, law, mu_s, mu_k, v_brk, v_reg, dt, k_teth, q_ref,
+    f_ext, n_free, r, B, out, tol_f, tol_m, max_iter, max_step, tan_scale, counters,
 ):  # fmt: skip
     """Newton with a watchdog (in place on ``q``).
 
-    Full Newton steps, each limited to ``max_step`` (m) on the positions and 0.25 on the
-    tangents. A full step may raise the merit (the scaled |r|^2) for up to :data:`WATCHDOG`
-    steps in a row: bending a cubic element changes its arc length at second order, which a
-    Newton step cannot see, so a step that is right to first order stretches the elements and
-    the stiff axial penalty answers with forces far above the bending forces; the next step
-    removes that (the Maratos effect of penalty methods: a monotone line search would cut every
-    such step). If the merit is still above the best state's after the watchdog's steps, the
-    iteration returns to the best state and takes an Armijo line-search step from it. Converged
-    when every position residual is <= ``tol_f`` (N) and every tangent residual <= ``tol_m``
-    (N m). ``counters``: iterations, assemblies, halvings (added to).
+    Full Newton steps, each limited to ``max_step`` (m) on the positions, 0.25 on the tangents
+    and :data:`TWIST_STEP` on the twist angles (``nd = 7``). A full step may raise the merit
+    (the scaled |r|^2) for up to :data:`WATCHDOG` steps in a row: bending a cubic element
+    changes its arc length at second order, which a Newton step cannot see, so a step that is
+    right to first order stretches the elements and the stiff axial penalty answers with forces
+    far above the bending forces; the next step removes that (the Maratos effect of penalty
+    methods: a monotone line search would cut every such step). If the merit is still above the
+    best state's after the watchdog's steps, the iteration returns to the best state and takes
+    an Armijo line-search step from it. Converged when every position residual is <= ``tol_f``
+    (N) and every tangent (and twist) residual <= ``tol_m`` (N m). ``counters``: iterations,
+    assemblies, halvings (added to).
 
     Returns
     -------
@@ -402,42 +490,44 @@ def newton(
     q_best = q.copy()
     Pm = np.empty((2 * el_len.shape[0], 10))
     lam = np.empty(2 * el_len.shape[0])
-    assemble(q, el_len, el_ei, el_ea, el_w, samp_el, samp_xi, samp_link, samp_alpha, samp_ro,
-             samp_wt, h, pos, tan, nor, kappa_min_flat, seg_s, seg_rb, seg_ra, seg_flat,
+    assemble(q, nd, ns, el_len, el_ei, el_gj, el_ea, el_w, samp_el, samp_xi, samp_link, samp_alpha,
+             samp_ro, samp_wt, h, pos, tan, nor, kappa_min_flat, seg_s, seg_rb, seg_ra, seg_flat,
              transition, max_frac, k_wall, contact_on, samp_s, samp_p, samp_d, samp_n, samp_H,
              samp_z, samp_w, samp_F, samp_dF, qs, qs_prev, qs_start, rs, Bs, law, mu_s, mu_k,
              v_brk, v_reg, dt, k_teth, q_ref, f_ext, n_free, r, B, True, out)  # fmt: skip
     counters[1] += 1
-    merit = _merit(r, n_free, tan_scale)
+    merit = _merit(r, nd, n_free, tan_scale)
+    kl = half_band(nd)
     best = merit
     since_best = 0
     watch = 0
     res = 0.0
     for it in range(max_iter):
-        ok, res = _converged(r, n_free, tol_f, tol_m)
+        ok, res = _converged(r, nd, n_free, tol_f, tol_m)
         if ok:
             return 0, it, res
         if watch >= WATCHDOG:
             # back to the best state, then a line-search step from it
             q[:] = q_best
-            assemble(q, el_len, el_ei, el_ea, el_w, samp_el, samp_xi, samp_link, samp_alpha,
-                     samp_ro, samp_wt, h, pos, tan, nor, kappa_min_flat, seg_s, seg_rb, seg_ra,
-                     seg_flat, transition, max_frac, k_wall, contact_on, samp_s, samp_p, samp_d,
-                     samp_n, samp_H, samp_z, samp_w, samp_F, samp_dF, qs, qs_prev, qs_start, rs,
-                     Bs, law, mu_s, mu_k, v_brk, v_reg, dt, k_teth, q_ref, f_ext, n_free, r, B,
-                     True, out)  # fmt: skip
+            assemble(q, nd, ns, el_len, el_ei, el_gj, el_ea, el_w, samp_el, samp_xi, samp_link,
+                     samp_alpha, samp_ro, samp_wt, h, pos, tan, nor, kappa_min_flat, seg_s, seg_rb,
+                     seg_ra, seg_flat, transition, max_frac, k_wall, contact_on, samp_s, samp_p,
+                     samp_d, samp_n, samp_H, samp_z, samp_w, samp_F, samp_dF, qs, qs_prev,
+                     qs_start, rs, Bs, law, mu_s, mu_k, v_brk, v_reg, dt, k_teth, q_ref, f_ext,
+                     n_free, r, B, True, out)  # fmt: skip
             counters[1] += 1
             merit = best
         counters[0] += 1
         Bw[:, :] = B
         for i in range(n_free):
             rhs[i] = -r[i]
-        if not band_solve(Bw, KL, rhs, n_free):
+        if not band_solve(Bw, kl, rhs, n_free):
             return 6, it, res
         # trust region
         sc = 1.0
         for i in range(n_free):
-            lim = TANGENT_STEP if (i % 6) >= 3 else max_step
+            c6 = i % nd
+            lim = max_step if c6 < 3 else (TANGENT_STEP if c6 < 6 else TWIST_STEP)
             v = abs(rhs[i])
             if v * sc > lim:
                 sc = lim / v
@@ -448,15 +538,15 @@ def newton(
         for _ls in range(9 if searching else 1):
             for i in range(n_free):
                 q[i] = q0[i] + alpha * rhs[i]
-            project_strains(q0, q, el_len, n_free, 1.0 / tan_scale, Pm, lam)
-            assemble(q, el_len, el_ei, el_ea, el_w, samp_el, samp_xi, samp_link, samp_alpha,
-                     samp_ro, samp_wt, h, pos, tan, nor, kappa_min_flat, seg_s, seg_rb, seg_ra,
-                     seg_flat, transition, max_frac, k_wall, contact_on, samp_s, samp_p, samp_d,
-                     samp_n, samp_H, samp_z, samp_w, samp_F, samp_dF, qs, qs_prev, qs_start, rs,
-                     Bs, law, mu_s, mu_k, v_brk, v_reg, dt, k_teth, q_ref, f_ext, n_free, r, B,
-                     True, out)  # fmt: skip
+            project_strains(q0, q, nd, el_len, n_free, 1.0 / tan_scale, Pm, lam)
+            assemble(q, nd, ns, el_len, el_ei, el_gj, el_ea, el_w, samp_el, samp_xi, samp_link,
+                     samp_alpha, samp_ro, samp_wt, h, pos, tan, nor, kappa_min_flat, seg_s, seg_rb,
+                     seg_ra, seg_flat, transition, max_frac, k_wall, contact_on, samp_s, samp_p,
+                     samp_d, samp_n, samp_H, samp_z, samp_w, samp_F, samp_dF, qs, qs_prev,
+                     qs_start, rs, Bs, law, mu_s, mu_k, v_brk, v_reg, dt, k_teth, q_ref, f_ext,
+                     n_free, r, B, True, out)  # fmt: skip
             counters[1] += 1
-            m_new = _merit(r, n_free, tan_scale)
+            m_new = _merit(r, nd, n_free, tan_scale)
             if not searching or m_new <= (1.0 - 1e-4 * alpha) * merit:
                 accepted = True
                 merit = m_new
@@ -464,7 +554,7 @@ def newton(
             alpha *= 0.5
             counters[2] += 1
         if not accepted:
-            ok, res = _converged(r, n_free, tol_f, tol_m)
+            ok, res = _converged(r, nd, n_free, tol_f, tol_m)
             if ok:
                 return 0, it + 1, res
             return 4, it + 1, res
@@ -481,7 +571,7 @@ def newton(
             since_best += 1
         if since_best >= 20:
             return 5, it + 1, res
-    ok, res = _converged(r, n_free, tol_f, tol_m)
+    ok, res = _converged(r, nd, n_free, tol_f, tol_m)
     return (0 if ok else 3), max_iter, res
 
 
@@ -493,3 +583,45 @@ def lump_forces(samp_el, samp_xi, samp_F, out):
         e = samp_el[i]
         out[e] += (1.0 - samp_xi[i]) * samp_F[i]
         out[e + 1] += samp_xi[i] * samp_F[i]
+
+
+@njit(cache=True, error_model="numpy")
+def chord_lengths(q, nd, out):
+    """Each element's chord |x_e - x_{e+1}| (m) into ``out`` (E,)."""
+    for e in range(out.shape[0]):
+        acc = 0.0
+        for d in range(3):
+            v = q[nd * e + d] - q[nd * (e + 1) + d]
+            acc += v * v
+        out[e] = math.sqrt(acc)
+
+
+@njit(cache=True, error_model="numpy")
+def restore_chords(q, nd, chords, rigid_el):
+    """The predictor's repair (in place): each element's chord put back to ``chords`` from the
+    driven end towards the tip (node e moved along x_e - x_{e+1}), then the tangents of each
+    element in ``rigid_el`` along its chord (their lengths kept)."""
+    ne = chords.shape[0]
+    for e in range(ne - 1, -1, -1):
+        acc = 0.0
+        for d in range(3):
+            v = q[nd * e + d] - q[nd * (e + 1) + d]
+            acc += v * v
+        f = chords[e] / math.sqrt(acc)
+        for d in range(3):
+            q[nd * e + d] = q[nd * (e + 1) + d] + f * (q[nd * e + d] - q[nd * (e + 1) + d])
+    ch = np.empty(3)
+    for j in range(rigid_el.shape[0]):
+        e = rigid_el[j]
+        acc = 0.0
+        for d in range(3):
+            ch[d] = q[nd * e + d] - q[nd * (e + 1) + d]
+            acc += ch[d] * ch[d]
+        cl = math.sqrt(acc)
+        for k in (e, e + 1):
+            tl = 0.0
+            for d in range(3):
+                tl += q[nd * k + 3 + d] * q[nd * k + 3 + d]
+            tl = math.sqrt(tl)
+            for d in range(3):
+                q[nd * k + 3 + d] = -ch[d] / cl * tl

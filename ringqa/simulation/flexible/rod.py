@@ -21,7 +21,8 @@ from ringqa.errors import SimulationError
 
 #: bending stiffness of a rigid section relative to the stiffest flexible one
 RIGID_EI_FACTOR = 1.0e2
-#: coordinates per node: position (3) and tangent (3)
+#: coordinates per node: position (3) and tangent (3); with torsion also the twist angle
+#: (:data:`ringqa.simulation.flexible.kernels.ND_TWIST`)
 ND = 6
 #: the cable length that carries the scene's wall stiffness with ``contact.stiffness_per_length``
 #: (m; the paper's 3 mm elements, as the rigid engine)
@@ -38,6 +39,8 @@ class FlexRod:
         Element lengths (m), tip first.
     el_ei : (E,) float64
         Bending stiffness of each element (N m^2).
+    el_gj : (E,) float64
+        Torsional stiffness of each element (N m^2; used with ``effects.torsion`` only).
     el_ro : (E,) float64
         Outer radius (m).
     el_mu : (E,) float64
@@ -51,6 +54,7 @@ class FlexRod:
 
     el_len: np.ndarray
     el_ei: np.ndarray
+    el_gj: np.ndarray
     el_ro: np.ndarray
     el_mu: np.ndarray
     el_section: np.ndarray
@@ -85,7 +89,9 @@ def build_rod(instrument, model_length_m: float) -> FlexRod:
     ei_scale = float(getattr(instrument, "ei_scale", 1.0))  # scene key instrument.ei_scale
     flex_ei = [s.ei_nm2 * ei_scale for s in instrument.sections if not s.rigid]
     ei_rigid = RIGID_EI_FACTOR * (max(flex_ei) if flex_ei else 1.0)
-    lens, eis, ros, mus, secs = [], [], [], [], []
+    flex_gj = [s.gj_nm2 for s in instrument.sections if not s.rigid]
+    gj_rigid = RIGID_EI_FACTOR * (max(flex_gj) if flex_gj else 1.0)
+    lens, eis, gjs, ros, mus, secs = [], [], [], [], [], []
     remaining = model_length_m
     for k, sec in enumerate(instrument.sections):
         if remaining <= 1e-12:
@@ -96,6 +102,7 @@ def build_rod(instrument, model_length_m: float) -> FlexRod:
         for _ in range(n):
             lens.append(length / n)
             eis.append(ei_rigid if sec.rigid else sec.ei_nm2 * ei_scale)
+            gjs.append(gj_rigid if sec.rigid else sec.gj_nm2)
             ros.append(sec.r_o_m)
             mus.append(sec.mass_per_length_kg_m)
             secs.append(k)
@@ -107,6 +114,7 @@ def build_rod(instrument, model_length_m: float) -> FlexRod:
     return FlexRod(
         el_len=el_len,
         el_ei=np.asarray(eis, dtype=np.float64),
+        el_gj=np.asarray(gjs, dtype=np.float64),
         el_ro=np.asarray(ros, dtype=np.float64),
         el_mu=np.asarray(mus, dtype=np.float64),
         el_section=np.asarray(secs, dtype=np.int64),

@@ -35,7 +35,6 @@ def test_unknown_formulation_names_the_key():
 @pytest.mark.parametrize(
     "over, key",
     [
-        ({"effects.torsion": True}, "effects.torsion"),
         ({"effects.wall_damping": True}, "effects.wall_damping"),
         ({"solver.kind": "dynamic"}, "solver.kind"),
         ({"solver.stabilisation": 1e-3}, "solver.stabilisation"),
