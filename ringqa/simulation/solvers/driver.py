@@ -18,6 +18,7 @@ step that fails at the smallest increment ends it with status -1. Neither raises
 from __future__ import annotations
 
 import time
+from bisect import bisect_right
 from dataclasses import asdict
 
 import numpy as np
@@ -370,9 +371,14 @@ def _sync_in(fs, ist, hist_u, hist_s, model, schedule, monitor, u, time_s, iters
     ist[M.I_ITERS] = monitor.total_iters
     ist[M.I_STEPS] = monitor.n_steps
     ist[M.I_SINCE] = iters_since
-    n = len(monitor._hist_u)
-    hist_u[:n] = monitor._hist_u
-    hist_s[:n] = monitor._hist_s
+    hu, hs = monitor._hist_u, monitor._hist_s
+    if len(hu) > hist_u.size:  # drop what no later jam test reaches (as the kernel does)
+        k0 = max(bisect_right(hu, u - model.scene.solver.jam_length_m) - 1, 0)
+        hu, hs = hu[k0:], hs[k0:]
+        monitor._hist_u, monitor._hist_s = hu, hs
+    n = len(hu)
+    hist_u[:n] = hu
+    hist_s[:n] = hs
     ist[M.I_HIST] = n
 
 
