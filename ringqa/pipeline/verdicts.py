@@ -159,8 +159,10 @@ def verdict_meanings(verdicts) -> list[str]:
             )
         elif v.check == CHECK_NUMERICS:
             out.append(
-                f"Numerics {v.status}: the simulated positions carry a numerical error of up to "
-                f"{_v(v)}; simulated-vs-reference differences of that size are numerics."
+                f"Numerics {v.status}: the simulated positions carry an error of up to {_v(v)} "
+                "(the numerical settings and the modelling cuts it includes, e.g. the simulated "
+                "stem: see the numerical check); simulated-vs-reference differences of that size "
+                "are within what the simulation can tell apart."
             )
         elif v.check.startswith("dose:"):
             out.append(
