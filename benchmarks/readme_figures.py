@@ -72,7 +72,9 @@ def measure(cold: bool, suite: bool, repeat: int) -> list[tuple[str, str]]:
         rows.append(("the main job again (warm cache)", _spread(warm)))
         rest = statistics.median(warm) - timings["total_s"]
         rows.append((
-            "... of which: input, simulation (2 runs), doses; the rest (imports, report, files)",
+            "... of which: input, simulation (the runs of the numerical check, its whole-channel "
+            "stem check and the flexible cross-check; partly on the second core), doses; the rest "
+            "(imports, report, files)",
             f"{timings['load_s']:.2f} s, {timings['simulation_s']:.2f} s, "
             f"{timings['dose_s']:.2f} s; {rest:.1f} s",
         ))  # fmt: skip
