@@ -258,10 +258,7 @@ def run(
             if not out.ok:
                 monitor.failed(out)
                 status = STATUS_FAILED
-                message = (
-                    f"Newton did not converge at advance {u * 1e3:.3f} mm even with "
-                    f"{out.sub} sub-steps (status {out.status}, residual {out.res:.3g} N)"
-                )
+                message = _not_converged_message(u, out)
                 break
             monitor.accepted(out, du)
             q = out.q
@@ -438,10 +435,7 @@ def _marched(model, schedule, stepper, monitor, recorder, q, v, u, iters_since, 
             if not out.ok:
                 monitor.failed(out)
                 status = STATUS_FAILED
-                message = (
-                    f"Newton did not converge at advance {u * 1e3:.3f} mm even with "
-                    f"{out.sub} sub-steps (status {out.status}, residual {out.res:.3g} N)"
-                )
+                message = _not_converged_message(u, out)
                 break
             monitor.accepted(out, du)
             q[:] = out.q
@@ -605,4 +599,20 @@ def _progress_bar(scene, schedule, u_start: float):
         # the advance is a float: print it in mm to 0.1 (not 77.24000000000001/146.44)
         bar_format="{desc}: {percentage:3.0f}%|{bar}| {n:.1f}/{total:.1f} mm "
         "[{elapsed}<{remaining}]",
+    )
+
+
+def _not_converged_message(u: float, out) -> str:
+    """The run's message when a load step failed even with sub-steps (both loops say the same).
+
+    Parameters
+    ----------
+    u : float
+        The advance the step started from, m.
+    out : ringqa.simulation.solvers.stepper.StepOutcome
+        The failed step (its sub-steps, Newton status and last residual, N).
+    """
+    return (
+        f"Newton did not converge at advance {u * 1e3:.3f} mm even with "
+        f"{out.sub} sub-steps (status {out.status}, residual {out.res:.3g} N)"
     )
