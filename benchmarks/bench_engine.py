@@ -2,6 +2,7 @@
 
     /work/venv/bin/python benchmarks/bench_engine.py [--quick] [--json OUT.json]
     .venv/bin/python benchmarks/bench_engine.py --per-process N [--baseline DIR | --python-loop]
+    .venv/bin/python benchmarks/bench_engine.py --breakdown [SCENE] [--repeats N]
 
 Scene: data/scenes/ring13-push100.toml -- the Flexitron cable (paper Table 1, Stribeck friction,
 quasi-static) pushed 100 mm into a ring of centreline radius 13 mm. Reports:
@@ -15,6 +16,17 @@ quasi-static) pushed 100 mm into a ring of centreline radius 13 mm. Reports:
 4. the same for the dynamic solver (0.5 m/s, inertia, wall damping; dt and elements / 4 refined).
 Times are also printed as multiples (xN) of the shipped scene's time (of the un-refined run for a
 4x-refined one).
+
+``--breakdown`` (default scene ring26-flexitron): where a quasi-static solve's time goes, per
+load step, measured inside the compiled loop: uncached twins of :func:`march` and
+:func:`newton` with a cycle counter (LLVM's ``readcyclecounter``) around the predictor, each
+kind of assembly (the step's first residual + Jacobian, a line-search trial that also builds
+the Jacobian, a residual-only trial, a Jacobian-only build), the banded LU solve and the chain
+update. The twins are the shipped source with timer lines added (each insertion is checked, so
+a changed kernel stops the benchmark instead of timing something else); the run's answers and
+counters are the shipped ones. The counter counts wall cycles, so on a loaded machine the shares
+are what to read: each share times the solve's CPU time (``time.process_time`` over the same
+runs) is the CPU time given.
 """
 
 from __future__ import annotations
@@ -171,6 +183,175 @@ def per_process(n: int, baseline: Path | None = None, python_loop: bool = False)
     return 0
 
 
+def _instrumented_march():
+    """(march, hz): the compiled load-step loop and Newton with cycle counters (``--breakdown``)
+    and the counter's rate (1/s). ``march`` takes one more argument, ``T`` (64,) int64: at slot
+    ``k`` (:data:`_BREAKDOWN`; 1 Newton, 9 the loop) the cycles of the timed calls, at ``16 + k``
+    their number, at ``32 + k`` and ``48 + k`` the same for calls longer than 200 us (the process
+    was descheduled: a loaded machine's time, not the kernel's)."""
+    import inspect
+
+    from llvmlite import ir
+    from numba import njit
+    from numba.core import cgutils
+    from numba.core import types as nt
+    from numba.extending import intrinsic
+
+    import ringqa.simulation.solvers.march as mm
+    import ringqa.simulation.solvers.newton as nm
+
+    @intrinsic
+    def rdtsc(typingctx):
+        def codegen(context, builder, signature, args):
+            fnty = ir.FunctionType(ir.IntType(64), [])
+            fn = cgutils.get_or_insert_function(builder.module, fnty, "llvm.readcyclecounter")
+            return builder.call(fn, [])
+
+        return nt.int64(), codegen
+
+    def patch(src, old, new):
+        if old not in src:
+            raise SystemExit(f"--breakdown: the kernel source changed, update the probe: {old!r}")
+        return src.replace(old, new)
+
+    def timed(src, stmt, slot):
+        """``stmt`` (its first line, stripped; the statement ends at its line's end or at
+        ``  # fmt: skip``) wrapped in the counter for ``slot``."""
+        lines = src.split("\n")
+        hits = [i for i, ln in enumerate(lines) if ln.strip().startswith(stmt)]
+        if len(hits) != 1:
+            raise SystemExit(f"--breakdown: the kernel source changed, update the probe: {stmt!r}")
+        i = hits[0]
+        j = i
+        while lines[j].count("(") + sum(ln.count("(") for ln in lines[i:j]) > sum(
+            ln.count(")") for ln in lines[i : j + 1]
+        ):
+            j += 1
+        pad = lines[i][: len(lines[i]) - len(lines[i].lstrip())]
+        lines[i:j + 1] = [pad + "t_ = rdtsc()", *lines[i : j + 1],
+                          f"{pad}_acc(T, {slot}, rdtsc() - t_)"]  # fmt: skip
+        return "\n".join(lines)
+
+    @njit
+    def cycles():
+        return rdtsc()
+
+    c0, t0 = cycles(), time.perf_counter()
+    time.sleep(0.2)
+    hz = (cycles() - c0) / (time.perf_counter() - t0)
+    limit = int(200e-6 * hz)  # a timed call longer than 200 us was descheduled: kept apart
+
+    @njit
+    def _acc(T, k, d):
+        if d < limit:
+            T[k] += d
+            T[16 + k] += 1
+        else:
+            T[32 + k] += d
+            T[48 + k] += 1
+
+    deco = '@njit(cache=True, error_model="numpy")\n'
+    src = inspect.getsource(nm.newton.py_func).replace(deco, "")
+    src = patch(src, "energies, counters):", "energies, counters, T):")
+    src = timed(src, "assemble(effects, q, st, sw, r, B, yes, yes, energies)", 2)
+    src = timed(src, "assemble(effects, q, st, sw, r_scratch, B, yes, no, e_scratch)", 5)
+    src = patch(src, "if not band_solve(B, kl, rhs, n_free):", "if not ok_:")
+    src = patch(
+        src,
+        "        if not ok_:",
+        "        ok_ = band_solve(B, kl, rhs, n_free)\n        if not ok_:",
+    )
+    src = timed(src, "ok_ = band_solve(B, kl, rhs, n_free)", 6)
+    src = timed(src, "update_chain(q0, rhs, lam, nd, n_nodes, n_free, q)", 7)
+    src = timed(src, "assemble(effects, q, st, sw, r_try, B, trial_jac, yes, energies)", 34)
+    src = patch(src, "_acc(T, 34,", "_acc(T, 3 if trial_jac else 4,")
+    g = dict(nm.__dict__, rdtsc=rdtsc, _acc=_acc)
+    exec(compile(src, nm.__file__, "exec"), g)  # the shipped source, timers added
+    newton_t = njit(error_model="numpy")(g["newton"])
+    msrc = inspect.getsource(mm.march.py_func).replace(deco, "")
+    msrc = patch(msrc, "rec_contact, rec_u,\n):", "rec_contact, rec_u, T,\n):")
+    msrc = timed(msrc, "predict(q, True, du, u_new,", 0)
+    msrc = timed(msrc, "status, it, res = newton(", 1)
+    msrc = patch(msrc, "energies, counters)  # fmt: skip", "energies, counters, T)  # fmt: skip")
+    msrc = patch(msrc, "    n_all = q.shape[0]\n", "    t_m = rdtsc()\n    n_all = q.shape[0]\n")
+    msrc = patch(msrc, "    return code", "    T[9] += rdtsc() - t_m\n    return code")
+    gm = dict(mm.__dict__, rdtsc=rdtsc, newton=newton_t, _acc=_acc)
+    exec(compile(msrc, mm.__file__, "exec"), gm)
+    march_t = njit(error_model="numpy")(gm["march"])
+    return march_t, hz
+
+
+#: ``--breakdown``'s slots: (index in T, label)
+_BREAKDOWN = (
+    (0, "predictor (slide + extrapolation)"),
+    (2, "assembly: step's first residual + Jacobian"),
+    (3, "assembly: line-search trial + Jacobian"),
+    (4, "assembly: residual-only trial"),
+    (5, "assembly: Jacobian only"),
+    (6, "banded LU solve"),
+    (7, "chain update"),
+)
+
+
+def breakdown(name: str, repeats: int) -> int:
+    """Print where ``name``'s quasi-static solve spends its time (module docstring)."""
+    import types
+
+    import ringqa.simulation.solvers.driver as driver
+    import ringqa.simulation.solvers.march as mm
+
+    march_t, hz = _instrumented_march()
+    T = np.zeros(64, dtype=np.int64)
+    shim = types.SimpleNamespace(**{k: getattr(mm, k) for k in dir(mm) if not k.startswith("__")})
+    shim.march = lambda *a: march_t(*a, T)
+    driver.march_kernel = shim
+    driver.time = types.SimpleNamespace(perf_counter=time.process_time)  # solve_time_s: CPU
+    scene = load_scene(ROOT / "data" / "scenes" / f"{name}.toml")
+    simulate(scene)  # compiles the twins
+    T[:] = 0
+    solve = []
+    for _ in range(repeats):
+        r = simulate(scene)
+        solve.append(r.solve_time_s)
+    st = r.stats
+    cpu = statistics.median(solve)
+    print(f"{name}: {st.n_steps} load steps, {st.n_newton_iters} Newton iterations "
+          f"({st.n_newton_iters / st.n_steps:.2f} a step), {st.n_residuals} residual assemblies "
+          f"({st.n_jacobians} with the Jacobian), {st.n_solves} LU solves, {st.n_halvings} "
+          f"line-search halvings; solve {cpu * 1e3:.2f} ms CPU (median of {repeats} runs, "
+          f"the whole solve: initial equilibrium and Python's share included)")  # fmt: skip
+    print("| part | calls a step | us a call | us a load step | share |")
+    print("|---|---|---|---|---|")
+    us = 1e6 / hz
+
+    def mean_us(k):
+        return T[k] / max(T[16 + k], 1) * us
+
+    # the loop without descheduled time: every call at its undisturbed mean
+    parts = [(label, T[16 + k] / repeats, mean_us(k)) for k, label in _BREAKDOWN]
+
+    def every(k):  # cycles of all calls, descheduled ones included
+        return T[k] + T[32 + k]
+
+    # what the timed parts leave of Newton and of the loop (rarely descheduled: small shares)
+    inner = sum(every(k) for k, _ in _BREAKDOWN if k != 0)
+    newton_own = max(every(1) - inner, 0) * us / repeats
+    loop_own = max(every(9) - every(0) - every(1), 0) * us / repeats
+    total = sum(n * u for _, n, u in parts) + newton_own + loop_own
+    for label, n, u in parts:
+        print(
+            f"| {label} | {n / st.n_steps:.2f} | {u:.2f} | {n * u / st.n_steps:.2f} | "
+            f"{100 * n * u / total:.1f} % |"
+        )
+    for label, v in (("Newton's own work (tests, copies)", newton_own),
+                     ("the loop's own work (monitor, records)", loop_own)):  # fmt: skip
+        print(f"| {label} | | | {v / st.n_steps:.2f} | {100 * v / total:.1f} % |")
+    left = int(sum(T[48 + k] for k, _ in _BREAKDOWN))
+    print(f"| load steps (sum) | | | {total / st.n_steps:.2f} | {total / 1e3:.2f} ms a run |")
+    print(f"({left} timed calls longer than 200 us, i.e. descheduled, left out of the means)")
+    return 0
+
+
 def main() -> int:
     ap = argparse.ArgumentParser()
     ap.add_argument("--quick", action="store_true", help="1 repeat, fewer cases")
@@ -187,7 +368,14 @@ def main() -> int:
         "--python-loop", action="store_true",
         help="with --per-process: 'before' = this checkout with the compiled loop off",
     )  # fmt: skip
+    ap.add_argument(
+        "--breakdown", nargs="?", const="ring26-flexitron", metavar="SCENE",
+        help="only: where the quasi-static solve's time goes, per load step (a shipped scene)",
+    )  # fmt: skip
+    ap.add_argument("--repeats", type=int, default=20, help="runs of --breakdown (default 20)")
     args = ap.parse_args()
+    if args.breakdown:
+        return breakdown(args.breakdown, args.repeats)
     if args.per_process:
         return per_process(args.per_process, args.baseline, args.python_loop)
     reps = 1 if args.quick else 5

@@ -253,3 +253,63 @@ def restore_lengths(q, nd, n_nodes, link_len):
         f = link_len[j] / np.sqrt(ll)
         for c in range(3):
             q[a + c] = q[b + c] + (q[a + c] - q[b + c]) * f
+
+
+@njit(cache=True, error_model="numpy")
+def chain_on_centreline(h, pos, tan, s_nodes, nd, q):
+    """Every node ``k`` at the centreline point ``s_nodes[k]`` (m), twist 0 (in place on ``q``).
+
+    The loop :meth:`ringqa.simulation.model.Model.initial_state` ran in Python (one
+    :func:`curve_eval` per node), in one call: the same evaluations, so the same positions.
+    """
+    c = np.empty(3)
+    d1 = np.empty(3)
+    d2 = np.empty(3)
+    for k in range(s_nodes.shape[0]):
+        curve_eval(h, pos, tan, s_nodes[k], c, d1, d2)
+        for a in range(3):
+            q[nd * k + a] = c[a]
+
+
+@njit(cache=True, error_model="numpy")
+def sample_hints(h, pos, tan, q, nd, link, alpha, s_out):
+    """Closest-point arc length of every contact sample of state ``q`` by a global search
+    (:func:`closest_point` with no window) into ``s_out`` (m).
+
+    The sample on link ``j`` at fraction ``a`` sits at ``(1 - a) x_j + a x_{j+1}``, computed as
+    :meth:`ringqa.simulation.model.Model.set_hints` did with numpy (a product and a sum per
+    coordinate, no fused multiply-add), so the hints are the same, bit for bit.
+    """
+    work = np.empty(9)
+    p = np.empty(3)
+    for i in range(link.shape[0]):
+        j = link[i]
+        a = alpha[i]
+        for c in range(3):
+            p[c] = (1 - a) * q[nd * j + c] + a * q[nd * (j + 1) + c]
+        s_out[i] = closest_point(h, pos, tan, p, 0.0, -1.0, work)
+
+
+@njit(cache=True, error_model="numpy")
+def closest_rows(h, pos, tan, pts, s_out, d_out):
+    """:meth:`ringqa.simulation.channel.ChannelTable.closest` (no hint: a global search) of
+    every row of ``pts`` (n, 3) in one call: arc length ``s_out`` and distance ``d_out`` (m).
+
+    The same arithmetic: :func:`closest_point`, the centreline point by :func:`curve_eval` and
+    the distance as ``sqrt(np.dot(e, e))`` (BLAS ddot, as ``np.linalg.norm``).
+    """
+    work = np.empty(9)
+    p = np.empty(3)
+    c = np.empty(3)
+    d1 = np.empty(3)
+    d2 = np.empty(3)
+    e = np.empty(3)
+    for k in range(pts.shape[0]):
+        for a in range(3):
+            p[a] = pts[k, a]
+        s = closest_point(h, pos, tan, p, 0.0, -1.0, work)
+        curve_eval(h, pos, tan, s, c, d1, d2)
+        for a in range(3):
+            e[a] = p[a] - c[a]
+        s_out[k] = s
+        d_out[k] = np.sqrt(np.dot(e, e))

@@ -365,24 +365,16 @@ class Model:
     def initial_state(self, u: float) -> np.ndarray:
         """Chain laid along the (extended) centreline with the source centre at advance ``u``."""
         q = np.zeros(self.n_all)
-        for k in range(self.n_nodes):
-            q[self.nd * k : self.nd * k + 3] = self.table.point(u + self.cft - self.chain.cum[k])
+        tb = self.table
+        K.chain_on_centreline(tb.h, tb.pos, tb.tan, u + self.cft - self._cum, self.nd, q)
         self.set_hints(q)
         return q
 
     def set_hints(self, q: np.ndarray) -> None:
         """Closest-point hints of every contact sample for state ``q`` (a global search)."""
-        work = np.empty(9)
-        nd = self.nd
         sw = self.samples
-        for i in range(sw.link.size):
-            j = sw.link[i]
-            a = sw.alpha[i]
-            p = (1 - a) * q[nd * j : nd * j + 3] + a * q[nd * (j + 1) : nd * (j + 1) + 3]
-            sw.s[i] = K.closest_point(
-                self.table.h, self.table.pos, self.table.tan, np.ascontiguousarray(p), 0.0, -1.0,
-                work,
-            )  # fmt: skip
+        tb = self.table
+        K.sample_hints(tb.h, tb.pos, tb.tan, q, self.nd, sw.link, sw.alpha, sw.s)
 
     def prescribe(self, q: np.ndarray, u: float) -> None:
         """Put the two driven proximal nodes on the approach axis for input advance ``u``."""

@@ -177,15 +177,16 @@ def outside_lumen(table, s_m, offset_m, tip_pos_m, advances_mm) -> OutsideLumen 
     what = ["source centre"] * n
     rows = list(range(n))
     if tip_pos_m is not None:
+        from ringqa.simulation._kernels import closest_rows  # numba: only where tips are checked
+
         tips = np.asarray(tip_pos_m, dtype=float).reshape(-1, 3)
-        ts, td = [], []
-        for k, p in enumerate(tips):
-            if np.isfinite(p).all():
-                a, b = table.closest(p)
-                ts.append(a)
-                td.append(b)
-                what.append("cable tip")
-                rows.append(k)
+        keep = np.flatnonzero(np.isfinite(tips).all(axis=1))
+        # ChannelTable.closest of every finite tip, in one compiled call
+        ts = np.empty(keep.size)
+        td = np.empty(keep.size)
+        closest_rows(table.h, table.pos, table.tan, np.ascontiguousarray(tips[keep]), ts, td)
+        what += ["cable tip"] * keep.size
+        rows += [int(k) for k in keep]
         s = np.r_[s, ts]
         d = np.r_[d, td]
     ok = np.isfinite(s) & np.isfinite(d)

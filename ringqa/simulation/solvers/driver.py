@@ -184,18 +184,29 @@ def warm_kernels(model: Model, schedule=None, monitor=None) -> None:
         np.zeros_like(model.r), np.zeros_like(model.B), np.zeros_like(model.energies),
         np.zeros_like(model.counters),
     )  # fmt: skip
-    model.bind_compiled_newton(q)
+    march = (
+        not model.dynamic
+        and schedule is not None
+        and marchable(model, model.scene, integrator_for(model), False)
+    )
+    if not march:
+        # the Python loop calls Newton and the predictor once a step: bind their compiled
+        # entry points (~0.5 ms of type lookups, once a run). A marched run calls them from
+        # the compiled loop, and Python only for the initial equilibrium and a failed step's
+        # retries: the dispatcher's few microseconds a call cost less than the binding.
+        model.bind_compiled_newton(q)
     predict(
         q.copy(), True, 0.0, model.u_start, model.nd, model.n_nodes, model.chain.link_len,
         model.table.args(), sw.s.copy(), model._cum, model.cft, model._node_sample,
     )  # fmt: skip
-    model.bind_compiled_predict(q)
+    if not march:
+        model.bind_compiled_predict(q)
     max_penetration(sw.z, sw.w)
     restore_lengths(q.copy(), model.nd, model.n_nodes, model.chain.link_len)  # the extrapolation
     lump_to_nodes(sw.link, sw.alpha, sw.F, np.zeros(model.n_nodes))
     if model.dynamic:
         combine(1.0, q, 0.0, q, q.copy())
-    elif schedule is not None and marchable(model, model.scene, integrator_for(model), False):
+    elif march:
         args = _march_args(model, schedule, monitor, q.copy(), np.zeros_like(q),
                            np.zeros(0), 2, 0)[0]  # fmt: skip
         march_kernel.march(*args)  # no waypoints: compiles (or loads) only
