@@ -34,6 +34,7 @@ _B = "b1"
 
 #: (module, kernel, argument types) in the reverse of the order Newton and the driver need them
 LEAVES: tuple[tuple[str, str, tuple[str, ...]], ...] = (
+    ("ringqa.simulation._kernels", "closest_rows", (_D, _F2, _F2, _F2, _F1, _F1)),
     ("ringqa.simulation.solvers.recorder", "lump_to_nodes", (_I1, _F1, _F1, _F1)),
     ("ringqa.simulation.solvers.monitor", "max_penetration", (_F1, _F1)),
     ("ringqa.simulation.solvers.predictor", "restore_lengths", (_F1, _I, _I, _F1)),
@@ -53,6 +54,8 @@ LEAVES: tuple[tuple[str, str, tuple[str, ...]], ...] = (
     ("ringqa.simulation.effects.contact", "contact_geometry",
      (_F1, _I, _I1, _F1, _F1, _F1, _D, _F2, _F2, _F2, _D, _F1, _F1, _F1, _F1, _D, _D, _D, _F1,
       _F2, _F1, _F2, _F3, _F1, _F1, _F1, _F1, _I)),
+    ("ringqa.simulation._kernels", "sample_hints", (_D, _F2, _F2, _F1, _I, _I1, _F1, _F1)),
+    ("ringqa.simulation._kernels", "chain_on_centreline", (_D, _F2, _F2, _F1, _I, _F1)),
 )  # fmt: skip
 
 
