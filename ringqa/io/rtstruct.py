@@ -372,7 +372,9 @@ def even_points_mm(points_mm) -> tuple[np.ndarray, str]:
         length = float(np.linalg.norm(b - a))
         n = max(round(length / h), 1) if length > SPLIT_FRACTION * h else 1
         n_split += n > 1
-        out.append(a + (b - a) * (np.arange(1, n + 1)[:, None] / n))
+        piece = a + (b - a) * (np.arange(1, n + 1)[:, None] / n)
+        piece[-1] = b  # the contour's own point, exactly
+        out.append(piece)
     merged = len(pts) - len(kept)
     if not merged and not n_split:
         return pts.copy(), ""
