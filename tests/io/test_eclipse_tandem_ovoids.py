@@ -167,3 +167,21 @@ def test_target_prescription_dose_still_comes_first():
     got = {p.name: (p.tps_dose_gy, p.dose_tag) for p in plan.points}
     assert got["A1"] == (7.157785, "TargetPrescriptionDose")
     assert got["ICRU"] == (3.510379, "TargetPrescriptionDose")
+
+
+def test_the_example_is_a_phantom_without_identifiers_and_names_its_licence():
+    """Both files: patient name, ID, birth date, sex, station and operators "UNKNOWN" or empty;
+    the structure set is the water phantom's; the folder carries the AGPL-3.0 text and a README
+    naming the source repository and commit."""
+    for path in (PLAN, STRUCTURES):
+        ds = pydicom.dcmread(path)
+        for key in ("PatientName", "PatientID", "PatientBirthDate", "PatientSex", "StationName"):
+            assert str(ds.get(key, "")) in ("UNKNOWN", ""), (path.name, key)
+        assert str(ds.get("OperatorsName", "")) in ("UNKNOWN", "")
+    assert pydicom.dcmread(STRUCTURES).StructureSetLabel == "Water phantom1"
+    readme = (FOLDER / "README.md").read_text(encoding="utf-8")
+    assert (
+        "github.com/livingag/pyTG43" in readme
+        and "a6aa553e9238848575bea702762428374703cc31" in readme
+    )
+    assert "GNU AFFERO GENERAL PUBLIC LICENSE" in (FOLDER / "LICENSE-AGPL-3.0.txt").read_text()
