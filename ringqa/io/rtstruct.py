@@ -81,6 +81,9 @@ OPEN_TYPES = ("OPEN_NONPLANAR", "OPEN_PLANAR")
 MERGE_FRACTION = 0.2
 #: A contour segment longer than this multiple of the median spacing is divided evenly.
 SPLIT_FRACTION = 1.5
+#: The spacing (mm) :func:`even_points_mm` works with is never below this (a contour of mostly
+#: near-duplicate points is not divided into thousands of pieces).
+MIN_EVEN_SPACING_MM = 0.5
 
 
 class RTStructError(InputFileError):
@@ -335,7 +338,8 @@ def oriented_points_mm(points_mm, dwells_mm) -> np.ndarray:
 def even_points_mm(points_mm) -> tuple[np.ndarray, str]:
     """A channel contour's points evened out for an interpolating spline (module docstring, 5).
 
-    With ``h`` the median spacing of consecutive points: a point closer than
+    With ``h`` the median spacing of consecutive points (at least
+    :data:`MIN_EVEN_SPACING_MM`): a point closer than
     :data:`MERGE_FRACTION` ``* h`` to the last kept point is dropped (the last point replaces the
     kept one, so both ends stay), and a segment longer than :data:`SPLIT_FRACTION` ``* h`` is
     divided into ``round(length / h)`` equal straight pieces. The polyline's shape is unchanged
@@ -356,9 +360,7 @@ def even_points_mm(points_mm) -> tuple[np.ndarray, str]:
     pts = np.asarray(points_mm, dtype=float).reshape(-1, 3)
     if len(pts) < 3:
         return pts.copy(), ""
-    h = float(np.median(np.linalg.norm(np.diff(pts, axis=0), axis=1)))
-    if not h > 0.0:
-        return pts.copy(), ""
+    h = max(float(np.median(np.linalg.norm(np.diff(pts, axis=0), axis=1))), MIN_EVEN_SPACING_MM)
     keep = [0]
     for i in range(1, len(pts)):
         if np.linalg.norm(pts[i] - pts[keep[-1]]) < MERGE_FRACTION * h:
@@ -380,7 +382,8 @@ def even_points_mm(points_mm) -> tuple[np.ndarray, str]:
         return pts.copy(), ""
     even = np.concatenate(out)
     note = (
-        f"{len(pts)} points, median spacing {h:.2f} mm: {merged} point(s) closer than "
+        f"{len(pts)} points, median spacing {h:.2f} mm (at least {MIN_EVEN_SPACING_MM:g}): "
+        f"{merged} point(s) closer than "
         f"{MERGE_FRACTION * h:.2f} mm merged, {n_split} straight segment(s) longer than "
         f"{SPLIT_FRACTION * h:.2f} mm divided ({len(even)} points fitted)"
     )

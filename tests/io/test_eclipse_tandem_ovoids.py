@@ -48,6 +48,25 @@ def test_even_points_leaves_an_evenly_spaced_contour_alone():
     assert note == "" and np.array_equal(out, pts)
 
 
+def test_even_points_merges_repeated_points_and_keeps_dense_contours_bounded():
+    """A repeated point (which Centreline.from_points refuses: "points coincide") is merged;
+    a contour whose median spacing is 0.01 mm (z = 0, a cluster 20.00 .. 20.10 every 0.01 mm,
+    40.1) works with h = MIN_EVEN_SPACING_MM = 0.5 mm: the cluster's points closer than 0.1 mm
+    to z = 20 are merged (9; z = 20.10 is not closer), and each 20 mm run is 40 pieces, not
+    2000: 1 + 40 + 1 + 40 = 82 points."""
+    line = np.c_[np.zeros(21), np.zeros(21), np.arange(21.0)]
+    doubled = np.insert(line, 5, line[5], axis=0)
+    out, note = even_points_mm(doubled)
+    assert np.array_equal(out, line) and "1 point(s)" in note
+    with pytest.raises(GeometryError, match="coincide"):
+        Centreline.from_points(mm_to_m(doubled))
+    assert len(Centreline.from_points(mm_to_m(out)).points_m) == 21
+    cluster = np.c_[np.zeros(11), np.zeros(11), 20.0 + 0.01 * np.arange(11)]
+    dense = np.vstack([[[0.0, 0.0, 0.0]], cluster, [[0.0, 0.0, 40.1]]])
+    out, _ = even_points_mm(dense)
+    assert len(out) == 1 + 40 + 1 + 40
+
+
 def test_even_points_merges_and_divides_on_the_polyline():
     """The right ovoid's 14 points (spacings 0.15, 19.33, 1.48 x 9, 20.30, 72.00 mm; median
     h = 1.479 mm): the point 0.15 mm from the tip (< 0.2 h = 0.30 mm) is merged (the tip itself
