@@ -35,7 +35,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from ringqa.errors import RingQAError
-from ringqa.pipeline.settings import SETTINGS, CommissionSettings
+from ringqa.pipeline.settings import DEFAULT_ORIGIN, SETTINGS, CommissionSettings
 from ringqa.pipeline.settings import Setting as ConfigKey
 from ringqa.plan import DosePointSpec
 from ringqa.simulation.scene_keys import KEYS as SCENE_KEYS
@@ -54,7 +54,7 @@ KEYS: tuple[ConfigKey, ...] = SETTINGS
 #: environment variable naming the user configuration file ("" = none)
 ENV_VAR = "RINGQA_CONFIG"
 #: origin of a built-in default
-DEFAULT = "default"
+DEFAULT = DEFAULT_ORIGIN
 #: origin of a command-line option
 COMMAND_LINE = "command line"
 

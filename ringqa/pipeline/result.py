@@ -189,6 +189,10 @@ class RunSettings:
         The cable calibration file whose values the scene uses (``file``, ``sha256``,
         ``command``, ...; :attr:`CommissionSettings.calibration`); in ``as_dict`` only when
         there is one.
+    cross_check : bool or None
+        Whether the flexible-element cross-check was asked for (``simulation.cross_check``;
+        None: not recorded). Not in ``as_dict``: results.json records its outcome
+        (``numerical_check.cross_check``).
     """
 
     source: str
@@ -207,6 +211,7 @@ class RunSettings:
     scene: dict[str, Any]
     centreline_correction: str | None = None
     calibration: dict[str, Any] | None = None
+    cross_check: bool | None = None
 
     def as_dict(self) -> dict:
         """The ``results.json`` ``settings`` section (also the provenance's settings)."""

@@ -22,6 +22,9 @@ from ringqa.pipeline.verdicts import DOSE_ACTION_PCT, POSITION_RECOMMENDED_MM, P
 from ringqa.plan import PLAN_STEP_MM, PRESCRIPTION_GY, DosePointSpec
 from ringqa.units import m_to_mm
 
+#: The origin of a setting left at its built-in default (``settings_origin``; :mod:`ringqa.config`).
+DEFAULT_ORIGIN = "default"
+
 #: Default straight channel simulated before the first bend, mm.
 DEFAULT_STEM_MM = float(m_to_mm(DEFAULT_STEM_M))
 
@@ -288,6 +291,47 @@ class Setting:
     negatable: bool = False
 
     @property
+    def table(self) -> str:
+        """The configuration table the key is in (``simulation`` of ``simulation.register``):
+        the group the report's settings page shows it in."""
+        return self.key.split(".", 1)[0]
+
+    @property
+    def name(self) -> str:
+        """The key's name inside its table (``register`` of ``simulation.register``)."""
+        return self.key.split(".", 1)[1]
+
+    @property
+    def record(self) -> str:
+        """The name under which a run records its value (:meth:`value_in`): the results.json
+        key, else the :class:`CommissionSettings` field, else the key's name (the report
+        fields, :class:`ringqa.report.fields.ReportFields`)."""
+        return self.results_key or self.field or self.name
+
+    def value_in(self, record: Mapping[str, Any]) -> Any:
+        """This setting's value in a run's ``record`` (results.json ``settings`` with the
+        report fields and the settings results.json does not keep), or :data:`NOT_RECORDED`.
+
+        ``record[self.record]`` as it is, with three forms of one record holding several keys:
+        a table (``dose_points``, ``calibration``) holds each key under its name; a list
+        (``position_limits_mm``) holds the keys that share it in the order of :data:`SETTINGS`;
+        a flag recorded under a number (``simulation.whole_channel`` under ``stem_mm``) is on
+        when the number is None.
+        """
+        if self.record not in record:
+            return NOT_RECORDED
+        value = record[self.record]
+        if isinstance(value, Mapping):
+            return value.get(self.name, NOT_RECORDED)
+        if self.kind == "flag" and not isinstance(value, bool):
+            return value is None
+        if isinstance(value, list | tuple):
+            share = [s for s in SETTINGS if s.record == self.record and s.kind != "flag"]
+            if len(share) > 1 and self in share and len(value) == len(share):
+                return value[share.index(self)]
+        return value
+
+    @property
     def dest(self) -> str:
         """The option's argparse destination (``--sk-u`` -> ``sk_u``; ``""``: no option)."""
         return self.option.lstrip("-").replace("-", "_")
@@ -325,6 +369,17 @@ class Setting:
             unit = f" {self.unit}" if self.unit else ""
             return f"out of range: allowed {self.allowed}{unit}"
         return None
+
+
+class _NotRecorded:
+    """The value of a setting the run did not record (:data:`NOT_RECORDED`)."""
+
+    def __repr__(self) -> str:
+        return "NOT_RECORDED"
+
+
+#: What :meth:`Setting.value_in` gives for a setting the run's record does not hold.
+NOT_RECORDED = _NotRecorded()
 
 
 def _num(

@@ -87,8 +87,8 @@ def test_pages_in_order_and_fields_printed(fake_result, fake_pdf):
     doses = pages[where[3]]
     assert "Perez-Calatayud" in doses  # the TG-43 consensus data cited where it is used
     settings = " ".join(pages[where[5] :])
-    for key in ("plan_step_mm", "position_limits_mm", "dose_action_pct", "register"):
-        assert key in settings, key  # result.settings printed as it is
+    for key in ("step_mm", "position_recommended_mm", "dose_action_pct", "register"):
+        assert key in settings, key  # the settings table's rows (tests/report/test_settings_page)
 
 
 def test_blank_fields_are_lines_to_fill(fake_result, tmp_path):
