@@ -427,7 +427,9 @@ class Timings:
 NOTE_CHECKS = ("csv.encoding",)
 
 #: The report's writers of a result, by kind (``"pdf"``: ``writer(result, path, fields=,
-#: notes=, accuracy=, sections=)``; ``"html"``: ``writer(result, path)``). The pipeline names
+#: notes=, accuracy=, sections=)``; ``"html"``: ``writer(result, path)``; ``"figure.positions"``,
+#: ``"figure.deviations"``, ``"figure.doses"``: ``draw(result, title)`` -> a matplotlib Figure,
+#: the ``plot_*`` methods). The pipeline names
 #: this seam and the report layer fills it when imported (:mod:`ringqa.report` registers its
 #: writers), so the data still flows one way and no module is looked up by its name.
 REPORT_WRITERS: dict[str, Any] = {}
@@ -451,9 +453,11 @@ def report_writer(kind: str):
     if writer is None:
         from ringqa.errors import RingQAError
 
+        direct = "" if kind.startswith("figure.") else f", or call ringqa.report.write_{kind}" \
+            "(result, path)"  # fmt: skip
         raise RingQAError(
             f"no {kind} report writer registered: import ringqa.report first (it registers its "
-            f"writers), or call ringqa.report.write_{kind}(result, path)"
+            f"writers){direct}"
         )
     return writer
 
@@ -635,23 +639,17 @@ class CommissioningResult:
         Returns a :class:`matplotlib.figure.Figure` (no pyplot, the backend is left alone);
         ``title`` defaults to the applicator's name.
         """
-        from ringqa.pipeline.plots import positions_figure
-
-        return positions_figure(self, self.applicator if title is None else title)
+        return report_writer("figure.positions")(self, self.applicator if title is None else title)
 
     def plot_deviations(self, title: str | None = None):
         """Deviation per dwell (3D distance, components in mm, angle in deg) as a
         :class:`matplotlib.figure.Figure` (no pyplot)."""
-        from ringqa.pipeline.plots import deviations_figure
-
-        return deviations_figure(self, self.applicator if title is None else title)
+        return report_writer("figure.deviations")(self, self.applicator if title is None else title)
 
     def plot_doses(self, title: str | None = None):
         """The dose points beside the standard plan's dwells (ring plane, orthogonal view) as
         a :class:`matplotlib.figure.Figure` (no pyplot); the doses are in ``to_frames()``."""
-        from ringqa.pipeline.plots import dose_points_figure
-
-        return dose_points_figure(self, self.applicator if title is None else title)
+        return report_writer("figure.doses")(self, self.applicator if title is None else title)
 
     def publish_pdf(self, path, fields=None, notes=None, *, accuracy=None, sections=()):
         """Write the signed report PDF of this result (as ``ringqa commission`` does).

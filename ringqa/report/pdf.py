@@ -57,7 +57,10 @@ from ringqa.pipeline.numbers import (
     SIGNED_PCT,
 )
 from ringqa.pipeline.numbers import fmt as _fmt_number
-from ringqa.pipeline.plots import (
+from ringqa.report import layout
+from ringqa.report.cross_check import cross_check_figure, cross_check_page, failed_cross_check
+from ringqa.report.fields import ReportFields
+from ringqa.report.figures import (
     DEVIATIONS_SIZE,
     FLAG_COLOURS,
     FLAG_NAMES,
@@ -74,9 +77,6 @@ from ringqa.pipeline.plots import (
     reference_flags,
     reference_name,
 )
-from ringqa.report import layout
-from ringqa.report.cross_check import cross_check_figure, cross_check_page, failed_cross_check
-from ringqa.report.fields import ReportFields
 from ringqa.report.layout import badge, grid_table, heading, para
 from ringqa.units import m_to_mm
 
@@ -791,14 +791,14 @@ AHEAD_FIGURES: dict[str, tuple[Callable, tuple[float, float]]] = {
 
 class DrawnAhead:
     """The report figures of one result (:data:`AHEAD_FIGURES`) being drawn in a forked child
-    process (:class:`ringqa.pipeline.forked.ForkedCall`) while this process writes the tables,
+    process (:class:`ringqa.parallel.ForkedCall`) while this process writes the tables,
     report.html and the rest of the PDF; the PDF waits for their pixels only when it draws
     their page. Without a free core (or ``os.fork``) they are drawn here when first needed:
     the pixels, and so the PDF, are the same either way (the child is a copy of this process,
     matplotlib's state included). Give it to :func:`write_pdf` (``drawn=``)."""
 
     def __init__(self, result, fork: bool | None = None) -> None:
-        from ringqa.pipeline.forked import ForkedCall, second_core_free
+        from ringqa.parallel import ForkedCall, second_core_free
 
         self.result = result
         fork = second_core_free() if fork is None else fork

@@ -124,7 +124,7 @@ def test_streams_binary_not_ascii85(fake_pdf):
 def test_only_the_figures_use_matplotlib(fake_result, tmp_path, monkeypatch):
     """Three matplotlib figures (positions, deviations, dose points) make the whole report: the
     text and table pages are reportlab's (issue 16: they cost most of the old 2.4 s)."""
-    import ringqa.pipeline.plots as plots
+    import ringqa.report.figures as plots
 
     made = []
     real = plots.new_figure
@@ -185,8 +185,8 @@ def test_figures_drawn_ahead_give_the_same_pdf(fake_result, tmp_path, monkeypatc
     three figures in all (in the child when forked: none of the two drawn here again)."""
     from reportlab import rl_config
 
-    import ringqa.pipeline.plots as plots
-    from ringqa.pipeline.forked import can_fork
+    import ringqa.report.figures as plots
+    from ringqa.parallel import can_fork
     from ringqa.report.pdf import draw_ahead
 
     monkeypatch.setattr(rl_config, "invariant", 1)

@@ -2,9 +2,11 @@
 
 Used by the PDF report (embedded as images) and by the notebook methods of
 :class:`~ringqa.pipeline.result.CommissioningResult` (``plot_positions``, ``plot_deviations``,
-``plot_doses``). No pyplot: the figures are made with ``matplotlib.figure.Figure`` directly, so
-making one never switches the user's backend nor adds to pyplot's list of open figures (a
-notebook shows a returned Figure as it is; ``fig.savefig(...)`` works without a GUI).
+``plot_doses``, through the pipeline's named seam ``REPORT_WRITERS``, which
+:mod:`ringqa.report` fills when imported). No pyplot: the figures are made with
+``matplotlib.figure.Figure`` directly, so making one never switches the user's backend nor adds
+to pyplot's list of open figures (a notebook shows a returned Figure as it is;
+``fig.savefig(...)`` works without a GUI).
 matplotlib is imported only when a figure is made.
 
 All lengths in mm, angles in degrees, as in the result's tables.
