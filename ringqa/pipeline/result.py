@@ -66,7 +66,8 @@ class Verdict:
 
 @dataclass(frozen=True, eq=False)
 class RingGeometry:
-    """The ring frame and the channels' centrelines, for the report's plots (mm).
+    """The applicator frame (``ring_*``: results.json's names) and the channels' centrelines,
+    for the report's plots (mm).
 
     Attributes
     ----------
@@ -497,7 +498,7 @@ class CommissioningResult:
         Per-applicator numbers (one row of summary.csv).
     verdicts : tuple of Verdict
     geometry : RingGeometry
-        The ring frame and centrelines, for the plots.
+        The applicator frame and centrelines, for the plots.
     simulation : SimulationInfo
         How the engine run went.
     settings : RunSettings

@@ -95,9 +95,10 @@ def _pin_title(ax) -> bool:
     return True
 
 
-def ring_frame(geometry):
-    """Ring frame of a :class:`~ringqa.pipeline.result.RingGeometry`: centre (3,), e_left (3,),
-    e_ant (3,) in-plane, e_cranial (3,)."""
+def frame_axes(geometry):
+    """The applicator frame's axes of a :class:`~ringqa.pipeline.result.RingGeometry` (its
+    family's frame; the ``ring_*`` names are results.json's): centre (3,), e_left (3,), e_ant
+    (3,) across the cranial axis, e_cranial (3,)."""
     c = np.asarray(geometry.ring_centre_mm, dtype=float)
     n = np.asarray(geometry.ring_normal, dtype=float)
     n = n / np.linalg.norm(n)
@@ -108,9 +109,9 @@ def ring_frame(geometry):
 
 
 def project(xyz, geometry):
-    """Points (n, 3) in mm -> (left, in-plane perpendicular, cranial) coordinates in the ring
-    frame, mm (three arrays of n)."""
-    c, e1, e2, n = ring_frame(geometry)
+    """Points (n, 3) in mm -> (left, perpendicular across the cranial axis, cranial)
+    coordinates in the applicator frame, mm (three arrays of n)."""
+    c, e1, e2, n = frame_axes(geometry)
     d = np.asarray(xyz, dtype=float).reshape(-1, 3) - c
     return d @ e1, d @ e2, d @ n
 
