@@ -260,9 +260,9 @@ class EffectiveConfig:
         # a field with one key in the settings table takes its value as it is; the fields of
         # several keys (dose points, the tolerance pair, the stem) are put together below
         rows = [k for k in KEYS if k.field]
-        single = {k.field: v[k.key] for k in rows if [r.field for r in rows].count(k.field) == 1}
+        single = {k.field: bool(v[k.key]) if k.kind == "flag" else v[k.key]
+                  for k in rows if [r.field for r in rows].count(k.field) == 1}  # fmt: skip
         single["source"] = single["source"] or None
-        single["cross_check"] = bool(single["cross_check"])
         try:
             return CommissionSettings(
                 scene_overrides=self.scene_overrides,

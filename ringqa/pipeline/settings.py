@@ -259,13 +259,17 @@ class Setting:
     choices : tuple of str
         Allowed values of a choice.
     option : str
-        The command-line option that overrides it (``""``: none).
+        The command-line option that overrides it (``""``: none). Given as True, it is made
+        from the key's name: ``--`` + the name with ``-`` for ``_`` (``simulation.stem_mm`` ->
+        ``--stem-mm``), so the name is written once.
     doc : str
         What it means (docs table).
     field : str
         The :class:`CommissionSettings` field it sets (``""``: none; the report's fields).
+        Given as True: the key's name (``simulation.register`` -> ``register``).
     results_key : str or None
-        Its key in ``results.json`` ``settings`` (None: not recorded there).
+        Its key in ``results.json`` ``settings`` (None: not recorded there). By default the
+        field's name (None without a field).
     metavar : str
         The option's value placeholder in ``--help`` (``MM``, ``GY``; flags: ``""``).
     help : str
@@ -283,12 +287,21 @@ class Setting:
     high: float = math.inf
     low_open: bool = True
     choices: tuple[str, ...] = ()
-    option: str = ""
-    field: str = ""
-    results_key: str | None = None
+    option: str | bool = ""
+    field: str | bool = ""
+    results_key: str | bool | None = True
     metavar: str = ""
     help: str = ""
     negatable: bool = False
+
+    def __post_init__(self) -> None:
+        name = self.key.split(".", 1)[1]
+        if self.option is True:
+            object.__setattr__(self, "option", "--" + name.replace("_", "-"))
+        if self.field is True:
+            object.__setattr__(self, "field", name)
+        if self.results_key is True:
+            object.__setattr__(self, "results_key", self.field or None)
 
     @property
     def table(self) -> str:
@@ -413,7 +426,6 @@ SETTINGS: tuple[Setting, ...] = (
         "recommended source-position tolerance (PASS up to it)",
         high=10.0,
         field="position_limits_mm",
-        results_key="position_limits_mm",
     ),
     _num(
         "tolerances.position_required_mm",
@@ -422,7 +434,6 @@ SETTINGS: tuple[Setting, ...] = (
         "required source-position tolerance (WARN up to it, FAIL beyond); >= recommended",
         high=10.0,
         field="position_limits_mm",
-        results_key="position_limits_mm",
     ),
     _num(
         "tolerances.dose_action_pct",
@@ -430,9 +441,8 @@ SETTINGS: tuple[Setting, ...] = (
         DOSE_ACTION_PCT,
         "dose-difference action level",
         high=100.0,
-        option="--dose-action-pct",
-        field="dose_action_pct",
-        results_key="dose_action_pct",
+        option=True,
+        field=True,
         metavar="PCT",
         help="dose-difference action level, %% (default 5)",
     ),
@@ -442,9 +452,8 @@ SETTINGS: tuple[Setting, ...] = (
         PRESCRIPTION_GY,
         "mean Point A dose of the standard plan",
         high=50.0,
-        option="--prescription-gy",
-        field="prescription_gy",
-        results_key="prescription_gy",
+        option=True,
+        field=True,
         metavar="GY",
         help="mean Point A dose of the standard plan, Gy (default 7)",
     ),
@@ -455,7 +464,6 @@ SETTINGS: tuple[Setting, ...] = (
         "dwell spacing of the standard plan (a multiple of the reference path's step)",
         high=50.0,
         field="plan_step_mm",
-        results_key="plan_step_mm",
     ),
     _num(
         "plan.tandem_dwells",
@@ -465,8 +473,7 @@ SETTINGS: tuple[Setting, ...] = (
         high=100,
         low_open=False,
         kind="int",
-        field="tandem_dwells",
-        results_key="tandem_dwells",
+        field=True,
     ),
     _num(
         "dose_points.point_a_height_mm",
@@ -514,9 +521,8 @@ SETTINGS: tuple[Setting, ...] = (
         None,
         "text",
         "TG-43 source (flexisource, mhdr-v2, ...; default: the RT Plan's, else flexisource)",
-        option="--source",
-        field="source",
-        results_key="source",
+        option=True,
+        field=True,
         metavar="NAME",
         help="TG-43 source (default: the RT Plan's, else flexisource)",
     ),
@@ -526,9 +532,8 @@ SETTINGS: tuple[Setting, ...] = (
         None,
         "source air-kerma strength (default: the RT Plan's)",
         high=1e6,
-        option="--sk-u",
+        option=True,
         field="sk_U",
-        results_key="sk_U",
         metavar="U",
         help="source air-kerma strength, U (default: the RT Plan's; needed to check a plan "
         "without one against its planning-system doses)",
@@ -540,9 +545,8 @@ SETTINGS: tuple[Setting, ...] = (
         "choice",
         "cable model (default: the cable of the plan's source)",
         choices=CABLES,
-        option="--cable",
-        field="cable",
-        results_key="cable",
+        option=True,
+        field=True,
         metavar="NAME",
         help="source cable model (flexitron, microselectron; default: the cable of the plan's "
         "source)",
@@ -554,9 +558,8 @@ SETTINGS: tuple[Setting, ...] = (
         "choice",
         "registration of the reference path to the channel",
         choices=REGISTER_MODES,
-        option="--register",
-        field="register",
-        results_key="register",
+        option=True,
+        field=True,
         metavar="MODE",
         help="how the reference source path is aligned with the channel before comparing: "
         "none (default: as supplied), plane-height or rigid",
@@ -567,9 +570,8 @@ SETTINGS: tuple[Setting, ...] = (
         DEFAULT_STEM_MM,
         "straight channel simulated before the first bend",
         high=2000.0,
-        option="--stem-mm",
-        field="stem_mm",
-        results_key="stem_mm",
+        option=True,
+        field=True,
         metavar="MM",
         help="straight channel simulated before the first bend, mm (default 60)",
     ),
@@ -579,9 +581,8 @@ SETTINGS: tuple[Setting, ...] = (
         False,
         "flag",
         "simulate the whole channel (ignores stem_mm)",
-        option="--whole-channel",
+        option=True,
         field="stem_mm",
-        results_key="stem_mm",
         help="simulate the whole channel (however long its straight shaft)",
     ),
     Setting(
@@ -591,8 +592,9 @@ SETTINGS: tuple[Setting, ...] = (
         "flag",
         "also run the flexible-element engine and compare its dwells (the cross-check; "
         "--no-cross-check turns it off)",
-        option="--cross-check",
-        field="cross_check",
+        option=True,
+        field=True,
+        results_key=None,  # its outcome is results.json numerical_check.cross_check
         negatable=True,
         help="also run the flexible-element engine (model.formulation = flexible) and compare "
         "its dwells; a disagreement above max(0.2 mm, 2 x the numerical errors) fails the "
@@ -617,7 +619,7 @@ SETTINGS: tuple[Setting, ...] = (
         "flag",
         "exit status 1 when a verdict is FAIL or ACTION (for scripts; the files are written "
         "either way)",
-        option="--strict",
+        option=True,
         help="exit status 1 when a verdict is FAIL or ACTION (the files are written either "
         "way; configuration key report.strict)",
     ),
@@ -631,6 +633,7 @@ SETTINGS: tuple[Setting, ...] = (
         "text",
         "the ringqa calibrate command that wrote this file (a calibrated cable)",
         field="calibration",
+        results_key=None,  # results.json settings.calibration: only when one is used
     ),
     Setting(
         "calibration.created_utc",
@@ -639,6 +642,7 @@ SETTINGS: tuple[Setting, ...] = (
         "text",
         "when the calibration was made (UTC)",
         field="calibration",
+        results_key=None,  # results.json settings.calibration: only when one is used
     ),
     Setting(
         "calibration.calibration_json_sha256",
@@ -647,6 +651,7 @@ SETTINGS: tuple[Setting, ...] = (
         "text",
         "SHA-256 of the calibration.json written beside this file (the fit's record)",
         field="calibration",
+        results_key=None,  # results.json settings.calibration: only when one is used
     ),
 )
 
@@ -678,40 +683,43 @@ class SettingNames:
     note: str = ""
 
 
-def _names(field: str, results_key: str | None, note: str = "", flags=(), keys=()) -> SettingNames:
-    """A row of :data:`SETTING_NAMES`: the configuration keys and options of ``field`` read from
-    :data:`SETTINGS` (a negatable flag's ``--no-`` form too), plus the options and keys that
-    are not configuration keys (``flags``, ``keys``)."""
+def _names(field: str, results_key: str | None = None, note: str = "", flags=(),
+           keys=()) -> SettingNames:  # fmt: skip
+    """A row of :data:`SETTING_NAMES`: the configuration keys, options and results.json key of
+    ``field`` read from :data:`SETTINGS` (a negatable flag's ``--no-`` form too), plus the
+    options and keys that are not configuration keys (``flags``, ``keys``); ``results_key``
+    for a field without a row in the table."""
     rows = [s for s in SETTINGS if s.field == field]
     options = [s.option for s in rows if s.option]
     options += ["--no-" + s.option[2:] for s in rows if s.option and s.negatable]
+    if rows:
+        results_key = rows[0].results_key
     return SettingNames(field, (*(s.key for s in rows), *keys), (*options, *flags), results_key,
                         note)  # fmt: skip
 
 
+#: Where a setting's names differ from its field's (the drift the table makes visible), by field.
+NAME_NOTES = {
+    "sk_U": "sk_U in Python and results.json, sk_u in the configuration and --sk-u",
+    "point_spec": "point_spec in Python, dose_points elsewhere",
+    "position_limits_mm": "one pair in Python and results.json, two keys in the configuration",
+    "register": "register here; registration in summary.csv and the reference check",
+    "stem_mm": "None (the whole channel) is simulation.whole_channel / --whole-channel",
+    "cross_check": "its outcome is results.json numerical_check.cross_check",
+    "calibration": "the [calibration] table of a calibrated_cable.toml; results.json "
+    "settings.calibration (only when one is used) adds the file and its SHA-256",
+}
+
 #: The names of every commissioning setting, one row per :class:`CommissionSettings` field (but
-#: ``settings_origin``, which records where the others came from); the configuration keys and
-#: their options come from :data:`SETTINGS`, so a name is written once. A test checks each name
+#: ``settings_origin``, which records where the others came from): the fields of
+#: :data:`SETTINGS` (keys, options and results.json key read from it, so a name is written
+#: once), then the settings that are options or arguments only. A test checks each name
 #: against the configuration's keys, the command line's options and results.json, so a renamed
 #: or new setting fails until this table says what it is called where.
 SETTING_NAMES: tuple[SettingNames, ...] = (
-    _names("source", "source"),
-    _names("sk_U", "sk_U",
-           "sk_U in Python and results.json, sk_u in the configuration and --sk-u"),
-    _names("prescription_gy", "prescription_gy"),
-    _names("cable", "cable"),
+    *(_names(f, note=NAME_NOTES.get(f, "")) for f in dict.fromkeys(s.field for s in SETTINGS)
+      if f),
     _names("channel", "channel", flags=("--channel",)),
-    _names("point_spec", "dose_points", "point_spec in Python, dose_points elsewhere"),
-    _names("plan_step_mm", "plan_step_mm"),
-    _names("tandem_dwells", "tandem_dwells"),
-    _names("position_limits_mm", "position_limits_mm",
-           "one pair in Python and results.json, two keys in the configuration"),
-    _names("dose_action_pct", "dose_action_pct"),
-    _names("register", "register",
-           "register here; registration in summary.csv and the reference check"),
-    _names("stem_mm", "stem_mm",
-           "None (the whole channel) is simulation.whole_channel / --whole-channel"),
-    _names("cross_check", None, "its outcome is results.json numerical_check.cross_check"),
     _names("centreline_correction", "centreline_correction",
            flags=("--centreline-correction",)),
     _names("require_measured", None,
@@ -723,6 +731,4 @@ SETTING_NAMES: tuple[SettingNames, ...] = (
            flags=("--lumen-mm",)),
     _names("measured", None, "the file is in the provenance's inputs; its points in results.json "
            "measured_points", flags=("--measured",)),
-    _names("calibration", None, "the [calibration] table of a calibrated_cable.toml; results.json "
-           "settings.calibration (only when one is used) adds the file and its SHA-256"),
 )  # fmt: skip

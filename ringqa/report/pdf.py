@@ -36,6 +36,7 @@ the user or the applicator library supplies, a measurement only when its source 
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import re
 from collections.abc import Callable, Iterable, Sequence
@@ -998,13 +999,12 @@ def _setting_text(value) -> str:
 def settings_record(res, fields: ReportFields | None = None) -> dict:
     """What the run recorded of its settings, by :attr:`Setting.record
     <ringqa.pipeline.settings.Setting.record>` name: results.json ``settings`` (without the
-    scene), the settings results.json does not keep (the cross-check) and the report's fields
-    (``fields``, blank when not given)."""
-    record = res.settings.as_dict()
+    scene), the :class:`~ringqa.pipeline.result.RunSettings` fields results.json does not keep
+    (the cross-check) and the report's fields (``fields``, blank when not given)."""
+    run = res.settings
+    record = {f.name: getattr(run, f.name) for f in dataclasses.fields(run)}
+    record.update(run.as_dict())  # results.json's forms (dose points as a table, lists)
     record.pop("scene", None)
-    record["cross_check"] = getattr(res.settings, "cross_check", None)
-    if record["cross_check"] is None:
-        record.pop("cross_check")
     f = fields or ReportFields()
     record.update({k: getattr(f, k) for k in f.__dataclass_fields__})
     return record
