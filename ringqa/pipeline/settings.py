@@ -276,6 +276,8 @@ class Setting:
         The option's ``--help`` text (default: :attr:`doc`).
     negatable : bool
         A flag that also has ``--no-<name>`` (argparse's BooleanOptionalAction).
+    sweep : bool
+        A sweep spec's ``[settings]`` table may set it (:mod:`ringqa.sweep.spec`).
     """
 
     key: str
@@ -293,6 +295,7 @@ class Setting:
     metavar: str = ""
     help: str = ""
     negatable: bool = False
+    sweep: bool = False
 
     def __post_init__(self) -> None:
         name = self.key.split(".", 1)[1]
@@ -442,6 +445,7 @@ SETTINGS: tuple[Setting, ...] = (
         "dose-difference action level",
         high=100.0,
         option=True,
+        sweep=True,
         field=True,
         metavar="PCT",
         help="dose-difference action level, %% (default 5)",
@@ -453,6 +457,7 @@ SETTINGS: tuple[Setting, ...] = (
         "mean Point A dose of the standard plan",
         high=50.0,
         option=True,
+        sweep=True,
         field=True,
         metavar="GY",
         help="mean Point A dose of the standard plan, Gy (default 7)",
@@ -522,6 +527,7 @@ SETTINGS: tuple[Setting, ...] = (
         "text",
         "TG-43 source (flexisource, mhdr-v2, ...; default: the RT Plan's, else flexisource)",
         option=True,
+        sweep=True,
         field=True,
         metavar="NAME",
         help="TG-43 source (default: the RT Plan's, else flexisource)",
@@ -533,6 +539,7 @@ SETTINGS: tuple[Setting, ...] = (
         "source air-kerma strength (default: the RT Plan's)",
         high=1e6,
         option=True,
+        sweep=True,
         field="sk_U",
         metavar="U",
         help="source air-kerma strength, U (default: the RT Plan's; needed to check a plan "
@@ -546,6 +553,7 @@ SETTINGS: tuple[Setting, ...] = (
         "cable model (default: the cable of the plan's source)",
         choices=CABLES,
         option=True,
+        sweep=True,
         field=True,
         metavar="NAME",
         help="source cable model (flexitron, microselectron; default: the cable of the plan's "
@@ -559,6 +567,7 @@ SETTINGS: tuple[Setting, ...] = (
         "registration of the reference path to the channel",
         choices=REGISTER_MODES,
         option=True,
+        sweep=True,
         field=True,
         metavar="MODE",
         help="how the reference source path is aligned with the channel before comparing: "
@@ -571,6 +580,7 @@ SETTINGS: tuple[Setting, ...] = (
         "straight channel simulated before the first bend",
         high=2000.0,
         option=True,
+        sweep=True,
         field=True,
         metavar="MM",
         help="straight channel simulated before the first bend, mm (default 60)",
