@@ -19,7 +19,7 @@ A channel's lumen and centreline are the channel's own (:class:`~ringqa.geometry
 family does not change them. The frame is the applicator's (:attr:`Applicator.frame
 <ringqa.geometry.Applicator.frame>`, :func:`~ringqa.geometry.frame.frame_of`: given by its file
 or reader, else :func:`~ringqa.geometry.frame.fit_frame`); a family module may offer the fit
-its readers use (the ring's circle, :mod:`~ringqa.geometry.families.ring_frame`; the tandem's
+its readers use (the ring family's circle fit; the tandem's
 :func:`~ringqa.geometry.families.tandem.tandem_frame`). Everything here is in the geometry
 layer: points are plain positions in mm (the plan layer makes them dose points), ``spec`` is
 read by attribute (a :class:`ringqa.plan.DosePointSpec` or anything with the same attributes).
