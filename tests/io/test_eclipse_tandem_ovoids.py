@@ -204,3 +204,29 @@ def test_the_example_is_a_phantom_without_identifiers_and_names_its_licence():
         and "a6aa553e9238848575bea702762428374703cc31" in readme
     )
     assert "GNU AFFERO GENERAL PUBLIC LICENSE" in (FOLDER / "LICENSE-AGPL-3.0.txt").read_text()
+
+
+def test_ovoid_surface_points_lie_beside_the_real_caps():
+    """On this phantom the caps point across the tandem's axis (+y), so moving outwards from
+    that axis would put the "ovoid surface" point beyond the cap's tip. The rule (families.ovoid)
+    puts it beside the middle of the cap's straight run: 10 mm (the assumed cap radius) from the
+    ovoid's centreline, its nearest centreline point in the cap (relative position 5-15 mm of
+    the 19 mm straight run, not the tip), and on the ovoid's side, further lateral than the
+    ovoid (|x| larger by 9.5-10 mm: the lateral axis is 1 degree off x)."""
+    from ringqa.geometry.families.base import channel_points_mm
+    from ringqa.plan.points import applicator_dose_points
+
+    app = applicator_from_structures(
+        read_rtplan(PLAN), read_rtstruct(STRUCTURES), lumen_mm=2.0
+    ).applicator
+    pts = {p.name: p.position_mm for p in applicator_dose_points(app)}
+    for side, name in (("left", "left ovoid"), ("right", "right ovoid")):
+        ch = next(c for c in app.channels if c.name == name)
+        rel = np.arange(0.0, 40.0, 0.05)
+        cl = channel_points_mm(ch, rel)
+        surface = pts[f"ovoid_surface_{side}"]
+        d = np.linalg.norm(cl - surface, axis=1)
+        assert d.min() == pytest.approx(10.0, abs=0.05)
+        assert 5.0 <= rel[int(np.argmin(d))] <= 15.0
+        gain = abs(surface[0]) - abs(cl[int(np.argmin(d))][0])
+        assert 9.5 <= gain <= 10.0
