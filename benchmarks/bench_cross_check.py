@@ -5,7 +5,7 @@
 Runs ``ringqa commission`` on the shipped Oncentra example (``--register plane-height``, warm
 numba cache) in this process, interleaved, in four modes: cross-check off / on, each with the
 second core used (the forks of the numerical check and the cross-check, as on a quiet 2-core
-machine: :func:`ringqa.pipeline.forked.second_core_free` forced True) and without (forced False:
+machine: :func:`ringqa.parallel.second_core_free` forced True) and without (forced False:
 what a loaded machine gets, everything one after the other). Per mode the median wall time of
 the whole command and of its simulation step, and the CPU seconds (this process + its forked
 children, ``RUSAGE_CHILDREN``); then the cross-check's added wall and CPU, absolute and as a
@@ -30,8 +30,8 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from ringqa import parallel as forked  # noqa: E402
 from ringqa.cli import main as ringqa_main  # noqa: E402
-from ringqa.pipeline import forked  # noqa: E402
 
 EXAMPLE = ROOT / "data" / "examples" / "oncentra_ring26x60" / "RP_ring26x60_oncentra43.dcm"
 

@@ -97,7 +97,7 @@ PATCH.update({
 })
 sys.meta_path.insert(0, Hook())
 if sys.argv[3] == "free-core":  # as on a quiet machine: the second core is used
-    PATCH["ringqa.pipeline.forked"] = [("second_core_free", "free")]
+    PATCH["ringqa.parallel"] = [("second_core_free", "free")]
 import ringqa.cli
 ringqa.cli.build_parser()
 T["cli"] = time.process_time() - t_start

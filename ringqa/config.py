@@ -35,7 +35,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from ringqa.errors import RingQAError
-from ringqa.pipeline.settings import SETTINGS, CommissionSettings
+from ringqa.pipeline.settings import DEFAULT_ORIGIN, SETTINGS, CommissionSettings
 from ringqa.pipeline.settings import Setting as ConfigKey
 from ringqa.plan import DosePointSpec
 from ringqa.simulation.scene_keys import KEYS as SCENE_KEYS
@@ -54,7 +54,7 @@ KEYS: tuple[ConfigKey, ...] = SETTINGS
 #: environment variable naming the user configuration file ("" = none)
 ENV_VAR = "RINGQA_CONFIG"
 #: origin of a built-in default
-DEFAULT = "default"
+DEFAULT = DEFAULT_ORIGIN
 #: origin of a command-line option
 COMMAND_LINE = "command line"
 
@@ -260,9 +260,9 @@ class EffectiveConfig:
         # a field with one key in the settings table takes its value as it is; the fields of
         # several keys (dose points, the tolerance pair, the stem) are put together below
         rows = [k for k in KEYS if k.field]
-        single = {k.field: v[k.key] for k in rows if [r.field for r in rows].count(k.field) == 1}
+        single = {k.field: bool(v[k.key]) if k.kind == "flag" else v[k.key]
+                  for k in rows if [r.field for r in rows].count(k.field) == 1}  # fmt: skip
         single["source"] = single["source"] or None
-        single["cross_check"] = bool(single["cross_check"])
         try:
             return CommissionSettings(
                 scene_overrides=self.scene_overrides,

@@ -3,7 +3,7 @@
 Every ``import`` in the package sources is read with ``ast`` (no code is run) and checked
 against the layer order written in DEVELOPERS.md:
 
-    foundations (units, errors, paths, provenance, outdir, jsonio, datasets)
+    foundations (units, errors, paths, provenance, outdir, jsonio, datasets, parallel)
       -> geometry -> io -> simulation -> plan -> accuracy -> pipeline -> report -> needle
       -> config -> cli
 
@@ -44,7 +44,7 @@ NEEDLE_USES = {"foundations", "geometry", "simulation", "report", "needle"}
 PRIVATE_IMPORT_EXCEPTIONS: dict[tuple[str, str], str] = {}
 
 FOUNDATIONS = {"units", "errors", "paths", "provenance", "outdir", "jsonio", "textio", "datasets",
-               "progress", "__init__", "__main__"}  # fmt: skip
+               "progress", "parallel", "__init__", "__main__"}  # fmt: skip
 
 
 def _layer(module: str) -> int | None:

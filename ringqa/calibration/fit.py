@@ -15,7 +15,7 @@ are smooth in the parameters (measured on ring26x60: the slope of the dwells in 
 the same within 0.6 % for steps from 0.1 % to 5 %, in log EI within 1.3 %; docs/calibration.md),
 so a step this size measures the parameter, not the discretisation, and stays clear of any
 step-size-dependent switch of the solver's load steps. Its columns are independent runs: they
-go to forked worker processes (:func:`ringqa.pipeline.forked.worker_pool`) on the machine's
+go to forked worker processes (:func:`ringqa.parallel.worker_pool`) on the machine's
 cores.
 
 Standard errors: ``Cov(theta) = s^2 (J^T J)^-1`` from the weighted Jacobian at the optimum (its
@@ -154,7 +154,7 @@ def _residuals(model: ForwardModel, positions: list, sigma: list) -> np.ndarray:
 
 # a forked worker's evaluation (the model and parametrisation are the pool's job)
 def _evaluate(theta: Sequence[float]):
-    from ringqa.pipeline import forked
+    from ringqa import parallel as forked
 
     model, par = forked.job()
     try:
@@ -165,7 +165,7 @@ def _evaluate(theta: Sequence[float]):
 
 def _workers(n_tasks: int) -> int:
     """Worker processes for ``n_tasks`` independent evaluations (1: evaluate here)."""
-    from ringqa.pipeline import forked
+    from ringqa import parallel as forked
     from ringqa.pipeline.simulate import kernels_cached
 
     if n_tasks < 2 or not forked.can_fork() or not kernels_cached():
@@ -234,7 +234,7 @@ def fit_parameters(
         return _residuals(model, positions(theta), sigma)
 
     n_workers = _workers(len(keys)) if workers is None else max(1, int(workers))
-    from ringqa.pipeline import forked
+    from ringqa import parallel as forked
 
     pool_cm = forked.worker_pool(n_workers, job=(model, par)) if n_workers > 1 else None
     pool = pool_cm.__enter__() if pool_cm is not None else None

@@ -551,14 +551,14 @@ def commission_ahead(
     0.5 s of the warm example otherwise spent after the commissioning). The result (or the
     error) is the child's; where it cannot be handed back, on one core, without ``fork``, with
     the output captured in memory, on a first run (an empty kernel cache) or with no core free
-    (:func:`ringqa.pipeline.forked.second_core_free`), the commissioning runs here as before.
+    (:func:`ringqa.parallel.second_core_free`), the commissioning runs here as before.
 
     ``by_channel``: an input with several channels may be commissioned channel by channel
     (``channel_args``: the command's ``--channel`` values, None when none was given): the input
     is read first (in the child, beside the report's preparation here) and, for such an input,
     a :class:`ChannelsWanted` is returned instead of a result."""
+    from ringqa.parallel import ForkedCall
     from ringqa.pipeline import commission
-    from ringqa.pipeline.forked import ForkedCall
     from ringqa.pipeline.simulate import second_core_worthwhile
 
     def run():  # the input as the channel choice read it is not read twice

@@ -2,6 +2,8 @@
 
 from ringqa.geometry.applicator import Applicator, Channel
 from ringqa.geometry.centreline import Centreline, CentrelineTable, GeometryError
+from ringqa.geometry.families.ring_frame import RingFrame, fit_ring_frame
+from ringqa.geometry.frame import fit_circle
 from ringqa.geometry.lumen import Lumen
 from ringqa.geometry.parametric import ring_applicator, ring_channel, tandem_channel
 from ringqa.geometry.registration import (
@@ -14,7 +16,6 @@ from ringqa.geometry.registration import (
     reference_positions,
     register_reference,
 )
-from ringqa.geometry.ring_frame import RingFrame, fit_circle, fit_ring_frame
 from ringqa.geometry.s_channel import SChannelLayout, s_channel, s_channel_layout
 from ringqa.geometry.splice import (
     SplicedCentreline,

@@ -4,9 +4,8 @@ Every applicator has a frame in DICOM patient coordinates (LPS: +x patient left,
 +z cranial): ``centre_m`` (the origin the dose points are measured from), ``normal`` (unit,
 cranial: towards the tandem tip / Point A), ``lateral`` (unit, towards the patient's left,
 perpendicular to ``normal``) and ``scale_m`` (a length the family's plots and checks scale with:
-the ring's radius for a ring). A ring's frame is the circle fitted to its channel
-(:mod:`ringqa.geometry.ring_frame`); other families give their own
-(:mod:`ringqa.geometry.families`), or, where none is given, :func:`fit_frame` here.
+the ring's radius for a ring). A family gives its own (:mod:`ringqa.geometry.families`; a ring's
+is the circle fitted to its channel), or, where none is given, :func:`fit_frame` here.
 
 The fit for channels without a family frame
 -------------------------------------------
@@ -14,8 +13,9 @@ The fit for channels without a family frame
   the channels' entries (proximal ends: caudal) towards their tips (cranial);
 - ``centre_m``: the mean of the channels' tips (their distal ends);
 - ``lateral``: DICOM +x with its ``normal`` component removed (+y for a channel along +x);
-- ``scale_m``: the radius of the circle fitted to the points (:func:`~ringqa.geometry
-  .ring_frame.fit_circle`), kept within :data:`SCALE_RANGE_M` (a straight channel fits no circle).
+- ``scale_m``: the radius of the circle fitted to the points (:func:`fit_circle`: a plane by
+  SVD, then an algebraic circle in it), kept within :data:`SCALE_RANGE_M` (a straight channel
+  fits no circle).
 """
 
 from __future__ import annotations
@@ -25,9 +25,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ringqa.geometry.centreline import GeometryError
-from ringqa.geometry.ring_frame import fit_circle
 
-__all__ = ["SCALE_RANGE_M", "Frame", "fit_frame", "frame_of", "patient_left_in_plane"]
+__all__ = ["SCALE_RANGE_M", "Frame", "fit_circle", "fit_frame", "frame_of", "patient_left_in_plane"]
 
 #: The range (m) a fitted frame's ``scale_m`` is kept in.
 SCALE_RANGE_M = (0.005, 0.1)
@@ -58,6 +57,45 @@ class Frame:
     def anterior(self) -> np.ndarray:
         """Unit ``lateral x normal`` (anterior in DICOM LPS), (3,)."""
         return np.cross(self.lateral, self.normal)
+
+
+def fit_circle(points_m) -> tuple[np.ndarray, np.ndarray, float, float]:
+    """Least-squares circle through 3-D points (plane by SVD, then an algebraic circle fit).
+
+    Parameters
+    ----------
+    points_m : (n, 3) array_like, n >= 3
+        Points in metres.
+
+    Returns
+    -------
+    centre_m : (3,) ndarray
+    normal : (3,) ndarray
+        Unit plane normal, sign arbitrary (the caller orients it).
+    radius_m : float
+    rms_m : float
+        Root-mean-square distance of the points from the circle, in the plane.
+
+    Raises
+    ------
+    GeometryError
+        Fewer than 3 points, not (n, 3), or not finite.
+    """
+    p = np.asarray(points_m, dtype=float)
+    if p.ndim != 2 or p.shape[1] != 3 or p.shape[0] < 3 or not np.isfinite(p).all():
+        raise GeometryError("fit_circle: points_m must be finite (n >= 3, 3) in metres")
+    c0 = p.mean(axis=0)
+    _, _, vt = np.linalg.svd(p - c0)
+    e1, e2, nrm = vt[0], vt[1], vt[2]
+    x = (p - c0) @ e1
+    y = (p - c0) @ e2
+    a = np.c_[2 * x, 2 * y, np.ones_like(x)]
+    sol, *_ = np.linalg.lstsq(a, x * x + y * y, rcond=None)
+    cx, cy, c = sol
+    radius = float(np.sqrt(c + cx * cx + cy * cy))
+    centre = c0 + cx * e1 + cy * e2
+    res = np.sqrt((x - cx) ** 2 + (y - cy) ** 2) - radius
+    return centre, nrm, radius, float(np.sqrt(np.mean(res**2)))
 
 
 def patient_left_in_plane(normal) -> np.ndarray:

@@ -79,8 +79,8 @@ class FlatSide:
             ):
                 raise GeometryError(
                     f"flat_towards = {self.towards!r} is fixed in the applicator's frame: it needs "
-                    "the ring's centre and normal (give the channel a ring frame, or use "
-                    "'bend_outside')"
+                    "the frame's centre and normal (give the channel an applicator frame, or "
+                    "use 'bend_outside')"
                 )
             n = np.asarray(self.ring_normal, dtype=float)
             if n.shape != (3,) or not np.isfinite(n).all() or np.linalg.norm(n) == 0:

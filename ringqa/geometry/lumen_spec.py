@@ -15,7 +15,7 @@ A lumen spec is a mapping of these keys (user units, mm):
 ``flat_towards``
     Which way the flat faces (:data:`~ringqa.geometry.lumen.FLAT_TOWARDS`): ``"bend_outside"``
     (default), or fixed in the applicator's frame: ``"ring_outside"``, ``"cranial"``,
-    ``"caudal"`` (these need the applicator's ring frame).
+    ``"caudal"`` (these need the applicator frame's centre and normal).
 ``u_start_mm``, ``u_end_mm``
     ``"u"``: the arc-length range of the flat (default: everywhere).
 ``s_breaks_mm``
@@ -87,7 +87,7 @@ def _numbers(spec: Mapping, key: str, where: str, allow_null: bool = False) -> n
 def lumen_from_spec(
     spec: Mapping[str, Any],
     where: str = "lumen",
-    ring_frame: tuple[np.ndarray, np.ndarray] | None = None,
+    frame: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> Lumen:
     """A :class:`Lumen` from a spec in the one vocabulary (see the module docstring).
 
@@ -97,8 +97,8 @@ def lumen_from_spec(
         The lumen's keys (mm).
     where : str
         Prefix of error messages (``"channels[0].lumen"``, ``"channel"``).
-    ring_frame : (centre_m (3,), normal (3,)), optional
-        The applicator's ring centre (m) and cranial normal, for a flat fixed in its frame.
+    frame : (centre_m (3,), normal (3,)), optional
+        The applicator frame's origin (m) and cranial normal, for a flat fixed in that frame.
 
     Returns
     -------
@@ -108,7 +108,7 @@ def lumen_from_spec(
     ------
     GeometryError
         Unknown key (the nearest known one suggested), missing or out-of-range value, or a
-        fixed flat orientation without a ring frame; the message names ``where.key``.
+        fixed flat orientation without a frame; the message names ``where.key``.
     """
     if not isinstance(spec, Mapping):
         raise GeometryError(f"{where}: expected a table of lumen keys, got {spec!r}")
@@ -125,10 +125,10 @@ def lumen_from_spec(
     if towards not in FLAT_TOWARDS:
         raise _fail(where, "flat_towards", f"got {towards!r}",
                     f"choose one of {', '.join(FLAT_TOWARDS)}")  # fmt: skip
-    if towards != "bend_outside" and ring_frame is None:
+    if towards != "bend_outside" and frame is None:
         raise _fail(where, "flat_towards", f"{towards!r} is fixed in the applicator's frame",
-                    "this channel has no ring frame: use 'bend_outside'")  # fmt: skip
-    centre, normal = ring_frame if ring_frame is not None else (None, None)
+                    "this channel has no applicator frame: use 'bend_outside'")  # fmt: skip
+    centre, normal = frame if frame is not None else (None, None)
     side = FlatSide(towards, centre, normal) if towards != "bend_outside" else FlatSide()
     source = spec.get("source", "")
     if not isinstance(source, str):
@@ -202,8 +202,8 @@ def _build(spec: Mapping, kind: str, where: str, side: FlatSide, source: str) ->
 def lumen_to_spec(lumen: Lumen) -> dict[str, Any]:
     """A :class:`Lumen` as a spec in the one vocabulary (mm): ``circular``, ``u`` or ``stepped``.
 
-    :func:`lumen_from_spec` reads it back to the same cross-sections (the ring frame of a fixed
-    flat orientation comes from the applicator, not from the spec).
+    :func:`lumen_from_spec` reads it back to the same cross-sections (the frame of a fixed flat
+    orientation comes from the applicator, not from the spec).
     """
     seg_s, seg_rb, seg_ra, seg_flat = (np.asarray(a, dtype=float) for a in lumen.kernel_arrays())
     radii = {"r_b_mm": float(m_to_mm(seg_rb[0])), "r_a_mm": float(m_to_mm(seg_ra[0]))}

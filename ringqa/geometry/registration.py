@@ -54,7 +54,8 @@ import numpy as np
 
 from ringqa.geometry.applicator import Channel
 from ringqa.geometry.centreline import GeometryError
-from ringqa.geometry.ring_frame import RingFrame, fit_ring_frame
+from ringqa.geometry.families.ring_frame import fit_ring_frame
+from ringqa.geometry.frame import Frame
 from ringqa.geometry.shape_checks import close_pairs
 from ringqa.units import m_to_mm, rad_to_deg
 
@@ -100,8 +101,8 @@ PLANAR_TOL_M = 0.01e-3
 DUPLICATE_TOL_M = 1.0e-6
 #: A reference path needs at least this many positions on the channel.
 MIN_POSITIONS = 3
-#: Without a ring frame, the circle is fitted to this much of the channel's distal end (m), as
-#: for an applicator file without ``ring_frame`` (``ringqa.io.applicator_file``).
+#: Without a frame given, the ring family's circle is fitted to this much of the channel's distal
+#: end (m), as for an applicator file without one (``ringqa.io.applicator_file``).
 RING_FIT_LENGTH_M = 40.0e-3
 #: ... and accepted when the centreline lies within this RMS of the fitted circle (m).
 RING_FIT_RMS_M = 0.05e-3
@@ -257,10 +258,10 @@ class ReferencePathCheck:
     constant_height : bool
         All heights within ``PLANAR_TOL_M`` of ``height_m``.
     ring_centre_m : (3,) ndarray
-        Centre of the ring frame used (m).
+        Centre of the applicator frame used (m; the name is results.json's).
     ring_normal : (3,) ndarray
-        Unit normal of the ring frame used (cranial).
-    ring_frame_source : str
+        Unit normal (cranial) of the applicator frame used.
+    frame_source : str
         ``"given"`` or how it was fitted.
     summary : tuple of str
         Plain-language findings, one sentence each, for the report.
@@ -281,7 +282,7 @@ class ReferencePathCheck:
     constant_height: bool
     ring_centre_m: np.ndarray
     ring_normal: np.ndarray
-    ring_frame_source: str
+    frame_source: str
     summary: tuple[str, ...]
 
     def __post_init__(self) -> None:
@@ -509,9 +510,9 @@ def _capsule_radius(capsule_radius_m, channel: Channel) -> float:
     return r
 
 
-def _ring_frame(ring_frame, channel: Channel) -> tuple[np.ndarray, np.ndarray, str]:
+def _frame_or_ring_fit(frame, channel: Channel) -> tuple[np.ndarray, np.ndarray, str]:
     """(centre, unit normal, source text) from the argument or fitted to the channel."""
-    if ring_frame is None:
+    if frame is None:
         cl = channel.centreline
         s = np.linspace(max(0.0, cl.length_m - RING_FIT_LENGTH_M), cl.length_m, 81)
         try:
@@ -520,9 +521,9 @@ def _ring_frame(ring_frame, channel: Channel) -> tuple[np.ndarray, np.ndarray, s
             frame = None
         if frame is None or not (frame.rms_m < RING_FIT_RMS_M and frame.radius_m < 0.1):
             raise RegistrationError(
-                f"ring_frame: not given, and the distal {m_to_mm(RING_FIT_LENGTH_M):.0f} mm of "
-                f"channel {channel.name!r} is not a circular arc; give ring_frame=(centre_m, "
-                "normal), e.g. (applicator.ring_centre_m, applicator.ring_normal)"
+                f"frame: not given, and the distal {m_to_mm(RING_FIT_LENGTH_M):.0f} mm of "
+                f"channel {channel.name!r} is not a circular arc; give frame=(centre_m, "
+                "normal), e.g. (applicator.frame.centre_m, applicator.frame.normal)"
             )
         return (
             frame.centre_m,
@@ -530,23 +531,23 @@ def _ring_frame(ring_frame, channel: Channel) -> tuple[np.ndarray, np.ndarray, s
             f"fitted to the distal {m_to_mm(RING_FIT_LENGTH_M):.0f} mm of channel "
             f"{channel.name!r} (radius {m_to_mm(frame.radius_m):.2f} mm)",
         )
-    if isinstance(ring_frame, RingFrame):
-        centre, normal = ring_frame.centre_m, ring_frame.normal
+    if hasattr(frame, "centre_m") and hasattr(frame, "normal"):  # a Frame, the ring's fit
+        centre, normal = frame.centre_m, frame.normal
     else:
         try:
-            centre, normal = ring_frame
+            centre, normal = frame
         except (TypeError, ValueError):
             raise RegistrationError(
-                "ring_frame: expected a RingFrame or a pair (centre_m, normal)"
+                "frame: expected a Frame (centre_m, normal) or a pair (centre_m, normal)"
             ) from None
     c = np.asarray(centre, dtype=float)
     n = np.asarray(normal, dtype=float)
     if c.shape != (3,) or n.shape != (3,) or not (np.isfinite(c).all() and np.isfinite(n).all()):
-        raise RegistrationError("ring_frame: centre_m and normal must be finite 3-vectors")
+        raise RegistrationError("frame: centre_m and normal must be finite 3-vectors")
     norm = float(np.linalg.norm(n))
     if abs(norm - 1.0) > 1e-6:
         raise RegistrationError(
-            f"ring_frame: the normal must be a unit vector (length {norm:.6g}); normalise it"
+            f"frame: the normal must be a unit vector (length {norm:.6g}); normalise it"
         )
     return c.copy(), n / norm, "given"
 
@@ -648,7 +649,7 @@ def check_reference_path(
     points_m,
     channel: Channel,
     capsule_radius_m: float,
-    ring_frame: RingFrame | tuple | None = None,
+    frame: Frame | tuple | None = None,
     *,
     relative_m=None,
 ) -> ReferencePathCheck:
@@ -663,9 +664,10 @@ def check_reference_path(
     capsule_radius_m : float
         Source capsule radius (m): 0.45e-3 for the microSelectron mHDR-v2 (0.90 mm outer
         diameter), 0.425e-3 for the Flexisource/Flexitron (0.85 mm).
-    ring_frame : RingFrame or (centre_m (3,), normal (3,)), optional
-        The ring channel's plane (unit normal pointing cranially). Default: fitted to the distal
-        40 mm of ``channel`` (a circle, normal pointing away from the channel entry).
+    frame : Frame or (centre_m (3,), normal (3,)), optional
+        The applicator frame's origin and cranial unit normal (a ring's: its channel's plane;
+        :func:`ringqa.geometry.frame.frame_of`). Default: the ring family's frame fitted to the
+        distal 40 mm of ``channel`` (a circle, normal pointing away from the channel entry).
     relative_m : (n,) array_like, optional
         Relative positions (m), used only to name positions in the summary.
 
@@ -677,7 +679,7 @@ def check_reference_path(
     ------
     RegistrationError
         Fewer than 3 positions, non-finite values, a capsule not narrower than the lumen, or no
-        ring frame given for a channel without a circular distal end.
+        frame given for a channel without a circular distal end.
 
     Examples
     --------
@@ -700,7 +702,7 @@ def check_reference_path(
             raise RegistrationError(
                 f"relative_m: expected {n} relative positions (one per position), got {rel.size}"
             )
-    centre, normal, frame_source = _ring_frame(ring_frame, ch)
+    centre, normal, frame_source = _frame_or_ring_fit(frame, ch)
 
     # per position: closest centreline point, offset, bound, flag
     s, d = _closest(ch, p)
@@ -772,7 +774,7 @@ def check_reference_path(
         constant_height=constant_height,
         ring_centre_m=np.asarray(centre, dtype=float),
         ring_normal=np.asarray(normal, dtype=float),
-        ring_frame_source=frame_source,
+        frame_source=frame_source,
         summary=summary,
     )
 
@@ -973,7 +975,7 @@ def register_reference(
     channel: Channel,
     mode: str,
     capsule_radius_m: float,
-    ring_frame: RingFrame | tuple | None = None,
+    frame: Frame | tuple | None = None,
     *,
     relative_m=None,
     slide: bool = False,
@@ -1029,9 +1031,9 @@ def register_reference(
         See above.
     capsule_radius_m : float
         Source capsule radius (m), for the feasibility check before and after.
-    ring_frame : RingFrame or (centre_m, normal), optional
-        The ring channel's plane; default fitted to the channel (see
-        :func:`check_reference_path`).
+    frame : Frame or (centre_m, normal), optional
+        The applicator frame's origin and cranial normal; default the ring's fitted to the
+        channel (see :func:`check_reference_path`).
     relative_m : (n,) array_like, optional
         Relative positions (m), used only to name positions in the checks' summaries.
     slide : bool
@@ -1064,7 +1066,7 @@ def register_reference(
             f"slide: only mode 'rigid' can slide the path along the channel (mode {mode!r})"
         )
     p = _points(points_m)
-    before = check_reference_path(p, channel, capsule_radius_m, ring_frame, relative_m=relative_m)
+    before = check_reference_path(p, channel, capsule_radius_m, frame, relative_m=relative_m)
     frame = (before.ring_centre_m, before.ring_normal)
     used = before.on_channel
     rot = np.eye(3)

@@ -807,7 +807,7 @@ def splice_applicator(
 ) -> tuple[Applicator, SplicedCentreline]:
     """An applicator whose channel ``channel`` has a corrected segment spliced in.
 
-    The other channels and the ring frame are kept; ``metadata["centreline_correction"]``
+    The other channels and the applicator frame are kept; ``metadata["centreline_correction"]``
     records :meth:`SplicedCentreline.as_mm_dict` under the channel's name.
 
     Parameters

@@ -11,10 +11,11 @@ from pathlib import Path
 
 import pandas as pd
 
+from ringqa import parallel
 from ringqa.errors import RingQAError
-from ringqa.pipeline import forked, simulate
+from ringqa.parallel import default_workers, worker_signals
+from ringqa.pipeline import simulate
 from ringqa.pipeline.commission import commission
-from ringqa.pipeline.forked import worker_signals
 from ringqa.pipeline.result import CommissioningResult
 from ringqa.pipeline.settings import CommissionSettings
 from ringqa.pipeline.simulate import (
@@ -101,9 +102,10 @@ def commission_batch(
         and its ``folder`` in summary.csv; default: the applicator's name. Repeated labels
         get ``-2``, ``-3``... (never two inputs in one folder).
     workers : int, optional
-        Processes commissioning the inputs at once (default :func:`default_workers`); the
-        results are the same, in the same order, as with 1 (forked worker processes run the
-        same code; a result that cannot be sent back is remade here).
+        Processes commissioning the inputs at once (default
+        :func:`ringqa.parallel.default_workers`); the results are the same, in the same order,
+        as with 1 (forked worker processes run the same code; a result that cannot be sent
+        back is remade here).
 
     Returns
     -------
@@ -151,12 +153,6 @@ def _input_name(item) -> str:
     return str(getattr(item, "name", item))
 
 
-def default_workers() -> int:
-    """Worker processes of a batch by default: ``min(2, os.cpu_count())`` (1 where the
-    operating system has no ``fork``)."""
-    return min(2, os.cpu_count() or 1) if hasattr(os, "fork") else 1
-
-
 def _commission_one(item, settings, engine) -> tuple[CommissioningResult | None, str, bool]:
     """``(result, "", False)``, or ``(None, one-line reason, jammed)`` when ``item`` failed
     (``jammed``: the simulation jammed or failed, not the input)."""
@@ -170,7 +166,7 @@ def _commission_one(item, settings, engine) -> tuple[CommissioningResult | None,
 
 
 def _worker_init() -> None:
-    """A batch's worker: the signals of :func:`~ringqa.pipeline.forked.worker_signals`, and its
+    """A batch's worker: the signals of :func:`~ringqa.parallel.worker_signals`, and its
     simulations run one at a time (the workers use the cores already)."""
     worker_signals()
     simulate.CONCURRENT_RUNS = False
@@ -180,7 +176,7 @@ def _worker_task(k: int) -> tuple[str, bytes | str]:
     """Commission input ``k`` of the pool's job ``(items, settings, engine)`` in a worker:
     ``("ok", pickled (result, reason))``, or ``("here", "")`` when the result cannot be pickled
     (the parent remakes it)."""
-    items, settings, engine = forked.job()
+    items, settings, engine = parallel.job()
     out = _commission_one(items[k], settings, engine)
     try:
         return "ok", pickle.dumps(out, protocol=pickle.HIGHEST_PROTOCOL)
@@ -205,7 +201,7 @@ def _outcomes(items, settings, engine, workers: int, bar, labels) -> Iterator[tu
     if engine is None:
         default_engine()  # import the engine once, before forking (the workers inherit it)
     job = (items, settings, engine)
-    with forked.worker_pool(min(workers, len(items)), _worker_init, job) as pool:
+    with parallel.worker_pool(min(workers, len(items)), _worker_init, job) as pool:
         for k, (tag, data) in enumerate(pool.imap(_worker_task, range(len(items)))):
             show(k)
             if tag == "ok":

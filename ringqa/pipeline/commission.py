@@ -537,6 +537,7 @@ def _commission_loaded(input, loaded, cfg, *, engine, progress, t_start, load_s,
         centreline_correction=None if cfg.centreline_correction is None
         else str(cfg.centreline_correction),
         calibration=None if cfg.calibration is None else dict(cfg.calibration),
+        cross_check=cfg.cross_check,
     )  # fmt: skip
     if cfg.calibration is not None and cfg.calibration.get("file"):
         if Path(cfg.calibration["file"]).is_file():  # its SHA-256 in the provenance too

@@ -18,7 +18,7 @@ from ringqa.units import m_to_mm, mm_to_m
 
 @dataclass(frozen=True, eq=False)
 class DeviationComponents:
-    """One path's displacement from the reference dwells, split in the ring frame (mm).
+    """One path's displacement from the reference dwells, split in the applicator frame (mm).
 
     Attributes
     ----------
@@ -161,7 +161,7 @@ def centreline_offsets(app, channel, positions_mm) -> CentrelineOffsets:
     Parameters
     ----------
     app : Applicator
-        Gives the ring frame (centre, normal).
+        Gives the applicator frame (centre, normal).
     channel : Channel
     positions_mm : (n, 3) array_like
         Positions, mm.

@@ -119,7 +119,7 @@ def reference_dwells(app, channel, step_mm: float | None) -> ReferenceDwells:
     Parameters
     ----------
     app : Applicator
-        Gives the ring frame (for the circular part when there is no measured path).
+        Gives the applicator frame and the channel's family (its span without a measured path).
     channel : Channel
         The ring channel.
     step_mm : float or None
@@ -267,7 +267,7 @@ def reference_note(reference: ReferenceDwells) -> str:
 
 
 def ring_geometry(app, s_ref_mm: float) -> RingGeometry:
-    """The ring frame and every channel's centreline (mm), for the report's plots.
+    """The applicator frame and every channel's centreline (mm), for the report's plots.
 
     Parameters
     ----------

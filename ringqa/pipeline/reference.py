@@ -160,7 +160,7 @@ def review_reference(
     Parameters
     ----------
     app : Applicator
-        Gives the ring frame (centre and normal).
+        Gives the applicator frame (:func:`ringqa.geometry.frame.frame_of`: centre, normal).
     channel : Channel
         The channel the path belongs to.
     reference : ReferenceDwells

@@ -66,7 +66,8 @@ class Verdict:
 
 @dataclass(frozen=True, eq=False)
 class RingGeometry:
-    """The ring frame and the channels' centrelines, for the report's plots (mm).
+    """The applicator frame (``ring_*``: results.json's names) and the channels' centrelines,
+    for the report's plots (mm).
 
     Attributes
     ----------
@@ -189,6 +190,10 @@ class RunSettings:
         The cable calibration file whose values the scene uses (``file``, ``sha256``,
         ``command``, ...; :attr:`CommissionSettings.calibration`); in ``as_dict`` only when
         there is one.
+    cross_check : bool or None
+        Whether the flexible-element cross-check was asked for (``simulation.cross_check``;
+        None: not recorded). Not in ``as_dict``: results.json records its outcome
+        (``numerical_check.cross_check``).
     """
 
     source: str
@@ -207,6 +212,7 @@ class RunSettings:
     scene: dict[str, Any]
     centreline_correction: str | None = None
     calibration: dict[str, Any] | None = None
+    cross_check: bool | None = None
 
     def as_dict(self) -> dict:
         """The ``results.json`` ``settings`` section (also the provenance's settings)."""
@@ -422,7 +428,9 @@ class Timings:
 NOTE_CHECKS = ("csv.encoding",)
 
 #: The report's writers of a result, by kind (``"pdf"``: ``writer(result, path, fields=,
-#: notes=, accuracy=, sections=)``; ``"html"``: ``writer(result, path)``). The pipeline names
+#: notes=, accuracy=, sections=)``; ``"html"``: ``writer(result, path)``; ``"figure.positions"``,
+#: ``"figure.deviations"``, ``"figure.doses"``: ``draw(result, title)`` -> a matplotlib Figure,
+#: the ``plot_*`` methods). The pipeline names
 #: this seam and the report layer fills it when imported (:mod:`ringqa.report` registers its
 #: writers), so the data still flows one way and no module is looked up by its name.
 REPORT_WRITERS: dict[str, Any] = {}
@@ -446,9 +454,11 @@ def report_writer(kind: str):
     if writer is None:
         from ringqa.errors import RingQAError
 
+        direct = "" if kind.startswith("figure.") else f", or call ringqa.report.write_{kind}" \
+            "(result, path)"  # fmt: skip
         raise RingQAError(
             f"no {kind} report writer registered: import ringqa.report first (it registers its "
-            f"writers), or call ringqa.report.write_{kind}(result, path)"
+            f"writers){direct}"
         )
     return writer
 
@@ -488,7 +498,7 @@ class CommissioningResult:
         Per-applicator numbers (one row of summary.csv).
     verdicts : tuple of Verdict
     geometry : RingGeometry
-        The ring frame and centrelines, for the plots.
+        The applicator frame and centrelines, for the plots.
     simulation : SimulationInfo
         How the engine run went.
     settings : RunSettings
@@ -630,23 +640,17 @@ class CommissioningResult:
         Returns a :class:`matplotlib.figure.Figure` (no pyplot, the backend is left alone);
         ``title`` defaults to the applicator's name.
         """
-        from ringqa.pipeline.plots import positions_figure
-
-        return positions_figure(self, self.applicator if title is None else title)
+        return report_writer("figure.positions")(self, self.applicator if title is None else title)
 
     def plot_deviations(self, title: str | None = None):
         """Deviation per dwell (3D distance, components in mm, angle in deg) as a
         :class:`matplotlib.figure.Figure` (no pyplot)."""
-        from ringqa.pipeline.plots import deviations_figure
-
-        return deviations_figure(self, self.applicator if title is None else title)
+        return report_writer("figure.deviations")(self, self.applicator if title is None else title)
 
     def plot_doses(self, title: str | None = None):
         """The dose points beside the standard plan's dwells (ring plane, orthogonal view) as
         a :class:`matplotlib.figure.Figure` (no pyplot); the doses are in ``to_frames()``."""
-        from ringqa.pipeline.plots import dose_points_figure
-
-        return dose_points_figure(self, self.applicator if title is None else title)
+        return report_writer("figure.doses")(self, self.applicator if title is None else title)
 
     def publish_pdf(self, path, fields=None, notes=None, *, accuracy=None, sections=()):
         """Write the signed report PDF of this result (as ``ringqa commission`` does).

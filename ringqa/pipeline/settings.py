@@ -22,6 +22,9 @@ from ringqa.pipeline.verdicts import DOSE_ACTION_PCT, POSITION_RECOMMENDED_MM, P
 from ringqa.plan import PLAN_STEP_MM, PRESCRIPTION_GY, DosePointSpec
 from ringqa.units import m_to_mm
 
+#: The origin of a setting left at its built-in default (``settings_origin``; :mod:`ringqa.config`).
+DEFAULT_ORIGIN = "default"
+
 #: Default straight channel simulated before the first bend, mm.
 DEFAULT_STEM_MM = float(m_to_mm(DEFAULT_STEM_M))
 
@@ -256,19 +259,25 @@ class Setting:
     choices : tuple of str
         Allowed values of a choice.
     option : str
-        The command-line option that overrides it (``""``: none).
+        The command-line option that overrides it (``""``: none). Given as True, it is made
+        from the key's name: ``--`` + the name with ``-`` for ``_`` (``simulation.stem_mm`` ->
+        ``--stem-mm``), so the name is written once.
     doc : str
         What it means (docs table).
     field : str
         The :class:`CommissionSettings` field it sets (``""``: none; the report's fields).
+        Given as True: the key's name (``simulation.register`` -> ``register``).
     results_key : str or None
-        Its key in ``results.json`` ``settings`` (None: not recorded there).
+        Its key in ``results.json`` ``settings`` (None: not recorded there). By default the
+        field's name (None without a field).
     metavar : str
         The option's value placeholder in ``--help`` (``MM``, ``GY``; flags: ``""``).
     help : str
         The option's ``--help`` text (default: :attr:`doc`).
     negatable : bool
         A flag that also has ``--no-<name>`` (argparse's BooleanOptionalAction).
+    sweep : bool
+        A sweep spec's ``[settings]`` table may set it (:mod:`ringqa.sweep.spec`).
     """
 
     key: str
@@ -280,12 +289,63 @@ class Setting:
     high: float = math.inf
     low_open: bool = True
     choices: tuple[str, ...] = ()
-    option: str = ""
-    field: str = ""
-    results_key: str | None = None
+    option: str | bool = ""
+    field: str | bool = ""
+    results_key: str | bool | None = True
     metavar: str = ""
     help: str = ""
     negatable: bool = False
+    sweep: bool = False
+
+    def __post_init__(self) -> None:
+        name = self.key.split(".", 1)[1]
+        if self.option is True:
+            object.__setattr__(self, "option", "--" + name.replace("_", "-"))
+        if self.field is True:
+            object.__setattr__(self, "field", name)
+        if self.results_key is True:
+            object.__setattr__(self, "results_key", self.field or None)
+
+    @property
+    def table(self) -> str:
+        """The configuration table the key is in (``simulation`` of ``simulation.register``):
+        the group the report's settings page shows it in."""
+        return self.key.split(".", 1)[0]
+
+    @property
+    def name(self) -> str:
+        """The key's name inside its table (``register`` of ``simulation.register``)."""
+        return self.key.split(".", 1)[1]
+
+    @property
+    def record(self) -> str:
+        """The name under which a run records its value (:meth:`value_in`): the results.json
+        key, else the :class:`CommissionSettings` field, else the key's name (the report
+        fields, :class:`ringqa.report.fields.ReportFields`)."""
+        return self.results_key or self.field or self.name
+
+    def value_in(self, record: Mapping[str, Any]) -> Any:
+        """This setting's value in a run's ``record`` (results.json ``settings`` with the
+        report fields and the settings results.json does not keep), or :data:`NOT_RECORDED`.
+
+        ``record[self.record]`` as it is, with three forms of one record holding several keys:
+        a table (``dose_points``, ``calibration``) holds each key under its name; a list
+        (``position_limits_mm``) holds the keys that share it in the order of :data:`SETTINGS`;
+        a flag recorded under a number (``simulation.whole_channel`` under ``stem_mm``) is on
+        when the number is None.
+        """
+        if self.record not in record:
+            return NOT_RECORDED
+        value = record[self.record]
+        if isinstance(value, Mapping):
+            return value.get(self.name, NOT_RECORDED)
+        if self.kind == "flag" and not isinstance(value, bool):
+            return value is None
+        if isinstance(value, list | tuple):
+            share = [s for s in SETTINGS if s.record == self.record and s.kind != "flag"]
+            if len(share) > 1 and self in share and len(value) == len(share):
+                return value[share.index(self)]
+        return value
 
     @property
     def dest(self) -> str:
@@ -327,6 +387,17 @@ class Setting:
         return None
 
 
+class _NotRecorded:
+    """The value of a setting the run did not record (:data:`NOT_RECORDED`)."""
+
+    def __repr__(self) -> str:
+        return "NOT_RECORDED"
+
+
+#: What :meth:`Setting.value_in` gives for a setting the run's record does not hold.
+NOT_RECORDED = _NotRecorded()
+
+
 def _num(
     key,
     unit,
@@ -358,7 +429,6 @@ SETTINGS: tuple[Setting, ...] = (
         "recommended source-position tolerance (PASS up to it)",
         high=10.0,
         field="position_limits_mm",
-        results_key="position_limits_mm",
     ),
     _num(
         "tolerances.position_required_mm",
@@ -367,7 +437,6 @@ SETTINGS: tuple[Setting, ...] = (
         "required source-position tolerance (WARN up to it, FAIL beyond); >= recommended",
         high=10.0,
         field="position_limits_mm",
-        results_key="position_limits_mm",
     ),
     _num(
         "tolerances.dose_action_pct",
@@ -375,9 +444,9 @@ SETTINGS: tuple[Setting, ...] = (
         DOSE_ACTION_PCT,
         "dose-difference action level",
         high=100.0,
-        option="--dose-action-pct",
-        field="dose_action_pct",
-        results_key="dose_action_pct",
+        option=True,
+        sweep=True,
+        field=True,
         metavar="PCT",
         help="dose-difference action level, %% (default 5)",
     ),
@@ -387,9 +456,9 @@ SETTINGS: tuple[Setting, ...] = (
         PRESCRIPTION_GY,
         "mean Point A dose of the standard plan",
         high=50.0,
-        option="--prescription-gy",
-        field="prescription_gy",
-        results_key="prescription_gy",
+        option=True,
+        sweep=True,
+        field=True,
         metavar="GY",
         help="mean Point A dose of the standard plan, Gy (default 7)",
     ),
@@ -400,7 +469,6 @@ SETTINGS: tuple[Setting, ...] = (
         "dwell spacing of the standard plan (a multiple of the reference path's step)",
         high=50.0,
         field="plan_step_mm",
-        results_key="plan_step_mm",
     ),
     _num(
         "plan.tandem_dwells",
@@ -410,8 +478,7 @@ SETTINGS: tuple[Setting, ...] = (
         high=100,
         low_open=False,
         kind="int",
-        field="tandem_dwells",
-        results_key="tandem_dwells",
+        field=True,
     ),
     _num(
         "dose_points.point_a_height_mm",
@@ -459,9 +526,9 @@ SETTINGS: tuple[Setting, ...] = (
         None,
         "text",
         "TG-43 source (flexisource, mhdr-v2, ...; default: the RT Plan's, else flexisource)",
-        option="--source",
-        field="source",
-        results_key="source",
+        option=True,
+        sweep=True,
+        field=True,
         metavar="NAME",
         help="TG-43 source (default: the RT Plan's, else flexisource)",
     ),
@@ -471,9 +538,9 @@ SETTINGS: tuple[Setting, ...] = (
         None,
         "source air-kerma strength (default: the RT Plan's)",
         high=1e6,
-        option="--sk-u",
+        option=True,
+        sweep=True,
         field="sk_U",
-        results_key="sk_U",
         metavar="U",
         help="source air-kerma strength, U (default: the RT Plan's; needed to check a plan "
         "without one against its planning-system doses)",
@@ -485,9 +552,9 @@ SETTINGS: tuple[Setting, ...] = (
         "choice",
         "cable model (default: the cable of the plan's source)",
         choices=CABLES,
-        option="--cable",
-        field="cable",
-        results_key="cable",
+        option=True,
+        sweep=True,
+        field=True,
         metavar="NAME",
         help="source cable model (flexitron, microselectron; default: the cable of the plan's "
         "source)",
@@ -499,9 +566,9 @@ SETTINGS: tuple[Setting, ...] = (
         "choice",
         "registration of the reference path to the channel",
         choices=REGISTER_MODES,
-        option="--register",
-        field="register",
-        results_key="register",
+        option=True,
+        sweep=True,
+        field=True,
         metavar="MODE",
         help="how the reference source path is aligned with the channel before comparing: "
         "none (default: as supplied), plane-height or rigid",
@@ -512,9 +579,9 @@ SETTINGS: tuple[Setting, ...] = (
         DEFAULT_STEM_MM,
         "straight channel simulated before the first bend",
         high=2000.0,
-        option="--stem-mm",
-        field="stem_mm",
-        results_key="stem_mm",
+        option=True,
+        sweep=True,
+        field=True,
         metavar="MM",
         help="straight channel simulated before the first bend, mm (default 60)",
     ),
@@ -524,9 +591,8 @@ SETTINGS: tuple[Setting, ...] = (
         False,
         "flag",
         "simulate the whole channel (ignores stem_mm)",
-        option="--whole-channel",
+        option=True,
         field="stem_mm",
-        results_key="stem_mm",
         help="simulate the whole channel (however long its straight shaft)",
     ),
     Setting(
@@ -536,8 +602,9 @@ SETTINGS: tuple[Setting, ...] = (
         "flag",
         "also run the flexible-element engine and compare its dwells (the cross-check; "
         "--no-cross-check turns it off)",
-        option="--cross-check",
-        field="cross_check",
+        option=True,
+        field=True,
+        results_key=None,  # its outcome is results.json numerical_check.cross_check
         negatable=True,
         help="also run the flexible-element engine (model.formulation = flexible) and compare "
         "its dwells; a disagreement above max(0.2 mm, 2 x the numerical errors) fails the "
@@ -562,7 +629,7 @@ SETTINGS: tuple[Setting, ...] = (
         "flag",
         "exit status 1 when a verdict is FAIL or ACTION (for scripts; the files are written "
         "either way)",
-        option="--strict",
+        option=True,
         help="exit status 1 when a verdict is FAIL or ACTION (the files are written either "
         "way; configuration key report.strict)",
     ),
@@ -576,6 +643,7 @@ SETTINGS: tuple[Setting, ...] = (
         "text",
         "the ringqa calibrate command that wrote this file (a calibrated cable)",
         field="calibration",
+        results_key=None,  # results.json settings.calibration: only when one is used
     ),
     Setting(
         "calibration.created_utc",
@@ -584,6 +652,7 @@ SETTINGS: tuple[Setting, ...] = (
         "text",
         "when the calibration was made (UTC)",
         field="calibration",
+        results_key=None,  # results.json settings.calibration: only when one is used
     ),
     Setting(
         "calibration.calibration_json_sha256",
@@ -592,6 +661,7 @@ SETTINGS: tuple[Setting, ...] = (
         "text",
         "SHA-256 of the calibration.json written beside this file (the fit's record)",
         field="calibration",
+        results_key=None,  # results.json settings.calibration: only when one is used
     ),
 )
 
@@ -623,40 +693,43 @@ class SettingNames:
     note: str = ""
 
 
-def _names(field: str, results_key: str | None, note: str = "", flags=(), keys=()) -> SettingNames:
-    """A row of :data:`SETTING_NAMES`: the configuration keys and options of ``field`` read from
-    :data:`SETTINGS` (a negatable flag's ``--no-`` form too), plus the options and keys that
-    are not configuration keys (``flags``, ``keys``)."""
+def _names(field: str, results_key: str | None = None, note: str = "", flags=(),
+           keys=()) -> SettingNames:  # fmt: skip
+    """A row of :data:`SETTING_NAMES`: the configuration keys, options and results.json key of
+    ``field`` read from :data:`SETTINGS` (a negatable flag's ``--no-`` form too), plus the
+    options and keys that are not configuration keys (``flags``, ``keys``); ``results_key``
+    for a field without a row in the table."""
     rows = [s for s in SETTINGS if s.field == field]
     options = [s.option for s in rows if s.option]
     options += ["--no-" + s.option[2:] for s in rows if s.option and s.negatable]
+    if rows:
+        results_key = rows[0].results_key
     return SettingNames(field, (*(s.key for s in rows), *keys), (*options, *flags), results_key,
                         note)  # fmt: skip
 
 
+#: Where a setting's names differ from its field's (the drift the table makes visible), by field.
+NAME_NOTES = {
+    "sk_U": "sk_U in Python and results.json, sk_u in the configuration and --sk-u",
+    "point_spec": "point_spec in Python, dose_points elsewhere",
+    "position_limits_mm": "one pair in Python and results.json, two keys in the configuration",
+    "register": "register here; registration in summary.csv and the reference check",
+    "stem_mm": "None (the whole channel) is simulation.whole_channel / --whole-channel",
+    "cross_check": "its outcome is results.json numerical_check.cross_check",
+    "calibration": "the [calibration] table of a calibrated_cable.toml; results.json "
+    "settings.calibration (only when one is used) adds the file and its SHA-256",
+}
+
 #: The names of every commissioning setting, one row per :class:`CommissionSettings` field (but
-#: ``settings_origin``, which records where the others came from); the configuration keys and
-#: their options come from :data:`SETTINGS`, so a name is written once. A test checks each name
+#: ``settings_origin``, which records where the others came from): the fields of
+#: :data:`SETTINGS` (keys, options and results.json key read from it, so a name is written
+#: once), then the settings that are options or arguments only. A test checks each name
 #: against the configuration's keys, the command line's options and results.json, so a renamed
 #: or new setting fails until this table says what it is called where.
 SETTING_NAMES: tuple[SettingNames, ...] = (
-    _names("source", "source"),
-    _names("sk_U", "sk_U",
-           "sk_U in Python and results.json, sk_u in the configuration and --sk-u"),
-    _names("prescription_gy", "prescription_gy"),
-    _names("cable", "cable"),
+    *(_names(f, note=NAME_NOTES.get(f, "")) for f in dict.fromkeys(s.field for s in SETTINGS)
+      if f),
     _names("channel", "channel", flags=("--channel",)),
-    _names("point_spec", "dose_points", "point_spec in Python, dose_points elsewhere"),
-    _names("plan_step_mm", "plan_step_mm"),
-    _names("tandem_dwells", "tandem_dwells"),
-    _names("position_limits_mm", "position_limits_mm",
-           "one pair in Python and results.json, two keys in the configuration"),
-    _names("dose_action_pct", "dose_action_pct"),
-    _names("register", "register",
-           "register here; registration in summary.csv and the reference check"),
-    _names("stem_mm", "stem_mm",
-           "None (the whole channel) is simulation.whole_channel / --whole-channel"),
-    _names("cross_check", None, "its outcome is results.json numerical_check.cross_check"),
     _names("centreline_correction", "centreline_correction",
            flags=("--centreline-correction",)),
     _names("require_measured", None,
@@ -668,6 +741,4 @@ SETTING_NAMES: tuple[SettingNames, ...] = (
            flags=("--lumen-mm",)),
     _names("measured", None, "the file is in the provenance's inputs; its points in results.json "
            "measured_points", flags=("--measured",)),
-    _names("calibration", None, "the [calibration] table of a calibrated_cable.toml; results.json "
-           "settings.calibration (only when one is used) adds the file and its SHA-256"),
 )  # fmt: skip

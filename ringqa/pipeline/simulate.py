@@ -35,12 +35,12 @@ from typing import Any
 
 import numpy as np
 
+from ringqa import parallel as forked
 from ringqa.errors import RingQAError, SimulationError
 from ringqa.geometry import Channel
 from ringqa.geometry.stem import trim_to_stem
-from ringqa.pipeline import forked
+from ringqa.parallel import ForkedCall
 from ringqa.pipeline.dwells import PathDwells
-from ringqa.pipeline.forked import ForkedCall
 from ringqa.pipeline.result import SimulationInfo
 from ringqa.units import m_to_mm, mm_to_m
 
@@ -80,7 +80,7 @@ RESOLVE_FACTORS = (0.2, 0.1)
 NUMERICAL_ERROR_WARN_MM = 0.1
 #: Run the independent engine runs of the numerical check two at a time (the commissioning run
 #: here, the refined one in a forked child process; the probes likewise) where ``os.fork`` exists,
-#: the machine has two cores, one of them free (:func:`ringqa.pipeline.forked.second_core_free`)
+#: the machine has two cores, one of them free (:func:`ringqa.parallel.second_core_free`)
 #: and the kernel cache is warm (:func:`kernels_cached`). The results are those of running them
 #: one after the other (the child runs the same code on the same scene); a batch's worker
 #: processes switch it off (they already use the cores). Only ringqa's own engine is run so: a
@@ -588,7 +588,7 @@ def kernels_cached() -> bool:
 def second_core_worthwhile(engine: Engine | None = None) -> bool:
     """Independent work may go to a forked process: ``engine`` is ringqa's own (None: the
     default), its kernels are cached (:func:`kernels_cached`: a first run compiles once) and a
-    core is free (:func:`ringqa.pipeline.forked.second_core_free`)."""
+    core is free (:func:`ringqa.parallel.second_core_free`)."""
     return (engine is None or own_engine(engine)) and kernels_cached() and forked.second_core_free()
 
 
@@ -1186,8 +1186,8 @@ class PendingCrossCheck:
     advances : (n,) ndarray
         The advances run, mm.
     fork : bool or None
-        Run it in a forked child now (:class:`ringqa.pipeline.forked.ForkedCall`). None: when a
-        core is free (:func:`ringqa.pipeline.forked.second_core_free`), whether or not its
+        Run it in a forked child now (:class:`ringqa.parallel.ForkedCall`). None: when a
+        core is free (:func:`ringqa.parallel.second_core_free`), whether or not its
         kernels are cached: unlike the rigid runs' forks, the child compiles kernels the command
         itself never needs, so on a first run the flexible engine compiles beside the rigid
         engine's compile instead of after it.

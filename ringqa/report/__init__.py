@@ -25,6 +25,7 @@ from ringqa.jsonio import write_json
 from ringqa.outdir import MARKER_NAME, marker_record, staged_output
 from ringqa.pipeline.result import register_report_writer
 from ringqa.report.fields import ReportFields
+from ringqa.report.figures import deviations_figure, dose_points_figure, positions_figure
 from ringqa.report.pdf import draw_ahead, write_batch_pdf, write_channels_pdf, write_pdf
 from ringqa.report.tables import SCHEMA, results_dict, write_batch_tables, write_tables
 from ringqa.textio import read_csv_table
@@ -54,9 +55,12 @@ def _write_html(result, path):
     return write_html(result, path)
 
 
-# the pipeline's named seam (CommissioningResult.publish_pdf / publish_html)
+# the pipeline's named seam (CommissioningResult.publish_pdf / publish_html / plot_*)
 register_report_writer("pdf", write_pdf)
 register_report_writer("html", _write_html)
+register_report_writer("figure.positions", positions_figure)
+register_report_writer("figure.deviations", deviations_figure)
+register_report_writer("figure.doses", dose_points_figure)
 
 
 def read_accuracy_csv(path) -> pd.DataFrame:
@@ -182,10 +186,10 @@ def write_batch(
     Failed applicators appear in summary.csv / batch.json with their error (no subfolder).
     ``fields``, ``export`` and ``sections`` as :func:`write_report` (the exports per applicator
     folder; the fields also go on summary.pdf). ``workers``: processes rendering the
-    applicators' PDFs at once (default :func:`ringqa.pipeline.batch.default_workers`; forked,
+    applicators' PDFs at once (default :func:`ringqa.parallel.default_workers`; forked,
     each writes its applicator's ``report.pdf`` into the staging folder while this process
     writes the tables and ``summary.pdf``; the files are those of 1 worker)."""
-    from ringqa.pipeline.batch import default_workers
+    from ringqa.parallel import default_workers
     from ringqa.progress import progress_bar as tqdm  # plain lines when not a terminal
 
     checked = _checked_exports(batch.results, export)
@@ -248,7 +252,7 @@ def prepare_report() -> None:
 def _pdf_pool(results, folders, fields, sections, workers: int, exports=None):
     """A pool of forked processes (a context manager) set up to render ``results[k]`` into
     ``folders[k]/report.pdf`` (:func:`_pdf_task`); the folders are made here first."""
-    from ringqa.pipeline.forked import worker_pool
+    from ringqa.parallel import worker_pool
 
     prepare_report()  # once, before forking: the workers inherit it
     for folder in folders:
@@ -261,7 +265,7 @@ def _pdf_pool(results, folders, fields, sections, workers: int, exports=None):
 def _pdf_task(k: int) -> int:
     """Render report ``k`` of the pool's job ``(results, PDF paths, fields, sections)`` (in a
     worker)."""
-    from ringqa.pipeline.forked import job
+    from ringqa.parallel import job
 
     results, paths, fields, sections, notes = job()
     write_pdf(results[k], paths[k], fields=fields[k], sections=sections, notes=notes[k])

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ringqa.pipeline.plots import COLOURS, frame_words, new_figure, project
+from ringqa.report.figures import COLOURS, frame_words, new_figure, project
 from ringqa.report.layout import FRAME_WIDTH, figure_image, heading, para
 
 #: the figure's size (inches): an A4 page's frame width

@@ -32,7 +32,7 @@ from ringqa.pipeline.numbers import (
     fmt,
     fmt_verdict_value,
 )
-from ringqa.pipeline.plots import FLAG_NAMES, reference_name
+from ringqa.report.figures import FLAG_NAMES, reference_name
 from ringqa.report.pdf import LONG_NAMES, dose_table
 
 __all__ = ["PATH_STYLES", "html_text", "view_figure", "write_html"]

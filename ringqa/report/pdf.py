@@ -22,7 +22,9 @@ applicator:
    as supplied and, when registered, as registered; the RT Plan's own doses beside the TPS
    values), with the TG-43 data's reference.
 5. Dwell-by-dwell table (reference flags, numerical error), over as many pages as it needs.
-6. The effective settings of the run (``result.settings`` as it is, and the scene).
+6. The settings: every row of the settings table (:data:`ringqa.pipeline.settings.SETTINGS`)
+   with the run's value, unit and origin, grouped by configuration table; what the run records
+   beyond it (channel, ``--set``, files); the scene.
 7. Optional: the accuracy study of ``ringqa accuracy``; then any extra ``sections``.
 
 Batch: ``summary.pdf`` with the same header/footer, Figure-5-like boxplots, the summary table,
@@ -34,6 +36,7 @@ the user or the applicator library supplies, a measurement only when its source 
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import re
 from collections.abc import Callable, Iterable, Sequence
@@ -55,7 +58,10 @@ from ringqa.pipeline.numbers import (
     SIGNED_PCT,
 )
 from ringqa.pipeline.numbers import fmt as _fmt_number
-from ringqa.pipeline.plots import (
+from ringqa.report import layout
+from ringqa.report.cross_check import cross_check_figure, cross_check_page, failed_cross_check
+from ringqa.report.fields import ReportFields
+from ringqa.report.figures import (
     DEVIATIONS_SIZE,
     FLAG_COLOURS,
     FLAG_NAMES,
@@ -72,9 +78,6 @@ from ringqa.pipeline.plots import (
     reference_flags,
     reference_name,
 )
-from ringqa.report import layout
-from ringqa.report.cross_check import cross_check_figure, cross_check_page, failed_cross_check
-from ringqa.report.fields import ReportFields
 from ringqa.report.layout import badge, grid_table, heading, para
 from ringqa.units import m_to_mm
 
@@ -789,14 +792,14 @@ AHEAD_FIGURES: dict[str, tuple[Callable, tuple[float, float]]] = {
 
 class DrawnAhead:
     """The report figures of one result (:data:`AHEAD_FIGURES`) being drawn in a forked child
-    process (:class:`ringqa.pipeline.forked.ForkedCall`) while this process writes the tables,
+    process (:class:`ringqa.parallel.ForkedCall`) while this process writes the tables,
     report.html and the rest of the PDF; the PDF waits for their pixels only when it draws
     their page. Without a free core (or ``os.fork``) they are drawn here when first needed:
     the pixels, and so the PDF, are the same either way (the child is a copy of this process,
     matplotlib's state included). Give it to :func:`write_pdf` (``drawn=``)."""
 
     def __init__(self, result, fork: bool | None = None) -> None:
-        from ringqa.pipeline.forked import ForkedCall, second_core_free
+        from ringqa.parallel import ForkedCall, second_core_free
 
         self.result = result
         fork = second_core_free() if fork is None else fork
@@ -993,23 +996,122 @@ def _setting_text(value) -> str:
     return _fmt(value, "{}")
 
 
-def settings_rows(res) -> tuple[list[tuple[str, str]], list[tuple[str, str]]]:
-    """The effective settings (``result.settings`` as it is, without the scene) and the scene's
-    settings (user units), as (key, value text) rows."""
+def settings_record(res, fields: ReportFields | None = None) -> dict:
+    """What the run recorded of its settings, by :attr:`Setting.record
+    <ringqa.pipeline.settings.Setting.record>` name: results.json ``settings`` (without the
+    scene), the :class:`~ringqa.pipeline.result.RunSettings` fields results.json does not keep
+    (the cross-check) and the report's fields (``fields``, blank when not given)."""
+    run = res.settings
+    record = {f.name: getattr(run, f.name) for f in dataclasses.fields(run)}
+    record.update(run.as_dict())  # results.json's forms (dose points as a table, lists)
+    record.pop("scene", None)
+    f = fields or ReportFields()
+    record.update({k: getattr(f, k) for k in f.__dataclass_fields__})
+    return record
+
+
+def table_rows(res, fields: ReportFields | None = None) -> list[tuple[str, str, str, str, str]]:
+    """One row per row of the settings table (:data:`ringqa.pipeline.settings.SETTINGS`, read
+    when called, in its order): ``(table, name, value, unit, origin)``. The value is the
+    run's (:meth:`~ringqa.pipeline.settings.Setting.value_in` of :func:`settings_record`;
+    ``-`` when not recorded or empty), the origin ``result.settings_origin``'s (``-`` when the
+    settings were made in Python)."""
+    from ringqa.pipeline import settings as setting_table
+
+    record = settings_record(res, fields)
+    origins = dict(getattr(res, "settings_origin", {}) or {})
+    files = origin_files(res)
+    rows = []
+    for s in setting_table.SETTINGS:
+        value = s.value_in(record)
+        text = "-" if value is setting_table.NOT_RECORDED or value == "" else _setting_text(value)
+        origin = origins.get(s.key, setting_table.DEFAULT_ORIGIN if origins else "-")
+        rows.append((s.table, s.name, text, s.unit, files.get(origin, origin)))
+    return rows
+
+
+def origin_files(res) -> dict[str, str]:
+    """The settings' origins that name a file (``--config <path>``, ``user config <path>``)
+    -> a short label for the settings table's narrow column (``--config [1]``), numbered in
+    order of first use; the page names each file under the table."""
+    from ringqa.pipeline import settings as setting_table
+
+    origins = dict(getattr(res, "settings_origin", {}) or {})
+    out: dict[str, str] = {}
+    for s in setting_table.SETTINGS:
+        origin = origins.get(s.key, "")
+        for kind in ("--config ", "user config "):
+            if origin.startswith(kind) and origin not in out:
+                out[origin] = f"{kind}[{len(out) + 1}]"
+    return out
+
+
+def grouped_two_up(rows: Sequence[tuple[str, str, str, str, str]]) -> tuple[list, list]:
+    """:func:`table_rows` as two columns of (name, value, unit, origin) cells, read down the
+    left then down the right, each configuration table under a ``[table]`` row (repeated,
+    ``continued``, where the right column starts inside a table). Returns the rows of 8
+    cells and the (row, column) cells of the group rows (to shade)."""
+    lines: list[tuple[str, ...]] = []
+    shown = None
+    for table, *cells in rows:
+        if table != shown:
+            lines.append((f"[{table}]",))
+            shown = table
+        lines.append((table, *cells))
+    half = (len(lines) + 1) // 2
+    left, right = lines[:half], lines[half:]
+    if right and len(right[0]) > 1:  # the right column starts inside a table
+        right.insert(0, (f"[{right[0][0]}] continued",))
+        if len(right) > len(left):
+            left.append(("",))
+
+    def cells(line):
+        if len(line) == 1:
+            return [para(line[0], "cellhead") if line[0] else "", "", "", ""], bool(line[0])
+        return list(line[1:]), False
+
+    out, group = [], []
+    for k in range(max(len(left), len(right))):
+        a, ga = cells(left[k] if k < len(left) else ("",))
+        b, gb = cells(right[k] if k < len(right) else ("",))
+        out.append(a + b)
+        group += [(k + 1, c) for c in range(4) if ga] + [(k + 1, 4 + c) for c in range(4) if gb]
+    return out, group
+
+
+def run_only_rows(res) -> list[tuple[str, str]]:
+    """What results.json ``settings`` records beyond the settings table's rows (the channel,
+    the ``--set`` overrides, a centreline correction, the calibration file and its SHA-256), as
+    (dotted key, value text) rows; then the simulation's status, solve time, elements,
+    numerical check runs and engine warnings."""
+    from ringqa.pipeline import settings as setting_table
+
     data = res.settings.as_dict()
-    scene = data.pop("scene", {}) or {}
-    run = [(k, _setting_text(v)) for k, v in flatten(data).items()]
+    data.pop("scene", None)
+    held = {s.record for s in setting_table.SETTINGS}
+    parts = {f"{s.record}.{s.name}" for s in setting_table.SETTINGS}
+    rows = []
+    for key, value in flatten(data).items():
+        if key in parts or key in held:
+            continue
+        rows.append((key, _short(_setting_text(value), 90)))
     sim = res.simulation
-    run += [
+    rows += [
         ("simulation status", f"{sim.status} {sim.message}".strip()),
         ("simulation solve time", f"{sim.solve_time_s:.2f} s"),
         ("elements", str(sim.n_elements)),
     ]
     if res.numerics is not None:
-        run.append(("numerical check runs", str(res.numerics.n_runs)))
-    run += [("engine warning", w) for w in sim.warnings]
-    scene_rows = [(k, _short(_setting_text(v))) for k, v in flatten(scene).items()]
-    return run, scene_rows or [("(engine defaults)", "")]
+        rows.append(("numerical check runs", str(res.numerics.n_runs)))
+    rows += [("engine warning", w) for w in sim.warnings]
+    return rows
+
+
+def scene_rows(res) -> list[tuple[str, str]]:
+    """The simulated scene's settings (user units), as (dotted key, value text) rows."""
+    scene = res.settings.as_dict().get("scene", {}) or {}
+    rows = [(k, _short(_setting_text(v))) for k, v in flatten(scene).items()]
+    return rows or [("(engine defaults)", "")]
 
 
 def _short(text: str, width: int = 60) -> str:
@@ -1024,41 +1126,39 @@ def _two_up(rows: list[tuple[str, str]]) -> list[list[str]]:
     return [[a, b, c, d] for (a, b), (c, d) in zip(left, right, strict=True)]
 
 
-def origin_rows(res) -> list[list[str]]:
-    """Where each configurable setting came from (``result.settings_origin``: configuration
-    key -> ``default``, ``user config <path>``, ``--config <path>`` or ``command line``): the
-    changed ones by key, the defaults counted in one row."""
-    origin = dict(getattr(res, "settings_origin", {}) or {})
-    changed = [[k, v] for k, v in sorted(origin.items()) if v != "default"]
-    n_default = sum(1 for v in origin.values() if v == "default")
-    if n_default:
-        changed.append([f"{n_default} other settings", "default"])
-    return changed
+#: the settings page's shade of a configuration table's row
+GROUP_SHADE = "#f5f5f5"
 
 
-def settings_flowables(res) -> list:
-    """The effective settings of the run, where each came from, and the scene."""
-    run, scene = settings_rows(res)
+def settings_flowables(res, fields: ReportFields | None = None) -> list:
+    """The settings page: every row of the settings table with the run's value, its unit and
+    where it came from (grouped by configuration table, as ``ringqa config show``), what the
+    run records beyond the table, and the scene."""
     w = layout.FRAME_WIDTH
-    origins = origin_rows(res)
-    origin_part = []
-    if origins:
-        origin_part = [
-            heading("Where the settings came from (ringqa config show)", 1),
-            grid_table([["setting", "from"], *origins], [0.36 * w, 0.64 * w], align="LEFT"),
-        ]
+    rows, groups = grouped_two_up(table_rows(res, fields))
+    side = [0.225 * w, 0.125 * w, 0.045 * w, 0.105 * w]
     return [
-        heading("Settings of this run (effective values)", 1),
+        heading("Settings of this run (effective values, where each came from)", 1),
         grid_table(
-            [["setting", "value"], *[[k, v] for k, v in run]],
-            [0.36 * w, 0.64 * w],
+            [["setting", "value", "unit", "from"] * 2, *rows],
+            side * 2,
+            style="cell",
+            align="LEFT",
+            cell_colours={cell: GROUP_SHADE for cell in groups},
+        ),
+        *[
+            para(f"{label.split()[-1]} {origin}", "small")
+            for origin, label in origin_files(res).items()
+        ],
+        grid_table(
+            [["also recorded", "value"], *[[k, v] for k, v in run_only_rows(res)]],
+            [0.3 * w, 0.7 * w],
             style="cell",
             align="LEFT",
         ),
-        *origin_part,
         heading("Scene (simulation settings, user units)", 1),
         grid_table(
-            [["setting", "value", "setting", "value"], *_two_up(scene)],
+            [["setting", "value", "setting", "value"], *_two_up(scene_rows(res))],
             [0.3 * w, 0.2 * w, 0.3 * w, 0.2 * w],
             align="LEFT",
         ),
@@ -1102,23 +1202,24 @@ def report_story(
 ) -> list:
     """All flowables of one applicator's report, page breaks included (see the module
     docstring for the pages). ``sections`` add pages after the standard ones."""
-    pages = [summary_flowables(result, fields, notes), *detail_pages(result)]
+    pages = [summary_flowables(result, fields, notes), *detail_pages(result, fields)]
     if accuracy is not None:
         pages.append(accuracy_flowables(result, accuracy))
     pages += [list(section(result)) for section in sections]
     return _joined(pages)
 
 
-def detail_pages(result) -> list[list]:
+def detail_pages(result, fields: ReportFields | None = None) -> list[list]:
     """The pages after page 1 of one channel's report: positions, deviations, dose points,
-    the dwell table and the settings (one list of flowables per page)."""
+    the dwell table and the settings (one list of flowables per page; ``fields``: the report
+    fields the settings page lists)."""
     return [
         positions_flowables(result),
         *([page] if (page := cross_check_page(result)) else []),  # a failed cross-check
         deviations_flowables(result),
         doses_flowables(result),
         dwell_table_flowables(result),
-        settings_flowables(result),
+        settings_flowables(result, fields),
     ]
 
 
@@ -1466,7 +1567,7 @@ def write_channels_pdf(
     """
     pages = [channels_front_flowables(results, conclusion, not_simulated, fields, notes)]
     for res in results:
-        pages += [channel_section_flowables(res), *detail_pages(res)]
+        pages += [channel_section_flowables(res), *detail_pages(res, fields)]
     first = results[0]
     return layout.build_pdf(
         path,

@@ -49,10 +49,9 @@ METHODS = ("random", "sobol")
 NUMERICS = ("calibrated", "full")
 #: default number of calibration samples of a calibrated sweep
 CALIBRATION_SAMPLES = 6
-#: The commissioning settings (CommissionSettings fields) a spec's [settings] table may set.
-SWEEP_SETTING_FIELDS = (
-    "source", "cable", "prescription_gy", "dose_action_pct", "register", "stem_mm", "sk_U",
-)  # fmt: skip
+#: The commissioning settings (CommissionSettings fields) a spec's [settings] table may set:
+#: the rows of the settings table marked ``sweep``.
+SWEEP_SETTING_FIELDS = tuple(dict.fromkeys(s.field for s in SETTINGS if s.sweep))
 #: Their names in a spec's [settings] table: the configuration keys' names (the settings table,
 #: :data:`ringqa.pipeline.settings.SETTINGS`: ``sk_u``), and ``centreline_reference`` (the
 #: option --centreline-reference, which has no configuration key).

@@ -133,7 +133,7 @@ def test_u_shaped_only_in_its_range():
         (lambda: Lumen.circular(-1e-3, 0.5e-3), "r_b_m"),
         (lambda: Lumen.u_shaped(1.5e-3, 1.4e-3, -1.6e-3), "flat_m"),
         (lambda: FlatSide("outward"), "flat_towards"),
-        (lambda: FlatSide("ring_outside"), "ring's centre and normal"),
+        (lambda: FlatSide("ring_outside"), "frame's centre and normal"),
         (lambda: Lumen.stepped([0.01], [1e-3], [0.9e-3]), "2 radii"),
         (lambda: Lumen.stepped([0.02, 0.01], [1e-3] * 3, [0.9e-3] * 3), "increase"),
     ],

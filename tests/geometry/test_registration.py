@@ -88,7 +88,7 @@ def test_lifted_path_is_planar_at_its_height(ring):
         assert c.plane_tilt_deg < 1e-6
         np.testing.assert_allclose(c.plane_normal, Z, atol=1e-9)
         np.testing.assert_allclose(c.ring_normal, Z, atol=1e-9)
-    assert c.ring_frame_source.startswith("fitted to the distal 40 mm")
+    assert c.frame_source.startswith("fitted to the distal 40 mm")
     np.testing.assert_allclose(c.offset_m, 0.89 * MM, atol=1e-9)
     np.testing.assert_allclose(c.s_m, ring.length_m - from_tip * MM, atol=1e-9)
     np.testing.assert_allclose(c.max_offset_m, 1.05 * MM, atol=1e-12)
@@ -344,7 +344,7 @@ def test_collinear_path_on_a_tandem():
     assert "straight line" in c.summary[0]
     with pytest.raises(RegistrationError, match="straight line"):
         register_reference(path, tandem, "plane-height", RC_MHDR, FRAME)
-    with pytest.raises(RegistrationError, match=r"ring_frame: not given.*not a circular arc"):
+    with pytest.raises(RegistrationError, match=r"frame: not given.*not a circular arc"):
         check_reference_path(path, tandem, RC_MHDR)
 
 
@@ -422,7 +422,7 @@ def test_bad_arguments_name_the_argument(ring):
         register_reference(pts, ring, "none", RC_MHDR, FRAME, slide=True)
     with pytest.raises(RegistrationError, match=r"capsule_radius_m: 450 mm"):
         check_reference_path(pts, ring, 0.45, FRAME)
-    with pytest.raises(RegistrationError, match=r"ring_frame: the normal must be a unit"):
+    with pytest.raises(RegistrationError, match=r"frame: the normal must be a unit"):
         check_reference_path(pts, ring, RC_MHDR, (np.zeros(3), 2 * Z))
     with pytest.raises(RegistrationError, match=r"points_m: .* metres"):
         check_reference_path(pts * 1e4, ring, RC_MHDR, FRAME)

@@ -10,12 +10,12 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from ringqa import parallel as forked_mod
 from ringqa.cli import main
 from ringqa.io.applicator_file import load_applicator
+from ringqa.parallel import ForkedCall
 from ringqa.pipeline import commission_batch, simulate
-from ringqa.pipeline import forked as forked_mod
 from ringqa.pipeline.dwells import reference_dwells
-from ringqa.pipeline.forked import ForkedCall
 from ringqa.report import write_batch
 from tests.pipeline.fakes import fake_engine, make_applicator
 

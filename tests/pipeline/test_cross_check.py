@@ -107,8 +107,8 @@ def test_the_cross_check_beside_the_rigid_runs_equals_it_after_them(monkeypatch)
     settings are the commissioning element lengths x CROSS_CHECK_ELEMENT_FACTOR at the same
     increment; the agreement is within the limit (0.2 mm). Switched off (``cross_check=False``)
     the text says so and nothing is run; not asked (None), no line."""
+    from ringqa import parallel as forked_mod
     from ringqa.io.applicator_file import load_applicator
-    from ringqa.pipeline import forked as forked_mod
     from ringqa.pipeline import simulate
     from ringqa.pipeline.dwells import reference_dwells
 
@@ -150,8 +150,8 @@ def test_a_jam_of_the_rigid_runs_leaves_no_cross_check_process(monkeypatch):
     pending check is dropped (no child left blocked on its pipe)."""
     import gc
 
+    from ringqa import parallel as forked_mod
     from ringqa.io.applicator_file import load_applicator
-    from ringqa.pipeline import forked as forked_mod
     from ringqa.pipeline import simulate
     from ringqa.pipeline.dwells import reference_dwells
 

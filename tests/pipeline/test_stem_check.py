@@ -128,11 +128,11 @@ def test_the_stem_check_is_bit_identical_with_its_run_forked(monkeypatch):
     """ring26x60 (the real engine) with a 30 mm stem, so that 30 mm of its 60 mm straight stem
     is cut: the whole channel's refined run in a forked child while the probes and its other
     run go here gives exactly the errors of running everything in turn (tolerance 0)."""
+    from ringqa import parallel as forked_mod
     from ringqa.io.applicator_file import load_applicator
-    from ringqa.pipeline import forked as forked_mod
+    from ringqa.parallel import ForkedCall
     from ringqa.pipeline import simulate
     from ringqa.pipeline.dwells import reference_dwells
-    from ringqa.pipeline.forked import ForkedCall
 
     app = load_applicator("ring26x60")
     ring = app.channel("ring")

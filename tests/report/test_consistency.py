@@ -249,11 +249,11 @@ def test_batch_numbers_agree(batch_run):
 
 
 def test_batch_box_plot_is_the_summary(batch_run):
-    """What summary.pdf's box plot draws (:func:`ringqa.pipeline.plots.batch_distances`) has
+    """What summary.pdf's box plot draws (:func:`ringqa.report.figures.batch_distances`) has
     the medians and maxima of summary.csv's judged columns, rebuilt here from the batch."""
     from ringqa.pipeline import commission_batch
-    from ringqa.pipeline.plots import batch_distances
     from ringqa.pipeline.settings import CommissionSettings
+    from ringqa.report.figures import batch_distances
 
     summary = pd.read_csv(batch_run / "summary.csv", keep_default_na=False, na_values=[""])
     batch = commission_batch([example_plan()], CommissionSettings(register="plane-height"),

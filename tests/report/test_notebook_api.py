@@ -76,3 +76,19 @@ def test_publish_pdf_reaches_the_report_through_the_named_seam(fake_result, tmp_
     with pytest.raises(RingQAError, match=r"import ringqa\.report"):
         fake_result.publish_pdf(tmp_path / "r.pdf")
     assert not (tmp_path / "r.pdf").exists()
+
+
+def test_plot_methods_reach_the_figures_through_the_named_seam(fake_result, monkeypatch):
+    """The figures are the report layer's (ringqa.report.figures); the result's plot_* methods
+    find them in the pipeline's seam, which ringqa.report fills when imported; with nothing
+    registered a plot method says what to import."""
+    from ringqa.errors import RingQAError
+    from ringqa.pipeline import result as result_module
+    from ringqa.report import figures
+
+    assert result_module.REPORT_WRITERS["figure.positions"] is figures.positions_figure
+    assert result_module.REPORT_WRITERS["figure.deviations"] is figures.deviations_figure
+    assert result_module.REPORT_WRITERS["figure.doses"] is figures.dose_points_figure
+    monkeypatch.setattr(result_module, "REPORT_WRITERS", {})
+    with pytest.raises(RingQAError, match=r"no figure\.positions .*import ringqa\.report first"):
+        fake_result.plot_positions()

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ringqa.pipeline import plots
+from ringqa.report import figures as plots
 
 FIGURES = ("positions_figure", "deviations_figure", "dose_points_figure")
 

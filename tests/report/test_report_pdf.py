@@ -87,8 +87,8 @@ def test_pages_in_order_and_fields_printed(fake_result, fake_pdf):
     doses = pages[where[3]]
     assert "Perez-Calatayud" in doses  # the TG-43 consensus data cited where it is used
     settings = " ".join(pages[where[5] :])
-    for key in ("plan_step_mm", "position_limits_mm", "dose_action_pct", "register"):
-        assert key in settings, key  # result.settings printed as it is
+    for key in ("step_mm", "position_recommended_mm", "dose_action_pct", "register"):
+        assert key in settings, key  # the settings table's rows (tests/report/test_settings_page)
 
 
 def test_blank_fields_are_lines_to_fill(fake_result, tmp_path):
@@ -124,7 +124,7 @@ def test_streams_binary_not_ascii85(fake_pdf):
 def test_only_the_figures_use_matplotlib(fake_result, tmp_path, monkeypatch):
     """Three matplotlib figures (positions, deviations, dose points) make the whole report: the
     text and table pages are reportlab's (issue 16: they cost most of the old 2.4 s)."""
-    import ringqa.pipeline.plots as plots
+    import ringqa.report.figures as plots
 
     made = []
     real = plots.new_figure
@@ -185,8 +185,8 @@ def test_figures_drawn_ahead_give_the_same_pdf(fake_result, tmp_path, monkeypatc
     three figures in all (in the child when forked: none of the two drawn here again)."""
     from reportlab import rl_config
 
-    import ringqa.pipeline.plots as plots
-    from ringqa.pipeline.forked import can_fork
+    import ringqa.report.figures as plots
+    from ringqa.parallel import can_fork
     from ringqa.report.pdf import draw_ahead
 
     monkeypatch.setattr(rl_config, "invariant", 1)

@@ -8,7 +8,6 @@ curved (3-D printed) channel. The pipeline, the dose points and the report ask a
 ``name``               the family's name in files and on the command line (``"ring"``)
 ``words``              :class:`FamilyWords`: how the report names the channel and its parts
 ``gynae``              True: its plans get Point A left/right (from the applicator's frame)
-``frame(app)``         the applicator's frame to use (:class:`~ringqa.geometry.frame.Frame`)
 ``span_mm(...)``       the part of the channel to simulate when no measured path is given: the
                        largest relative position (mm) of the reference dwells
 ``points(...)``        the family's own dose points beside Point A (:class:`FamilyPoint`)
@@ -17,9 +16,13 @@ curved (3-D printed) channel. The pipeline, the dose points and the report ask a
 =====================  =======================================================================
 
 A channel's lumen and centreline are the channel's own (:class:`~ringqa.geometry.Channel`): a
-family does not change them. Everything here is in the geometry layer: points are plain
-positions in mm (the plan layer makes them dose points), ``spec`` is read by attribute (a
-:class:`ringqa.plan.DosePointSpec` or anything with the same attributes).
+family does not change them. The frame is the applicator's (:attr:`Applicator.frame
+<ringqa.geometry.Applicator.frame>`, :func:`~ringqa.geometry.frame.frame_of`: given by its file
+or reader, else :func:`~ringqa.geometry.frame.fit_frame`); a family module may offer the fit
+its readers use (the ring family's circle fit; the tandem's
+:func:`~ringqa.geometry.families.tandem.tandem_frame`). Everything here is in the geometry
+layer: points are plain positions in mm (the plan layer makes them dose points), ``spec`` is
+read by attribute (a :class:`ringqa.plan.DosePointSpec` or anything with the same attributes).
 """
 
 from __future__ import annotations

@@ -1,7 +1,8 @@
 """The ring family (Elekta Ring CT/MR, Varian ring): the rules gathered from the pipeline.
 
-- Frame: the circle fitted to the ring channel (:mod:`ringqa.geometry.ring_frame`); its centre,
-  cranial normal, lateral (patient left) and radius are the applicator's frame fields.
+- Frame: the circle fitted to the ring channel (:mod:`ringqa.geometry.families.ring_frame`);
+  its centre, cranial normal, lateral (patient left) and radius are the applicator's frame
+  fields.
 - Span: without a measured path the reference dwells lie on the circular part of the ring:
   walking proximally from s_ref in ``step_mm`` steps while the centreline stays within
   :data:`ON_CIRCLE_MM` of the circle (radially and out of its plane).

@@ -2,9 +2,11 @@
 
 Used by the PDF report (embedded as images) and by the notebook methods of
 :class:`~ringqa.pipeline.result.CommissioningResult` (``plot_positions``, ``plot_deviations``,
-``plot_doses``). No pyplot: the figures are made with ``matplotlib.figure.Figure`` directly, so
-making one never switches the user's backend nor adds to pyplot's list of open figures (a
-notebook shows a returned Figure as it is; ``fig.savefig(...)`` works without a GUI).
+``plot_doses``, through the pipeline's named seam ``REPORT_WRITERS``, which
+:mod:`ringqa.report` fills when imported). No pyplot: the figures are made with
+``matplotlib.figure.Figure`` directly, so making one never switches the user's backend nor adds
+to pyplot's list of open figures (a notebook shows a returned Figure as it is;
+``fig.savefig(...)`` works without a GUI).
 matplotlib is imported only when a figure is made.
 
 All lengths in mm, angles in degrees, as in the result's tables.
@@ -93,9 +95,10 @@ def _pin_title(ax) -> bool:
     return True
 
 
-def ring_frame(geometry):
-    """Ring frame of a :class:`~ringqa.pipeline.result.RingGeometry`: centre (3,), e_left (3,),
-    e_ant (3,) in-plane, e_cranial (3,)."""
+def frame_axes(geometry):
+    """The applicator frame's axes of a :class:`~ringqa.pipeline.result.RingGeometry` (its
+    family's frame; the ``ring_*`` names are results.json's): centre (3,), e_left (3,), e_ant
+    (3,) across the cranial axis, e_cranial (3,)."""
     c = np.asarray(geometry.ring_centre_mm, dtype=float)
     n = np.asarray(geometry.ring_normal, dtype=float)
     n = n / np.linalg.norm(n)
@@ -106,9 +109,9 @@ def ring_frame(geometry):
 
 
 def project(xyz, geometry):
-    """Points (n, 3) in mm -> (left, in-plane perpendicular, cranial) coordinates in the ring
-    frame, mm (three arrays of n)."""
-    c, e1, e2, n = ring_frame(geometry)
+    """Points (n, 3) in mm -> (left, perpendicular across the cranial axis, cranial)
+    coordinates in the applicator frame, mm (three arrays of n)."""
+    c, e1, e2, n = frame_axes(geometry)
     d = np.asarray(xyz, dtype=float).reshape(-1, 3) - c
     return d @ e1, d @ e2, d @ n
 

@@ -1,4 +1,4 @@
-"""The ring frame of an applicator: a circle fitted to the ring channel, and its axes.
+"""The ring family's frame: a circle fitted to the ring channel, and its axes.
 
 One fit, used wherever a frame is not given: an applicator file without ``ring_frame``
 (:mod:`ringqa.io.applicator_file`), an RT Plan's applicator library
@@ -37,47 +37,9 @@ from typing import Literal
 import numpy as np
 
 from ringqa.geometry.centreline import GeometryError
+from ringqa.geometry.frame import fit_circle
 
-__all__ = ["RingFrame", "fit_circle", "fit_ring_frame"]
-
-
-def fit_circle(points_m) -> tuple[np.ndarray, np.ndarray, float, float]:
-    """Least-squares circle through 3-D points (plane by SVD, then an algebraic circle fit).
-
-    Parameters
-    ----------
-    points_m : (n, 3) array_like, n >= 3
-        Points in metres.
-
-    Returns
-    -------
-    centre_m : (3,) ndarray
-    normal : (3,) ndarray
-        Unit plane normal, sign arbitrary (:func:`fit_ring_frame` orients it).
-    radius_m : float
-    rms_m : float
-        Root-mean-square distance of the points from the circle, in the plane.
-
-    Raises
-    ------
-    GeometryError
-        Fewer than 3 points, not (n, 3), or not finite.
-    """
-    p = np.asarray(points_m, dtype=float)
-    if p.ndim != 2 or p.shape[1] != 3 or p.shape[0] < 3 or not np.isfinite(p).all():
-        raise GeometryError("fit_circle: points_m must be finite (n >= 3, 3) in metres")
-    c0 = p.mean(axis=0)
-    _, _, vt = np.linalg.svd(p - c0)
-    e1, e2, nrm = vt[0], vt[1], vt[2]
-    x = (p - c0) @ e1
-    y = (p - c0) @ e2
-    a = np.c_[2 * x, 2 * y, np.ones_like(x)]
-    sol, *_ = np.linalg.lstsq(a, x * x + y * y, rcond=None)
-    cx, cy, c = sol
-    radius = float(np.sqrt(c + cx * cx + cy * cy))
-    centre = c0 + cx * e1 + cy * e2
-    res = np.sqrt((x - cx) ** 2 + (y - cy) ** 2) - radius
-    return centre, nrm, radius, float(np.sqrt(np.mean(res**2)))
+__all__ = ["RingFrame", "fit_ring_frame"]
 
 
 @dataclass(frozen=True)

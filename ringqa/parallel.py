@@ -6,7 +6,10 @@ a pipe. Whatever the child could not hand back (a result or an exception that ca
 a child that died) is made here instead when :meth:`ForkedCall.result` is called, so the caller
 always sees what calling ``fn()`` here would have given: the same value, or the same exception.
 Where ``os.fork`` is missing, on one core, or with ``fork=False`` the call is simply made here.
-:func:`worker_pool` is the pool of forked worker processes a batch uses (commissioning, PDFs).
+:func:`worker_pool` is the pool of forked worker processes a batch uses (commissioning, PDFs;
+:func:`default_workers` of them), the calibration's fit too.
+
+A foundation module (no ringqa imports): the pipeline, the report and the calibration share it.
 """
 
 from __future__ import annotations
@@ -17,6 +20,12 @@ import pickle
 import signal
 from collections.abc import Callable, Iterator
 from typing import Any
+
+
+def default_workers() -> int:
+    """Worker processes of a batch by default (commissioning, the PDFs):
+    ``min(2, os.cpu_count())`` (1 where the operating system has no ``fork``)."""
+    return min(2, os.cpu_count() or 1) if hasattr(os, "fork") else 1
 
 
 def can_fork() -> bool:
