@@ -81,10 +81,13 @@ def build_parser(deferred: bool = False) -> argparse.ArgumentParser:
         help="also write the log (with details) to FILE, appended",
     )
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
-    for module_name in COMMANDS.values():
+    parser.deferred_parsers = {}  # command -> its parser, where its arguments wait
+    for name, module_name in COMMANDS.items():
         module = importlib.import_module(module_name)
         add = getattr(module, "add_parser_deferred", None) if deferred else None
-        (add or module.add_parser)(sub)
+        made = (add or module.add_parser)(sub)
+        if add is not None:
+            parser.deferred_parsers[name] = made
     return parser
 
 
@@ -121,6 +124,9 @@ def _jit_notice(command: str):
 def main(argv: list[str] | None = None) -> int:
     """Run the command line; return the exit status."""
     parser = build_parser(deferred=True)
+    for name, sub in parser.deferred_parsers.items():  # the command named: its arguments now
+        if name in (sys.argv[1:] if argv is None else argv):
+            sub.ensure_arguments()
     args = parser.parse_args(argv)
     if not getattr(args, "func", None):
         parser.print_help()

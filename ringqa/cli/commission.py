@@ -53,10 +53,11 @@ def add_parser(subparsers) -> None:
     add_arguments(_new_parser(subparsers))
 
 
-def add_parser_deferred(subparsers) -> None:
+def add_parser_deferred(subparsers) -> argparse.ArgumentParser:
     """As :func:`add_parser`, the arguments added when the parser is first used (building them
-    imports the settings table, and with it numba and pandas: not for ``ringqa --help``)."""
-    deferred(_new_parser(subparsers), add_arguments)
+    imports the settings table, and with it numba and pandas: not for ``ringqa --help``); the
+    parser made (:class:`ringqa.cli._options.DeferredArgumentsParser`)."""
+    return deferred(_new_parser(subparsers), add_arguments)
 
 
 def _new_parser(subparsers) -> argparse.ArgumentParser:

@@ -97,3 +97,23 @@ def test_version_is_looked_up_when_asked(capsys):
     assert "importlib.metadata" not in got["modules"]
     got = _modules_after("import ringqa\nprint('V=' + ringqa.__version__)")
     assert f"V={version('ringqa')}" in got["stdout"]
+
+
+def test_main_builds_the_named_commands_arguments_and_only_those(capsys):
+    """``ringqa commission --help`` through :func:`ringqa.cli.main` prints the whole help (its
+    setting options included); ``ringqa config --help`` in a fresh interpreter leaves
+    ``commission``'s arguments deferred (no pandas, no numba)."""
+    from ringqa.cli import main
+
+    with pytest.raises(SystemExit) as exc:
+        main(["commission", "--help"])
+    assert exc.value.code == 0
+    out = capsys.readouterr().out
+    assert "--register" in out and "--stem-mm" in out and "--no-cross-check" in out
+    got = _modules_after(
+        "import ringqa.cli\n"
+        "try:\n    ringqa.cli.main(['config', '--help'])\nexcept SystemExit as e:\n"
+        "    assert e.code == 0"
+    )
+    assert "usage: ringqa config" in got["stdout"]
+    assert got["modules"] == []
