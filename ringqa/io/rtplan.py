@@ -10,8 +10,10 @@
 - the source (``SourceSequence``): isotope, S_K (``ReferenceAirKermaRate``, uGy m^2 h^-1 = U),
   reference date, manufacturer/model, and a guess of the TG-43 data set (``tg43_name``);
 - dose reference points (``DoseReferenceSequence`` items with ``DoseReferencePointCoordinates``)
-  with the TPS dose (``TargetPrescriptionDose``, else ``DeliveryMaximumDose``,
-  ``TargetMaximumDose``, ``OrganAtRiskMaximumDose``);
+  with the TPS dose (``TargetPrescriptionDose``; else, in an HDR plan, the DICOM dose at the
+  point: the sum over channels of the last control point's ``CumulativeDoseReferenceCoefficient``
+  x ``BrachyApplicationSetupDose``, as Eclipse/BrachyVision write it; else
+  ``DeliveryMaximumDose``, ``TargetMaximumDose``, ``OrganAtRiskMaximumDose``);
 - Oncentra's embedded applicator library where present (:mod:`ringqa.io.oncentra`).
 
 Dwell times
@@ -37,6 +39,7 @@ from __future__ import annotations
 
 import datetime as _dt
 import math
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -67,7 +70,9 @@ SAME_POSITION_MM = 1.0e-3
 LIBRARY_PATH_TOL_MM = 0.1
 #: the treatment types ringqa commissions (a stepping source on a cable)
 AFTERLOADER_TYPES = ("HDR", "PDR")
-#: TPS dose tags, in order of preference.
+#: ``DosePoint.dose_tag`` of a dose from the control points' coefficients (module docstring).
+COEFFICIENT_DOSE_TAG = "CumulativeDoseReferenceCoefficient x BrachyApplicationSetupDose"
+#: TPS dose tags, in order of preference (a coefficient dose comes after the first).
 DOSE_TAGS = (
     "TargetPrescriptionDose",
     "DeliveryMaximumDose",
@@ -196,7 +201,8 @@ class DosePoint:
     position_mm : numpy.ndarray
         (3,) ``DoseReferencePointCoordinates``.
     tps_dose_gy : float or None
-        The TPS dose (first present of :data:`DOSE_TAGS`).
+        The TPS dose (first present of :data:`DOSE_TAGS`, the coefficient dose after the first:
+        module docstring).
     dose_tag : str or None
         Which tag gave ``tps_dose_gy``.
     number : int or None
@@ -518,7 +524,9 @@ def _parse(p: Path, ds) -> RTPlan:
     _check_treatment_type(treatment_type, warnings)
     _check_source_references(channels, sources, warnings)
     source = _pick_source(p, sources, used_sources, warnings)
-    points = _read_points(p, ds, warnings)
+    points = _read_points(
+        p, ds, warnings, _coefficient_doses(p, ds) if treatment_type.upper() == "HDR" else {}
+    )
     library, app_name = _read_library(p, setups, channels, warnings)
     if library:
         channels = [
@@ -733,6 +741,33 @@ def _private_str(item, offset: int) -> str | None:
 
 #: isotopes of the TG-43 data ringqa ships (data/sources), normalised ("ir192")
 TG43_ISOTOPES = ("ir192",)
+#: Half-lives (days) of those isotopes, to read a SourceIsotopeName that names the source model
+#: instead (Eclipse/BrachyVision: "GammaMed Plus HDR source 0.9 mm"): Ir-192 73.829 d (NNDC).
+TG43_HALF_LIVES_DAYS = {"Ir-192": 73.829}
+#: A half-life within this many days of one in :data:`TG43_HALF_LIVES_DAYS` identifies it.
+HALF_LIFE_TOLERANCE_DAYS = 0.1
+_ISOTOPE_NAME = re.compile(
+    r"^\s*([A-Za-z]{1,2}\s*-?\s*\d{1,3}m?|\d{1,3}m?\s*-?\s*[A-Za-z]{1,2})\s*$"
+)
+
+
+def _isotope_of(name: str, half_life_days, where: str, warnings: list) -> str:
+    """The isotope of a source: its SourceIsotopeName when that names an isotope ("Ir-192",
+    "192Ir", "Co-60"); when it names something else (a source model, as Eclipse writes it) and
+    the plan's half-life is one of :data:`TG43_HALF_LIVES_DAYS`, that isotope, with a named
+    warning (``plan.isotope_name``); otherwise the name as it is."""
+    if not name or _ISOTOPE_NAME.match(name) or half_life_days is None:
+        return name
+    for isotope, days in TG43_HALF_LIVES_DAYS.items():
+        if abs(float(half_life_days) - days) <= HALF_LIFE_TOLERANCE_DAYS:
+            warnings.append(named_warning(
+                "plan.isotope_name",
+                f"{where}: SourceIsotopeName is {name!r} (a source, not an isotope); its "
+                f"SourceIsotopeHalfLife {float(half_life_days):g} d is {isotope}'s "
+                f"({days:g} d): read as {isotope}",
+            ))  # fmt: skip
+            return isotope
+    return name
 
 
 def _fmt_xyz(x) -> str:
@@ -753,7 +788,9 @@ def _read_sources(p: Path, ds, warnings: list) -> list[PlanSource]:
     out = []
     for k, s in enumerate(items):
         where = f"source {k}"
-        isotope = str(_get(s, "SourceIsotopeName") or "").strip()
+        isotope_name = str(_get(s, "SourceIsotopeName") or "").strip()
+        half_life = _float(p, s, "SourceIsotopeHalfLife", where)
+        isotope = _isotope_of(isotope_name, half_life, where, warnings)
         units = str(_get(s, "SourceStrengthUnits") or "AIR_KERMA_RATE")
         if units != "AIR_KERMA_RATE":
             raise RTPlanError(
@@ -784,6 +821,7 @@ def _read_sources(p: Path, ds, warnings: list) -> list[PlanSource]:
                 str(_get(s, "SourceModelID") or ""),
                 str(_get(s, "SourceDescription") or ""),
                 machine,
+                isotope_name if isotope_name != isotope else "",
             )
             if x.strip()
         ).strip()
@@ -802,7 +840,7 @@ def _read_sources(p: Path, ds, warnings: list) -> list[PlanSource]:
                 tg43_name=guess_tg43_name(model, isotope),
                 sk_U=sk,
                 reference_date=date,
-                half_life_days=_float(p, s, "SourceIsotopeHalfLife", where),
+                half_life_days=half_life,
                 number=None if num is None else int(num),
             )
         )
@@ -853,7 +891,37 @@ def _check_source_references(channels: list, sources: list, warnings: list) -> N
 _NOT_POINTS = ("VOLUME", "SITE")
 
 
-def _read_points(p: Path, ds, warnings: list | None = None) -> list[DosePoint]:
+def _coefficient_doses(p: Path, ds) -> dict[int, float]:
+    """Dose (Gy) at each dose reference number from the control points (DICOM PS3.3 C.8.8.15):
+    per application setup, ``BrachyApplicationSetupDose`` x the sum over its channels of the
+    ``CumulativeDoseReferenceCoefficient`` at the channel's last control point; summed over the
+    setups of the first fraction group. Empty when the plan has no coefficients or setup doses."""
+    fgs = _get(ds, "FractionGroupSequence")
+    setup_dose = {}
+    for ref in (_get(fgs[0], "ReferencedBrachyApplicationSetupSequence") or []) if fgs else []:
+        number = _get(ref, "ReferencedBrachyApplicationSetupNumber")
+        dose = _float(p, ref, "BrachyApplicationSetupDose", "fraction group 1")
+        if number is not None and dose is not None:
+            setup_dose[int(number)] = dose
+    out: dict[int, float] = {}
+    for setup in _get(ds, "ApplicationSetupSequence") or []:
+        number = _get(setup, "ApplicationSetupNumber")
+        dose = setup_dose.get(int(number)) if number is not None else None
+        if dose is None:
+            continue
+        for ch in _get(setup, "ChannelSequence") or []:
+            cps = _get(ch, "BrachyControlPointSequence") or []
+            for r in (_get(cps[-1], "BrachyReferencedDoseReferenceSequence") or []) if cps else []:
+                ref = _get(r, "ReferencedDoseReferenceNumber")
+                c = _float(p, r, "CumulativeDoseReferenceCoefficient", "control point")
+                if ref is not None and c is not None:
+                    out[int(ref)] = out.get(int(ref), 0.0) + c * dose
+    return out
+
+
+def _read_points(
+    p: Path, ds, warnings: list | None = None, coefficient_doses: dict | None = None
+) -> list[DosePoint]:
     out = []
     for k, item in enumerate(_get(ds, "DoseReferenceSequence") or []):
         num = _get(item, "DoseReferenceNumber")
@@ -872,10 +940,14 @@ def _read_points(p: Path, ds, warnings: list | None = None) -> list[DosePoint]:
                 ))  # fmt: skip
             continue  # a volume or site reference, not a point
         dose = tag = None
+        coefficient = (coefficient_doses or {}).get(int(num)) if num is not None else None
         for t in DOSE_TAGS:
             dose = _float(p, item, t, where)
             if dose is not None:
                 tag = t
+                break
+            if t == DOSE_TAGS[0] and coefficient is not None:
+                dose, tag = coefficient, COEFFICIENT_DOSE_TAG
                 break
         out.append(
             DosePoint(

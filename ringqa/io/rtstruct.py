@@ -21,10 +21,16 @@ channels:
    :data:`LUMEN_TABLE` (``data/applicators/lumen_table.csv``, each row with its source) matched by
    the channel's ROI name or the plan's ``SourceApplicatorID``; a channel with neither is refused
    (the report says which diameter came from where: ``metadata["lumen_sources"]``).
-5. Every channel passes the shared shape checks (bends tighter than the lumen radius,
+5. Unevenly spaced contours are evened out before the centreline is fitted
+   (:func:`even_points_mm`): Eclipse/BrachyVision applicator models hold a point 0.15 mm from
+   the tip and straight runs of 20-70 mm between 1.5-4 mm spaced bends, which an interpolating
+   spline through the points alone cannot follow. A point closer than :data:`MERGE_FRACTION` x
+   the median spacing to the previous one is merged into it, and a straight segment longer than
+   :data:`SPLIT_FRACTION` x the median spacing is divided evenly; the report notes both.
+6. Every channel passes the shared shape checks (bends tighter than the lumen radius,
    self-intersection: :func:`ringqa.geometry.shape_checks.check_channel_shape`) and has at
    least :data:`MIN_CONTOUR_POINTS` points.
-6. Families: a channel named like a tandem or an ovoid is one; any other is ``free-form``. With a
+7. Families: a channel named like a tandem or an ovoid is one; any other is ``free-form``. With a
    tandem the applicator's frame is :func:`ringqa.geometry.families.tandem_frame` (the ovoids
    left/right by name, else by the DICOM +x side), else fitted to the channels.
 """
@@ -32,6 +38,7 @@ channels:
 from __future__ import annotations
 
 import csv
+import itertools
 import re
 from dataclasses import dataclass
 from pathlib import Path
@@ -53,6 +60,7 @@ __all__ = [
     "StructureSet",
     "StructuresApplicator",
     "applicator_from_structures",
+    "even_points_mm",
     "match_channels",
     "oriented_points_mm",
     "read_rtstruct",
@@ -68,6 +76,14 @@ MIN_CONTOUR_POINTS = 4
 #: case-insensitive regular expression on the ROI name or the plan's SourceApplicatorID).
 LUMEN_TABLE = "applicators/lumen_table.csv"
 OPEN_TYPES = ("OPEN_NONPLANAR", "OPEN_PLANAR")
+#: A contour point closer than this fraction of the median point spacing to the previous point
+#: is merged into it (:func:`even_points_mm`).
+MERGE_FRACTION = 0.2
+#: A contour segment longer than this multiple of the median spacing is divided evenly.
+SPLIT_FRACTION = 1.5
+#: The spacing (mm) :func:`even_points_mm` works with is never below this (a contour of mostly
+#: near-duplicate points is not divided into thousands of pieces).
+MIN_EVEN_SPACING_MM = 0.5
 
 
 class RTStructError(InputFileError):
@@ -319,6 +335,61 @@ def oriented_points_mm(points_mm, dwells_mm) -> np.ndarray:
     return pts[::-1].copy() if float(np.mean(s_dwells)) < 0.5 * s_pts[-1] else pts.copy()
 
 
+def even_points_mm(points_mm) -> tuple[np.ndarray, str]:
+    """A channel contour's points evened out for an interpolating spline (module docstring, 5).
+
+    With ``h`` the median spacing of consecutive points (at least
+    :data:`MIN_EVEN_SPACING_MM`): a point closer than
+    :data:`MERGE_FRACTION` ``* h`` to the last kept point is dropped (the last point replaces the
+    kept one, so both ends stay), and a segment longer than :data:`SPLIT_FRACTION` ``* h`` is
+    divided into ``round(length / h)`` equal straight pieces. The polyline's shape is unchanged
+    (merged points lie within ``MERGE_FRACTION * h`` of it; added points lie on it); an evenly
+    spaced contour is returned as it is.
+
+    Parameters
+    ----------
+    points_mm : (n, 3) array_like
+        Contour points (mm), in order.
+
+    Returns
+    -------
+    points_mm : (m, 3) ndarray
+    note : str
+        What was changed ("" when nothing).
+    """
+    pts = np.asarray(points_mm, dtype=float).reshape(-1, 3)
+    if len(pts) < 3:
+        return pts.copy(), ""
+    h = max(float(np.median(np.linalg.norm(np.diff(pts, axis=0), axis=1))), MIN_EVEN_SPACING_MM)
+    keep = [0]
+    for i in range(1, len(pts)):
+        if np.linalg.norm(pts[i] - pts[keep[-1]]) < MERGE_FRACTION * h:
+            if i == len(pts) - 1 and len(keep) > 1:
+                keep[-1] = i
+            continue
+        keep.append(i)
+    kept = pts[keep]
+    out, n_split = [kept[:1]], 0
+    for a, b in itertools.pairwise(kept):
+        length = float(np.linalg.norm(b - a))
+        n = max(round(length / h), 1) if length > SPLIT_FRACTION * h else 1
+        n_split += n > 1
+        piece = a + (b - a) * (np.arange(1, n + 1)[:, None] / n)
+        piece[-1] = b  # the contour's own point, exactly
+        out.append(piece)
+    merged = len(pts) - len(kept)
+    if not merged and not n_split:
+        return pts.copy(), ""
+    even = np.concatenate(out)
+    note = (
+        f"{len(pts)} points, median spacing {h:.2f} mm (at least {MIN_EVEN_SPACING_MM:g}): "
+        f"{merged} point(s) closer than "
+        f"{MERGE_FRACTION * h:.2f} mm merged, {n_split} straight segment(s) longer than "
+        f"{SPLIT_FRACTION * h:.2f} mm divided ({len(even)} points fitted)"
+    )
+    return even, note
+
+
 def lumen_table(path=None) -> list[tuple[re.Pattern, float, str]]:
     """The per-applicator lumen table: (pattern, lumen diameter mm, source) rows."""
     if path is None:
@@ -389,8 +460,9 @@ def applicator_from_structures(plan, structures: StructureSet, *, lumen_mm=None,
             )
         pch = plan.channel(m.channel)
         dwells = np.asarray(pch.positions_mm, dtype=float).reshape(-1, 3)
+        fit_mm, even_note = even_points_mm(oriented_points_mm(pts, dwells))
         try:
-            cl = Centreline.from_points(mm_to_m(oriented_points_mm(pts, dwells)))
+            cl = Centreline.from_points(mm_to_m(fit_mm))
             s, _ = cl.closest(mm_to_m(dwells))
             dia, src = _lumen_for(m.roi_name, pch.applicator_id, lumen_mm, table, where)
             r_b = mm_to_m(dia) / 2
@@ -411,6 +483,7 @@ def applicator_from_structures(plan, structures: StructureSet, *, lumen_mm=None,
         notes.append(
             f"Channel {m.channel} = ROI {m.roi_name!r} ({family}): {m.n_dwells} dwells, the "
             f"farthest {m.max_distance_mm:.2f} mm from the contour; lumen {dia:g} mm ({src})."
+            + (f" Contour evened out: {even_note}." if even_note else "")
         )
     frame = _frame(channels)
     name = plan.plan_label or Path(plan.path).stem

@@ -76,9 +76,11 @@ def test_tandem_frame_by_hand():
 
 
 def test_ovoid_points_by_hand():
-    """With that frame: Point A at (+-20, 0, -5 + 26.9); each ovoid's most lateral dwell within
-    its distal 20 mm is at x = +-20 (all equally lateral: the first, (+-20, 0, -5)), so the
-    ovoid surface points are at x = +-30 (10 mm cap radius) and the 5 mm points at x = +-35."""
+    """With that frame: Point A at (+-20, 0, -5 + 26.9); each ovoid's distal 20 mm (relative
+    positions 0-20, z = -5 .. -25) is equally lateral (x = +-20), so the most lateral stretch is
+    all of it and its middle is relative position 10, (+-20, 0, -15); the ovoid surface points
+    are 10 mm (cap radius) further along the lateral axis, x = +-30, and the 5 mm points at
+    x = +-35."""
     tandem, left, right = _tandem_and_ovoids()
     f = tandem_frame(tandem, (left, right), left, right)
     app = Applicator("to", (tandem, left, right), f.centre_m, f.normal, f.lateral, f.scale_m,
@@ -93,8 +95,43 @@ def test_ovoid_points_by_hand():
         "ovoid_depth5_right",
     }
     assert np.allclose(pts["point_a_left"], [20, 0, 21.9], atol=1e-6)
-    assert np.allclose(pts["ovoid_surface_left"], [30, 0, -5], atol=1e-6)
-    assert np.allclose(pts["ovoid_depth5_right"], [-35, 0, -5], atol=1e-6)
+    assert np.allclose(pts["ovoid_surface_left"], [30, 0, -15], atol=1e-6)
+    assert np.allclose(pts["ovoid_depth5_right"], [-35, 0, -15], atol=1e-6)
+
+
+def _bent_ovoid(x_mm):
+    """An ovoid at x = ``x_mm`` whose cap points posteriorly (+y), across the tandem's axis (as
+    the public Eclipse phantom's caps do): shaft along +z up to (x, 0, -20), a quarter circle of
+    radius 10 mm into +y, then a 30 mm straight cap to the tip (x, 40, -10); s_ref = 5 mm
+    before the tip."""
+    shaft = [(x_mm, 0.0, z) for z in np.linspace(-100.0, -20.0, 81)]
+    phi = np.linspace(0.0, np.pi / 2, 31)[1:]
+    bend = [(x_mm, 10.0 - 10.0 * np.cos(f), -20.0 + 10.0 * np.sin(f)) for f in phi]
+    cap = [(x_mm, y, -10.0) for y in np.linspace(10.0, 40.0, 61)[1:]]
+    cl = Centreline.from_points(np.asarray(shaft + bend + cap) * 1e-3)
+    return cl, float(cl.length_m) - 0.005
+
+
+def test_a_cap_across_the_axis_gets_its_surface_point_beside_it_not_beyond_its_tip():
+    """Caps along +y at x = +-20, tips (+-20, 40, -10), relative position 0 at y = 35. The
+    distal 20 mm (y = 35 .. 15) all lie on the cap's straight run, equally lateral (x = +-20),
+    so the cap's middle is relative position 10, (+-20, 25, -10); the lateral axis (+x) is
+    perpendicular to the cap there, so the surface point is (+-30, 25, -10) and the 5 mm point
+    (+-35, 25, -10). (Moving outwards from the tandem's axis instead would put it beyond the
+    tip, y > 40: the rule this test guards against.)"""
+    tandem = Channel("tandem", _straight([0, 0, -60], [0, 0, 60], 121), _lumen(), 0.115)
+    chans = []
+    for x, name in ((20.0, "left ovoid"), (-20.0, "right ovoid")):
+        cl, s_ref = _bent_ovoid(x)
+        chans.append(Channel(name, cl, _lumen(), s_ref))
+    left, right = chans
+    f = tandem_frame(tandem, (left, right), left, right)
+    app = Applicator("to", (tandem, left, right), f.centre_m, f.normal, f.lateral, f.scale_m,
+                     family="tandem")  # fmt: skip
+    pts = {p.name: p.position_mm for p in applicator_dose_points(app)}
+    assert np.allclose(pts["ovoid_surface_left"], [30, 25, -10], atol=0.05)
+    assert np.allclose(pts["ovoid_depth5_left"], [35, 25, -10], atol=0.05)
+    assert np.allclose(pts["ovoid_surface_right"], [-30, 25, -10], atol=0.05)
 
 
 def test_spans_by_hand():
