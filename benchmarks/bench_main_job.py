@@ -2,6 +2,8 @@
 
     .venv/bin/python benchmarks/bench_main_job.py                       # 3 reps, this checkout
     .venv/bin/python benchmarks/bench_main_job.py --baseline /work/main # ... and main, interleaved
+    .venv/bin/python benchmarks/bench_main_job.py --timeline --free-core --baseline DIR
+                                        # every process traced; the idle 2-core wall modelled
 
 Each rep runs, for each checkout (this one and ``--baseline``, through ``PYTHONPATH``,
 interleaved), a fresh process that runs ``ringqa commission <example plan> --register
@@ -26,6 +28,17 @@ simulations (``simulate_dwells``) and of the doses (without ``--free-core``: the
 then runs in this process): the part issue 27 asks to bring to about 0.8 s. Also printed: the
 modules imported and the heavy libraries imported. Medians over ``--reps``; ratios
 after/before.
+
+``--timeline`` (for a loaded machine, where wall times mislead): the real command
+(``console_main``, as the ``ringqa`` script) with a trace of every process: its start, each
+fork, each wait for a forked call's result and each child stopped, the phases and the exit,
+stamped with the wall clock and the process's own CPU time. From it, the wall time on an idle
+machine is modelled (:func:`quiet_wall`): each process needs the CPU its trace records between
+its forks and waits, a child is runnable from its fork, a parent waiting for a child is blocked
+until the child exits, and the runnable processes share the cores. It printed 4.39 s (median,
+load 6) for main at 18b4b26, which the lead measured at 3.8-4.0 s on the quiet machine: CPU
+times under load run 10-15 % high, so compare checkouts interleaved, not with the quiet
+figure. Printed per process: its phases' CPU and when it forked and waited.
 """
 
 from __future__ import annotations
@@ -116,6 +129,254 @@ print("BENCH" + json.dumps({"phases": T, "calls": N, "timings": rec, "modules": 
 """
 
 
+#: ``--timeline``: the real command (``ringqa.cli.console_main``, as the ``ringqa`` script runs
+#: it) with every process's events written to a trace file: each process's start, every fork
+#: (``os.fork``: the parent's and the child's side), every wait for a child's result
+#: (``ForkedCall.result``), every child stopped (``ForkedCall.cancel`` of a running child), the
+#: phases below (begin/end) and each process's exit (``os._exit``), each stamped with the
+#: monotonic wall clock and the process's own CPU time (a forked child's starts at zero).
+TIMELINE_WORKER = r"""
+import importlib.abc, importlib.util, json, os, sys, time
+_fd = os.open(sys.argv[3], os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o644)
+
+def ev(kind, arg=None):
+    line = json.dumps([os.getpid(), kind, arg, time.perf_counter(), time.process_time()])
+    os.write(_fd, (line + "\n").encode())
+
+ev("start")
+_fork, _exit = os.fork, os._exit
+
+def fork():
+    pid = _fork()
+    ev("child", os.getppid()) if pid == 0 else ev("fork", pid)
+    return pid
+
+def exit_(code):
+    ev("exit", code)
+    _exit(code)
+
+os.fork, os._exit = fork, exit_
+
+def phase(fn, name):
+    def wrapper(*a, **k):
+        ev("begin", name)
+        try:
+            return fn(*a, **k)
+        finally:
+            ev("end", name)
+    return wrapper
+
+def forked_result(fn):
+    def result(self):
+        pid = self._pid
+        ev("wait", pid)
+        try:
+            return fn(self)
+        finally:
+            ev("waited", pid)
+    return result
+
+def forked_cancel(fn):
+    def cancel(self):
+        if self._pid:
+            ev("kill", self._pid)
+        return fn(self)
+    return cancel
+
+PATCH = {
+    "ringqa.cli.channels": [("channels_wanted", "input")],
+    "ringqa.cli.commission": [("commission_ahead", "commission"), ("audit_files", "audit")],
+    "ringqa.report": [("write_report", "report"), ("prepare_report", "prepare report")],
+    "ringqa.report.html": [("write_html", "html")],
+    "ringqa.pipeline.inputs": [("load_input", "load")],
+    "ringqa.pipeline.commission": [("simulate_dwells", "simulation")],
+    "ringqa.pipeline.simulate": [("_run_with_retries", "engine run")],
+}
+
+class Hook(importlib.abc.MetaPathFinder):
+    def find_spec(self, name, path, target=None):
+        if name not in PATCH and name != "ringqa.parallel":
+            return None
+        sys.meta_path.remove(self)
+        try:
+            spec = importlib.util.find_spec(name)
+        finally:
+            sys.meta_path.insert(0, self)
+        real = spec.loader.exec_module
+        def exec_module(module):
+            real(module)
+            if name == "ringqa.parallel":
+                fc = module.ForkedCall
+                fc.result = forked_result(fc.result)
+                fc.cancel = forked_cancel(fc.cancel)
+                if FREE == "free-core":  # as on a quiet machine: the second core is used
+                    module.second_core_free = lambda: True
+            for attr, ph in PATCH.get(name, ()):
+                if hasattr(module, attr):
+                    setattr(module, attr, phase(getattr(module, attr), ph))
+        spec.loader.exec_module = exec_module
+        return spec
+
+sys.meta_path.insert(0, Hook())
+FREE = sys.argv[4]
+sys.argv = ["ringqa", "commission", sys.argv[1], "--register", "plane-height", "--out",
+            sys.argv[2], "--quiet"]
+from ringqa.cli import console_main
+console_main()
+"""
+
+
+def run_timeline(root: Path, out: Path, trace: Path, free_core: bool) -> list[list]:
+    """One ``TIMELINE_WORKER`` run under ``root``; its trace events (pid, kind, arg, wall s,
+    process CPU s)."""
+    env = dict(os.environ, PYTHONPATH=str(root))
+    trace.unlink(missing_ok=True)
+    p = subprocess.run(
+        [sys.executable, "-c", TIMELINE_WORKER, EXAMPLE, str(out), str(trace),
+         "free-core" if free_core else "load"],
+        env=env, cwd=root, capture_output=True, text=True, check=False,
+    )  # fmt: skip
+    if p.returncode != 0:
+        raise SystemExit(f"bench_main_job --timeline failed under {root}:\n{p.stderr[-3000:]}")
+    return [json.loads(line) for line in trace.read_text().splitlines()]
+
+
+def processes(events: list[list]) -> dict[int, list[list]]:
+    """The events of each process, in order (its own CPU time never decreases)."""
+    out: dict[int, list[list]] = {}
+    for e in events:
+        out.setdefault(e[0], []).append(e)
+    return out
+
+
+def quiet_wall(events: list[list], cores: int) -> float:
+    """The wall time the traced run would take on an otherwise idle machine with ``cores``
+    cores: each process needs the CPU its trace records between its events; a child becomes
+    runnable at its fork, a parent waiting for a child's result (``wait`` .. ``waited``) is
+    blocked until that child exits (or is stopped: ``kill``); the runnable processes share the
+    cores equally (at most one core each). Interpreter start-up before the first event is in
+    the first process's CPU (process time counts from the process's start)."""
+    procs = processes(events)
+    root = events[0][0]
+    # per process: a list of (cpu needed before it, action) with actions fork/wait/kill/exit
+    plan: dict[int, list[tuple[float, str, int | None]]] = {}
+    for pid, evs in procs.items():
+        steps, last = [], 0.0
+        for _pid, kind, arg, _wall, cpu in evs:
+            if kind in ("fork", "wait", "kill", "exit"):
+                steps.append((max(cpu - last, 0.0), kind, arg))
+                last = cpu
+        if not steps or steps[-1][1] != "exit":
+            steps.append((max(evs[-1][4] - last, 0.0), "exit", None))
+        plan[pid] = steps
+    t = 0.0
+    running = {root}  # runnable now
+    blocked: dict[int, int] = {}  # pid -> the child it waits for
+    done: set[int] = set()
+    need = {root: plan[root][0][0]}
+    pos = {root: 0}
+    while root not in done:
+        if not running:
+            raise SystemExit("timeline: every process blocked (a wait for an unknown child)")
+        rate = min(1.0, cores / len(running))
+        pid = min(running, key=lambda p: need[p])
+        dt = need[pid] / rate
+        t += dt
+        for p in running:
+            need[p] -= dt * rate
+        need[pid] = 0.0
+        # the process reached its next action
+        _cpu, kind, arg = plan[pid][pos[pid]]
+        pos[pid] += 1
+        if kind == "exit":
+            running.discard(pid)
+            done.add(pid)
+            for waiter, child in list(blocked.items()):
+                if child == pid:
+                    del blocked[waiter]
+                    running.add(waiter)
+        elif kind == "fork" and arg in plan:
+            running.add(arg)
+            pos[arg] = 0
+            need[arg] = plan[arg][0][0]
+        elif kind == "wait" and arg in plan and arg not in done:
+            running.discard(pid)
+            blocked[pid] = arg
+        elif kind == "kill" and arg in plan and arg not in done:
+            running.discard(arg)
+            done.add(arg)
+            for waiter, child in list(blocked.items()):
+                if child == arg:
+                    del blocked[waiter]
+                    running.add(waiter)
+        if pid in running and pos[pid] < len(plan[pid]):
+            need[pid] = plan[pid][pos[pid]][0]
+    return t
+
+
+def describe(events: list[list]) -> list[str]:
+    """One line per process: its parent, when it started and ended (wall, from the first
+    event), its CPU, and its phases with the CPU each took."""
+    procs = processes(events)
+    t0 = events[0][3]
+    parent = {e[0]: e[2] for e in events if e[1] == "child"}
+    lines = []
+    for pid, evs in procs.items():
+        cpu = evs[-1][4]
+        name = "main" if pid not in parent else f"child of {parent[pid]}"
+        lines.append(f"  {pid} ({name}): wall {evs[0][3] - t0:6.2f} .. {evs[-1][3] - t0:6.2f} s, "
+                     f"CPU {cpu:.2f} s")  # fmt: skip
+        open_: dict[str, list[float]] = {}
+        for _pid, kind, arg, wall, c in evs:
+            if kind == "begin":
+                open_.setdefault(arg, []).append(c)
+            elif kind == "end" and open_.get(arg):
+                c0 = open_[arg].pop()
+                if not open_[arg]:
+                    lines.append(f"      {arg:16s} CPU {c - c0:5.2f} s  (at CPU {c0:5.2f} s)")
+            elif kind in ("fork", "wait", "waited", "kill"):
+                lines.append(f"      {kind:6s} {arg:<9}  at CPU {c:5.2f} s, "
+                             f"wall {wall - t0:6.2f} s")  # fmt: skip
+    return lines
+
+
+def timeline(trees: dict[str, Path], reps: int, free_core: bool) -> int:
+    """``--timeline``: per checkout, ``reps`` traced runs (after one warm-up run); the median
+    (and the least: the run other users disturbed least) predicted quiet wall on 2 cores (and 1
+    and unlimited) and total CPU, and the last run's processes."""
+    med = statistics.median
+    with tempfile.TemporaryDirectory(prefix="bench_main_job_") as tmp:
+        rows: dict[str, dict[str, list[float]]] = {}
+        last: dict[str, list[list]] = {}
+        for name, root in trees.items():
+            run_timeline(root, Path(tmp) / f"warm-{name}", Path(tmp) / "trace", free_core)
+        for i in range(reps):
+            for name, root in trees.items():
+                ev = run_timeline(root, Path(tmp) / f"{name}{i}", Path(tmp) / "trace", free_core)
+                last[name] = ev
+                total = sum(p[-1][4] for p in processes(ev).values())
+                r = rows.setdefault(name, {})
+                for key, value in (("quiet 2 cores (model)", quiet_wall(ev, 2)),
+                                   ("quiet 1 core (model)", quiet_wall(ev, 1)),
+                                   ("unlimited cores (model)", quiet_wall(ev, 64)),
+                                   ("CPU, all processes", total),
+                                   ("wall measured", ev[-1][3] - ev[0][3])):  # fmt: skip
+                    r.setdefault(key, []).append(value)
+                print(f"  {name} {i + 1}/{reps}: model 2 cores {r['quiet 2 cores (model)'][-1]:.2f}"
+                      f" s, CPU {total:.2f} s", flush=True)  # fmt: skip
+    load = os.getloadavg()[0]
+    print(f"\nseconds, medians ({os.cpu_count()} cores, load {load:.1f}; the model: each "
+          "process's CPU between its forks and waits, on an idle machine)")  # fmt: skip
+    print(f"{'':32s}" + "".join(f"{k:>9s}" for k in rows) + "  (least of the runs)")
+    for key in next(iter(rows.values())):
+        print(f"{key:32s}" + "".join(f"{med(v[key]):9.2f}" for v in rows.values())
+              + "  (" + ", ".join(f"{min(v[key]):.2f}" for v in rows.values()) + ")")  # fmt: skip
+    for name, ev in last.items():
+        print(f"\n{name}: processes of the last run")
+        print("\n".join(describe(ev)))
+    return 0
+
+
 def run(root: Path, out: Path, free_core: bool) -> dict:
     """One worker process under ``root``; its record."""
     env = dict(os.environ, PYTHONPATH=str(root))
@@ -143,9 +404,16 @@ def main(argv=None) -> int:
                     help="use the second core as on a quiet machine (ringqa forks its independent "
                     "work only when the load leaves a core free): 'this process' is then the "
                     "critical path")  # fmt: skip
+    ap.add_argument("--timeline", action="store_true",
+                    help="run the real command (as the ringqa script) with a trace of every "
+                    "process (forks, waits, phases, CPU) and predict its wall time on an idle "
+                    "2-core machine from the CPU each process needs between its forks and "
+                    "waits (for a loaded machine, where wall times mislead)")  # fmt: skip
     add_baseline_option(ap)
     args = ap.parse_args(argv)
     trees = baseline_trees(args.baseline)
+    if args.timeline:
+        return timeline(trees, args.reps, args.free_core)
     recs: dict[str, list[dict]] = {k: [] for k in trees}
     with tempfile.TemporaryDirectory(prefix="bench_main_job_") as tmp:
         for name, root in trees.items():

@@ -9,8 +9,11 @@ What is measured (wall time of a fresh ``ringqa`` process, as a user starts it):
 
 - the main job of README's Quick start (``ringqa commission <example plan> --register
   plane-height --out DIR --quiet``), warm numba cache: median (min-max) of ``--repeat`` runs, and
-  where its time goes (results.json ``timings_s``: reading the input, simulation, doses; the rest
-  is imports, report and files);
+  where its time goes (medians): the start-up (interpreter, imports, the command line: from the
+  process's launch to the log's first time-stamped line, each run has ``--log-file``), the
+  commissioning (to the log's first audit line, which is written when the result is there: in
+  it, results.json ``timings_s``: reading the input, simulation, doses), the report and files
+  (to the log's exit-status line) and the exit;
 - the same on an empty numba cache (``--cold``; ``NUMBA_CACHE_DIR`` set to an empty folder):
   the first run a newcomer waits for;
 - ``ringqa commission --all-shipped`` warm (the six rings, two worker processes);
@@ -48,9 +51,48 @@ def _run(args: list[str], env: dict | None = None) -> float:
     return time.perf_counter() - t0
 
 
-def _main_job(out: Path) -> list[str]:
-    return [*RINGQA, "commission", str(EXAMPLE), "--register", "plane-height", "--out", str(out),
-            "--quiet"]  # fmt: skip
+def _main_job(out: Path, log: Path | None = None) -> list[str]:
+    logged = [] if log is None else ["--log-file", str(log)]
+    return [*RINGQA, *logged, "commission", str(EXAMPLE), "--register", "plane-height", "--out",
+            str(out), "--quiet"]  # fmt: skip
+
+
+def _stamp(line: str) -> float | None:
+    """The time (s since the epoch) of a ``--log-file`` line stamped to the millisecond
+    (``2026-11-29 00:50:45,619 DEBUG ...``), else None."""
+    m = re.match(r"(\d{4}-\d\d-\d\d \d\d:\d\d:\d\d),(\d{3}) ", line)
+    if m is None:
+        return None
+    return time.mktime(time.strptime(m.group(1), "%Y-%m-%d %H:%M:%S")) + int(m.group(2)) / 1e3
+
+
+def _phases(log: Path, launched: float, ended: float) -> dict[str, float]:
+    """Wall seconds of the main job's phases from its ``--log-file``: ``start-up`` (launch to
+    the first stamped line: interpreter, imports, arguments, log set-up), ``commissioning`` (to
+    the first audit line ``input: ``, logged when the result is there), ``report`` (to the
+    ``exit status`` line: tables, report.html, report.pdf, the audit's hashes) and ``exit``."""
+    first = result = done = None
+    for line in log.read_text(encoding="utf-8").splitlines():
+        t = _stamp(line)
+        if t is None:
+            continue
+        first = t if first is None else first
+        if result is None and "ringqa.cli.commission: input: " in line:
+            result = t
+        if "ringqa.cli.commission: exit status" in line:
+            done = t
+    if first is None or result is None or done is None:
+        raise SystemExit(f"{log}: the main job's log lacks its time stamps")
+    return {"start-up": first - launched, "commissioning": result - first,
+            "report": done - result, "exit": ended - done}  # fmt: skip
+
+
+def _run_logged(out: Path, log: Path) -> tuple[float, dict[str, float]]:
+    """The main job with ``--log-file``: its wall time and :func:`_phases`."""
+    log.unlink(missing_ok=True)
+    launched = time.time()
+    t = _run(_main_job(out, log))
+    return t, _phases(log, launched, launched + t)
 
 
 def _spread(times: list[float]) -> str:
@@ -67,16 +109,23 @@ def measure(cold: bool, suite: bool, repeat: int) -> list[tuple[str, str]]:
             t = _run(_main_job(tmp / "cold"), env)
             rows.append(("first run of the main job (empty numba cache)", f"{t:.1f} s"))
         _run(_main_job(tmp / "warmup"))  # the default cache filled, files in the page cache
-        warm = [_run(_main_job(tmp / f"warm{k}")) for k in range(repeat)]
-        timings = json.loads((tmp / f"warm{repeat - 1}" / "results.json").read_text())["timings_s"]
+        logged = [_run_logged(tmp / f"warm{k}", tmp / f"warm{k}.log") for k in range(repeat)]
+        warm = [t for t, _ in logged]
+        med = statistics.median
+        phase = {k: med(p[k] for _, p in logged) for k in logged[0][1]}
+        timings = [json.loads((tmp / f"warm{k}" / "results.json").read_text())["timings_s"]
+                   for k in range(repeat)]  # fmt: skip
+        inner = {k: med(t[k] for t in timings) for k in ("load_s", "simulation_s", "dose_s")}
         rows.append(("the main job again (warm cache)", _spread(warm)))
-        rest = statistics.median(warm) - timings["total_s"]
         rows.append((
-            "... of which: input, simulation (the runs of the numerical check, its whole-channel "
-            "stem check and the flexible cross-check; partly on the second core), doses; the rest "
-            "(imports, report, files)",
-            f"{timings['load_s']:.2f} s, {timings['simulation_s']:.2f} s, "
-            f"{timings['dose_s']:.2f} s; {rest:.1f} s",
+            "... of which: start-up (interpreter, imports, command line); the commissioning "
+            "(in it: reading the input, the simulation - the runs of the numerical check, its "
+            "whole-channel stem check and the flexible cross-check, partly on the second core - "
+            "and the doses); the report and files (tables, report.html, report.pdf); the exit "
+            "(medians)",
+            f"{phase['start-up']:.2f} s; {phase['commissioning']:.2f} s (input "
+            f"{inner['load_s']:.2f} s, simulation {inner['simulation_s']:.2f} s, doses "
+            f"{inner['dose_s']:.2f} s); {phase['report']:.2f} s; {phase['exit']:.2f} s",
         ))  # fmt: skip
         shipped = [_run([*RINGQA, "commission", "--all-shipped", "--out", str(tmp / f"all{k}"),
                          "--quiet"]) for k in range(max(1, repeat // 2))]  # fmt: skip

@@ -31,7 +31,7 @@ import sys
 import time
 from pathlib import Path
 
-from ringqa import __version__
+from ringqa.cli._options import LazyVersionAction
 from ringqa.errors import RingQAError
 from ringqa.outdir import OutputInterrupted, check_out_path, check_writable, running_command
 from ringqa.textio import terminal_text
@@ -54,13 +54,18 @@ COMMANDS: dict[str, str] = {
 JIT_COMMANDS = frozenset({"tg43-demo", "simulate", "accuracy", "commission", "needle", "warmup"})
 
 
-def build_parser() -> argparse.ArgumentParser:
-    """The argument parser with every registered sub-command."""
+def build_parser(deferred: bool = False) -> argparse.ArgumentParser:
+    """The argument parser with every registered sub-command.
+
+    ``deferred``: a sub-command module with ``add_parser_deferred(subparsers)`` adds its
+    arguments only when its parser is first used (:class:`ringqa.cli._options
+    .DeferredArgumentsParser`: the same arguments and help), so that ``ringqa --help`` and the
+    other sub-commands do not import what building them needs (:func:`main` builds it so)."""
     parser = argparse.ArgumentParser(
         prog="ringqa",
         description="Commissioning QA for HDR brachytherapy ring applicators.",
     )
-    parser.add_argument("--version", action="version", version=f"ringqa {__version__}")
+    parser.add_argument("--version", action=LazyVersionAction)
     parser.add_argument(
         "-v",
         "--verbose",
@@ -76,8 +81,13 @@ def build_parser() -> argparse.ArgumentParser:
         help="also write the log (with details) to FILE, appended",
     )
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
-    for module_name in COMMANDS.values():
-        importlib.import_module(module_name).add_parser(sub)
+    parser.deferred_parsers = {}  # command -> its parser, where its arguments wait
+    for name, module_name in COMMANDS.items():
+        module = importlib.import_module(module_name)
+        add = getattr(module, "add_parser_deferred", None) if deferred else None
+        made = (add or module.add_parser)(sub)
+        if add is not None:
+            parser.deferred_parsers[name] = made
     return parser
 
 
@@ -113,7 +123,10 @@ def _jit_notice(command: str):
 
 def main(argv: list[str] | None = None) -> int:
     """Run the command line; return the exit status."""
-    parser = build_parser()
+    parser = build_parser(deferred=True)
+    for name, sub in parser.deferred_parsers.items():  # the command named: its arguments now
+        if name in (sys.argv[1:] if argv is None else argv):
+            sub.ensure_arguments()
     args = parser.parse_args(argv)
     if not getattr(args, "func", None):
         parser.print_help()
@@ -131,7 +144,11 @@ def main(argv: list[str] | None = None) -> int:
             print(os_error_line(args.command, exc, getattr(args, "out", None)), file=sys.stderr)
             return 2
         words = sys.argv[1:] if argv is None else argv
-        logging.getLogger(__name__).debug("ringqa %s: ringqa %s", __version__, " ".join(words))
+        cli_log = logging.getLogger(__name__)
+        if cli_log.isEnabledFor(logging.DEBUG):  # the version: package metadata, looked up now
+            import ringqa
+
+            cli_log.debug("ringqa %s: ringqa %s", ringqa.__version__, " ".join(words))
         try:
             code = _run(args)
         finally:

@@ -45,17 +45,34 @@ import sys
 import time
 from pathlib import Path
 
-from ringqa.cli._options import add_set_option, plain_help
+from ringqa.cli._options import add_set_option, deferred, plain_help
 from ringqa.errors import RingQAError
 
 
 def add_parser(subparsers) -> None:
+    add_arguments(_new_parser(subparsers))
+
+
+def add_parser_deferred(subparsers) -> argparse.ArgumentParser:
+    """As :func:`add_parser`, the arguments added when the parser is first used (building them
+    imports the settings table, and with it numba and pandas: not for ``ringqa --help``); the
+    parser made (:class:`ringqa.cli._options.DeferredArgumentsParser`)."""
+    return deferred(_new_parser(subparsers), add_arguments)
+
+
+def _new_parser(subparsers) -> argparse.ArgumentParser:
     p = subparsers.add_parser(
         "commission",
         help="measured vs simulated vs centreline dwell positions and doses, with a PDF report",
         description=plain_help(__doc__),
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
+    p.set_defaults(func=run)
+    return p
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    """Every argument of ``ringqa commission`` (in the order ``--help`` lists them)."""
     p.add_argument(
         "inputs",
         nargs="*",
@@ -163,7 +180,6 @@ def add_parser(subparsers) -> None:
     p.add_argument("--no-pdf", action="store_true", help="write the CSV/JSON files only")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     add_channel_options(p)
-    p.set_defaults(func=run)
 
 
 def add_setting_options(p) -> None:

@@ -26,9 +26,9 @@ from pathlib import Path
 
 from ringqa.cli._options import plain_help
 from ringqa.errors import split_warning
-from ringqa.jsonio import write_json
-from ringqa.outdir import staged_output
-from ringqa.provenance import Provenance
+
+# numpy (through ringqa.jsonio) and the output helpers are imported where they are used, so
+# that building the command line (``ringqa --help``) does not import them
 
 
 def add_parser(subparsers) -> None:
@@ -53,6 +53,9 @@ def add_parser(subparsers) -> None:
 def run(args: argparse.Namespace) -> int:
     from ringqa.io.export import write_plan_files
     from ringqa.io.rtplan import read_rtplan
+    from ringqa.jsonio import write_json
+    from ringqa.outdir import staged_output
+    from ringqa.provenance import Provenance
 
     plan = read_rtplan(args.plan)
     structures = getattr(args, "structures", None)
@@ -119,6 +122,8 @@ def structure_centrelines(plan, structures_path):
 
 def write_structure_files(channels, stage: Path) -> list[str]:
     """``centreline_ch<N>.csv`` per matched channel and ``structures.json``; the names written."""
+    from ringqa.jsonio import write_json
+
     record, points = channels
     names = []
     for number, pts in points.items():

@@ -9,12 +9,10 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-import numpy as np
-
 from ringqa.cli._options import plain_help
-from ringqa.jsonio import write_json
-from ringqa.outdir import staged_output
-from ringqa.provenance import Provenance
+
+# numpy, pandas, matplotlib and the output helpers are imported where they are used, so that
+# building the command line (``ringqa --help``) does not import them
 
 Z_CM = (-7.0, -5.0, -3.0, -2.0, -1.0, -0.5, 0.0, 0.5, 1.0, 2.0, 3.0, 5.0, 7.0)
 Y_CM = (0.0, 0.25, 0.5, 1.0, 2.0, 3.0, 5.0, 7.0)
@@ -33,6 +31,8 @@ def add_parser(subparsers) -> None:
 
 def along_away_rows(source) -> list[dict]:
     """Rows of the along-away table: engine value, consensus value and difference in %."""
+    import numpy as np
+
     import tg43
 
     if source.has_qa_table:
@@ -59,6 +59,7 @@ def _isodose_png(source, path: Path) -> None:
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    import numpy as np
 
     import tg43
 
@@ -93,6 +94,9 @@ def run(args: argparse.Namespace) -> int:
     import pandas as pd
 
     import tg43
+    from ringqa.jsonio import write_json
+    from ringqa.outdir import staged_output
+    from ringqa.provenance import Provenance
 
     source = tg43.load_source(args.source)
     rows = along_away_rows(source)

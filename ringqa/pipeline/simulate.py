@@ -889,45 +889,54 @@ def simulate_dwells(
             a.pos_m[_dwell_rows(a, advances, wanted)] - b.pos_m[_dwell_rows(b, advances, wanted)],
             axis=1))  # fmt: skip
 
-    # the refined run's scene does not depend on the commissioning run's result (unless that
-    # run had to be retried with a finer increment): run both at once
     fork = second_core_worthwhile(engine)
+    # the flexible engine's cross-check (its own kernels) starts at once beside the rest
     xpending = start_cross_check(engine, scene, advances, None, rel_mm) if cross_check else None
+    whole_check = stem is not None and (STEM_CHECK if stem_check is None else stem_check)
+    whole = None
+    # without the modelled stem's check, the refined run's scene does not depend on the
+    # commissioning run's result (unless that run had to be retried with a finer increment):
+    # both run at once. With it, the whole channel's refined run (the longest of all, about
+    # three times the refined run's cost) takes the second core instead, forked right after the
+    # commissioning run (which loads the engine's kernels, so the child does not load them
+    # again), and the refined run, the probes and the whole channel's commissioning-settings
+    # run follow here (the same runs with the same results in either order; on one core, or
+    # without a free one, they all run here one after the other)
     ahead = ForkedCall(lambda: _run_with_retries(engine, refine(scene, REFINE_FACTOR), advances,
-                                                 False), fork and CONCURRENT_RUNS)  # fmt: skip
+                                                 False),
+                       fork and CONCURRENT_RUNS and not whole_check)  # fmt: skip
     try:
         runs = [_run_with_retries(engine, scene, advances, progress)]
+        if whole_check and runs[0].ok:
+            whole = _WholeChannel(engine, whole_channel, cable, scene_overrides, refine,
+                                  advances + m_to_mm(stem.dropped_m), fork)  # fmt: skip
+            fork = fork and not whole.forked  # the second core is taken
+        if ahead.forked and runs[0].ok and runs[0].scene is scene:
+            runs.append(ahead.result())
+        else:
+            ahead.cancel()  # not started, or not needed: the loop below runs what is needed
+        while True:
+            if not runs[-1].ok:
+                raise _jammed(app, runs[-1], advances, s_ref_mm)
+            if len(runs) >= 2:
+                coarse, fine = runs[-2], runs[-1]
+                error_mm = distance(coarse, fine)
+                if (
+                    float(np.max(error_mm)) <= NUMERICAL_ERROR_WARN_MM
+                    or len(runs) > MAX_EXTRA_LEVELS + 1
+                ):
+                    break
+            runs.append(_run_with_retries(engine, refine(runs[-1].scene, REFINE_FACTOR),
+                                          advances, progress))  # fmt: skip
     except BaseException:
         ahead.cancel()
+        if whole is not None:
+            whole.cancel()
         if xpending is not None:
             xpending.cancel()
         raise
-    if ahead.forked and runs[0].ok and runs[0].scene is scene:
-        runs.append(ahead.result())
-    else:
-        ahead.cancel()  # not started, or not needed: the loop below runs what is needed
-    while True:
-        if not runs[-1].ok:
-            raise _jammed(app, runs[-1], advances, s_ref_mm)
-        if len(runs) >= 2:
-            coarse, fine = runs[-2], runs[-1]
-            error_mm = distance(coarse, fine)
-            if (
-                float(np.max(error_mm)) <= NUMERICAL_ERROR_WARN_MM
-                or len(runs) > MAX_EXTRA_LEVELS + 1
-            ):
-                break
-        runs.append(_run_with_retries(engine, refine(runs[-1].scene, REFINE_FACTOR), advances,
-                                      progress))  # fmt: skip
     pair_mm = error_mm
     n_levels = len(runs)
-    # the modelled stem's check: the whole channel's refined run (the longer one) starts now, in a
-    # forked child where a core is free, while the probes run here
-    whole = None
-    if stem is not None and (STEM_CHECK if stem_check is None else stem_check):
-        whole = _WholeChannel(engine, whole_channel, cable, scene_overrides, refine,
-                              advances + m_to_mm(stem.dropped_m), fork)  # fmt: skip
-        fork = fork and not whole.forked  # the second core is taken
     try:
         probes: list[_Run] = []
         if any(_stabilised(r) for r in (coarse, fine)):

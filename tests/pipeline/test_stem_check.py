@@ -126,8 +126,10 @@ def test_a_whole_channel_run_that_jams_is_said_not_hidden(kw, why):
 @pytest.mark.skipif(not hasattr(os, "fork"), reason="needs fork")
 def test_the_stem_check_is_bit_identical_with_its_run_forked(monkeypatch):
     """ring26x60 (the real engine) with a 30 mm stem, so that 30 mm of its 60 mm straight stem
-    is cut: the whole channel's refined run in a forked child while the probes and its other
-    run go here gives exactly the errors of running everything in turn (tolerance 0)."""
+    is cut: the whole channel's refined run (the longest) in a forked child, started right after
+    the commissioning run (which has loaded the kernels the child uses), while the refined run,
+    the probes and the whole channel's other run go here, gives exactly the errors of running
+    everything in turn (tolerance 0)."""
     from ringqa import parallel as forked_mod
     from ringqa.io.applicator_file import load_applicator
     from ringqa.parallel import ForkedCall
@@ -140,24 +142,34 @@ def test_the_stem_check_is_bit_identical_with_its_run_forked(monkeypatch):
     forked = []
     real_init = ForkedCall.__init__
 
+    runs_here = []  # runs made in this process when each ForkedCall was made
+    real_run = simulate._run_with_retries
+
     def spy(self, fn, fork=True):
         real_init(self, fn, fork)
-        forked.append(self.forked)
+        forked.append((self.forked, len(runs_here)))
+
+    def counted(*a, **k):
+        runs_here.append(1)
+        return real_run(*a, **k)
 
     def run():
         return simulate.simulate_dwells(app, ring, rel, cable="flexitron", scene_overrides={},
                                         stem_mm=30.0)  # fmt: skip
 
     monkeypatch.setattr(ForkedCall, "__init__", spy)
+    monkeypatch.setattr(simulate, "_run_with_retries", counted)
     monkeypatch.setattr(simulate, "kernels_cached", lambda: True)
     monkeypatch.setattr(forked_mod, "second_core_free", lambda: True)
     together = run()
     assert together.numerics.stem is not None and together.numerics.stem.ok
-    assert forked[:2] == [True, True]  # the refined run, then the whole channel's refined run
+    # the refined run is not forked (made here after the commissioning run); the whole
+    # channel's refined run is, once the commissioning run (one run here) is done
+    assert forked[:2] == [(False, 0), (True, 1)]
     monkeypatch.setattr(simulate, "CONCURRENT_RUNS", False)
     forked.clear()
     in_turn = run()
-    assert not any(forked)
+    assert not any(f for f, _ in forked)
     np.testing.assert_array_equal(together.dwells.positions_mm, in_turn.dwells.positions_mm)
     np.testing.assert_array_equal(together.numerics.error_mm, in_turn.numerics.error_mm)
     np.testing.assert_array_equal(together.numerics.stem.added_mm, in_turn.numerics.stem.added_mm)
