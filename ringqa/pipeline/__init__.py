@@ -44,9 +44,9 @@ EXPORTS: dict[str, str] = {
     "Engine": "ringqa.pipeline.simulate",
     "SimulationJammedError": "ringqa.pipeline.simulate",
     "default_engine": "ringqa.pipeline.simulate",
-    "DOSE_ACTION_PCT": "ringqa.pipeline.verdicts",
-    "POSITION_RECOMMENDED_MM": "ringqa.pipeline.verdicts",
-    "POSITION_REQUIRED_MM": "ringqa.pipeline.verdicts",
+    "DOSE_ACTION_PCT": "ringqa.pipeline.settings",
+    "POSITION_RECOMMENDED_MM": "ringqa.pipeline.settings",
+    "POSITION_REQUIRED_MM": "ringqa.pipeline.settings",
 }
 
 __all__ = [
@@ -87,13 +87,13 @@ if TYPE_CHECKING:  # what the names are (for readers, type checkers and the laye
         Timings,
         Verdict,
     )
-    from ringqa.pipeline.settings import CommissionSettings
-    from ringqa.pipeline.simulate import Engine, SimulationJammedError, default_engine
-    from ringqa.pipeline.verdicts import (
+    from ringqa.pipeline.settings import (
         DOSE_ACTION_PCT,
         POSITION_RECOMMENDED_MM,
         POSITION_REQUIRED_MM,
+        CommissionSettings,
     )
+    from ringqa.pipeline.simulate import Engine, SimulationJammedError, default_engine
 
 
 def __getattr__(name: str):

@@ -20,10 +20,6 @@ from ringqa.pipeline.result import RingGeometry
 from ringqa.plan import PLAN_STEP_MM, DwellSet, path_directions
 from ringqa.units import m_to_mm, mm_to_m
 
-#: Default number of tandem dwells (5 mm apart) when the tandem has no measured path
-#: (the Oncentra 26/60 standard plan has 7).
-TANDEM_DWELLS = 7
-
 
 @dataclass(frozen=True, eq=False)
 class PathDwells:

@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from ringqa.pipeline.settings import results_keys
 from ringqa.plan import DosePointSpec
 from ringqa.provenance import Provenance
 
@@ -215,27 +216,26 @@ class RunSettings:
     cross_check: bool | None = None
 
     def as_dict(self) -> dict:
-        """The ``results.json`` ``settings`` section (also the provenance's settings)."""
-        out = {
-            "source": self.source,
-            "sk_U": self.sk_U,
-            "prescription_gy": self.prescription_gy,
-            "cable": self.cable,
-            "channel": self.channel,
-            "plan_step_mm": self.plan_step_mm,
-            "tandem_dwells": self.tandem_dwells,
-            "position_limits_mm": list(self.position_limits_mm),
-            "dose_action_pct": self.dose_action_pct,
-            "dose_points": self.dose_points.as_dict(),
-            "scene_overrides": dict(self.scene_overrides),
-            "scene": self.scene,
-            "register": self.register,
-            "stem_mm": self.stem_mm,
-            "centreline_correction": self.centreline_correction,
-        }
+        """The ``results.json`` ``settings`` section (also the provenance's settings): every
+        setting the settings table records there (:func:`ringqa.pipeline.settings.results_keys`,
+        each under its results.json key, which is this object's attribute), then the simulated
+        ``scene`` and, when one is used, the ``calibration`` file."""
+        out = {key: _recorded(getattr(self, key)) for key in results_keys()}
+        out["scene"] = self.scene
         if self.calibration is not None:
             out["calibration"] = dict(self.calibration)
         return out
+
+
+def _recorded(value):
+    """A setting's value as results.json records it: a pair as a list, a spec as its dict."""
+    if hasattr(value, "as_dict"):
+        return value.as_dict()
+    if isinstance(value, tuple):
+        return list(value)
+    if isinstance(value, dict):
+        return dict(value)
+    return value
 
 
 @dataclass(frozen=True)

@@ -17,10 +17,17 @@ from typing import Any
 from ringqa.errors import RingQAError
 from ringqa.geometry.registration import REGISTER_MODES
 from ringqa.geometry.stem import DEFAULT_STEM_M
-from ringqa.pipeline.dwells import TANDEM_DWELLS
-from ringqa.pipeline.verdicts import DOSE_ACTION_PCT, POSITION_RECOMMENDED_MM, POSITION_REQUIRED_MM
 from ringqa.plan import PLAN_STEP_MM, PRESCRIPTION_GY, DosePointSpec
 from ringqa.units import m_to_mm
+
+#: Position tolerances, mm: recommended and required (AAPM MPPG 13.a, 2023; TG-56).
+POSITION_RECOMMENDED_MM = 1.0
+POSITION_REQUIRED_MM = 2.0
+#: Default dose-difference action level, %.
+DOSE_ACTION_PCT = 5.0
+#: Default number of tandem dwells (5 mm apart) when the tandem has no measured path
+#: (the Oncentra 26/60 standard plan has 7).
+TANDEM_DWELLS = 7
 
 #: The origin of a setting left at its built-in default (``settings_origin``; :mod:`ringqa.config`).
 DEFAULT_ORIGIN = "default"
@@ -742,3 +749,11 @@ SETTING_NAMES: tuple[SettingNames, ...] = (
     _names("measured", None, "the file is in the provenance's inputs; its points in results.json "
            "measured_points", flags=("--measured",)),
 )  # fmt: skip
+
+
+def results_keys() -> tuple[str, ...]:
+    """The keys of ``results.json`` ``settings`` that record a setting, each once, in the order
+    of :data:`SETTING_NAMES` (the table's fields first): what
+    :meth:`ringqa.pipeline.result.RunSettings.as_dict` writes (beside the simulated scene and,
+    when one is used, the calibration file)."""
+    return tuple(dict.fromkeys(n.results_key for n in SETTING_NAMES if n.results_key))

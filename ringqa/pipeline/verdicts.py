@@ -22,12 +22,6 @@ from ringqa.pipeline.doses import StandardPlans
 from ringqa.pipeline.numbers import DOSE_PCT, ERROR_MM, fmt, fmt_verdict_value
 from ringqa.pipeline.result import Verdict
 
-#: Position tolerances, mm: recommended and required (AAPM MPPG 13.a, 2023; TG-56).
-POSITION_RECOMMENDED_MM = 1.0
-POSITION_REQUIRED_MM = 2.0
-#: Default dose-difference action level, %.
-DOSE_ACTION_PCT = 5.0
-
 #: Action level of the RT Plan's own doses against the TPS's, %: the independent dose check of
 #: an HDR plan (AAPM TG-56 asks for a secondary check; 5 % is the usual action level). ringqa and
 #: the TPS use the same TG-43 formalism and consensus data, so they agree within about 1 % when

@@ -58,6 +58,36 @@ def test_results_keys_exist():
             assert row.results_key in keys, (row.field, row.results_key)
 
 
+def _run(**kw) -> RunSettings:
+    base = dict(
+        source="flexisource", sk_U=1.0, prescription_gy=7.0, cable="flexitron", channel="ring",
+        register="none", stem_mm=60.0, plan_step_mm=5.0, tandem_dwells=7,
+        position_limits_mm=(1.0, 2.0), dose_action_pct=5.0, dose_points=DosePointSpec(),
+        scene_overrides={"solver.increment_mm": 0.5}, scene={"k": 1},
+    )  # fmt: skip
+    return RunSettings(**{**base, **kw})
+
+
+def test_results_json_settings_are_made_from_the_table(monkeypatch):
+    """results.json ``settings`` holds exactly the table's results.json keys (each setting once,
+    in SETTING_NAMES' order) plus ``scene`` (and ``calibration`` only when one is used); a row
+    taken out of the table (monkeypatched) is no longer written, so the keys are read from the
+    table, not written by hand. Values by hand: the limits pair as the list [1.0, 2.0], the
+    dose points as their spec's dict, the overrides as given."""
+    import ringqa.pipeline.settings as settings_mod
+
+    out = _run().as_dict()
+    assert list(out) == [*settings_mod.results_keys(), "scene"]
+    assert out["position_limits_mm"] == [1.0, 2.0]
+    assert out["dose_points"] == DosePointSpec().as_dict()
+    assert out["scene_overrides"] == {"solver.increment_mm": 0.5} and out["scene"] == {"k": 1}
+    cal = _run(calibration={"file": "c.toml", "sha256": "ab"}).as_dict()
+    assert list(cal)[-1] == "calibration" and cal["calibration"]["sha256"] == "ab"
+    fewer = tuple(r for r in settings_mod.SETTING_NAMES if r.results_key != "tandem_dwells")
+    monkeypatch.setattr(settings_mod, "SETTING_NAMES", fewer)
+    assert "tandem_dwells" not in _run().as_dict()
+
+
 @pytest.mark.parametrize("row", SETTING_NAMES, ids=lambda r: r.field)
 def test_a_name_that_differs_says_so(row):
     """Where a configuration key (its last part, or the whole key with . as _) or a flag differs
