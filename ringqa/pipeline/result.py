@@ -151,6 +151,16 @@ class SimulationInfo:
         }
 
 
+#: The order of results.json ``settings`` as readers have always seen it (the keys themselves
+#: come from the settings table: :func:`ringqa.pipeline.settings.results_keys`; a key the table
+#: no longer records is not written, a new one goes after these).
+SETTINGS_KEY_ORDER = (
+    "source", "sk_U", "prescription_gy", "cable", "channel", "plan_step_mm", "tandem_dwells",
+    "position_limits_mm", "dose_action_pct", "dose_points", "scene_overrides", "scene",
+    "register", "stem_mm", "centreline_correction",
+)  # fmt: skip
+
+
 @dataclass(frozen=True, eq=False)
 class RunSettings:
     """The settings a run used (resolved: the source by name, S_K as a number).
@@ -220,8 +230,10 @@ class RunSettings:
         setting the settings table records there (:func:`ringqa.pipeline.settings.results_keys`,
         each under its results.json key, which is this object's attribute), then the simulated
         ``scene`` and, when one is used, the ``calibration`` file."""
-        out = {key: _recorded(getattr(self, key)) for key in results_keys()}
-        out["scene"] = self.scene
+        values = {key: _recorded(getattr(self, key)) for key in results_keys()}
+        values["scene"] = self.scene
+        out = {key: values.pop(key) for key in SETTINGS_KEY_ORDER if key in values}
+        out.update(values)  # a setting newer than the order below: after the others
         if self.calibration is not None:
             out["calibration"] = dict(self.calibration)
         return out

@@ -70,14 +70,16 @@ def _run(**kw) -> RunSettings:
 
 def test_results_json_settings_are_made_from_the_table(monkeypatch):
     """results.json ``settings`` holds exactly the table's results.json keys (each setting once,
-    in SETTING_NAMES' order) plus ``scene`` (and ``calibration`` only when one is used); a row
-    taken out of the table (monkeypatched) is no longer written, so the keys are read from the
-    table, not written by hand. Values by hand: the limits pair as the list [1.0, 2.0], the
-    dose points as their spec's dict, the overrides as given."""
+    in the order results.json has always had) plus ``scene`` (and ``calibration`` only when one
+    is used); a row taken out of the table (monkeypatched) is no longer written, so the keys
+    are read from the table, not written by hand. Values by hand: the limits pair as the list
+    [1.0, 2.0], the dose points as their spec's dict, the overrides as given."""
     import ringqa.pipeline.settings as settings_mod
+    from ringqa.pipeline.result import SETTINGS_KEY_ORDER
 
     out = _run().as_dict()
-    assert list(out) == [*settings_mod.results_keys(), "scene"]
+    assert set(out) == {*settings_mod.results_keys(), "scene"}
+    assert list(out) == list(SETTINGS_KEY_ORDER)  # the order readers have always seen
     assert out["position_limits_mm"] == [1.0, 2.0]
     assert out["dose_points"] == DosePointSpec().as_dict()
     assert out["scene_overrides"] == {"solver.increment_mm": 0.5} and out["scene"] == {"k": 1}
