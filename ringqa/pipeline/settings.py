@@ -643,32 +643,17 @@ SETTINGS: tuple[Setting, ...] = (
     # the [calibration] table ringqa calibrate writes into calibrated_cable.toml: the
     # commissioning report names the file (with its SHA-256) and these (CommissionSettings
     # .calibration)
-    Setting(
-        "calibration.command",
-        "",
-        "",
-        "text",
-        "the ringqa calibrate command that wrote this file (a calibrated cable)",
-        field="calibration",
-        results_key=None,  # results.json settings.calibration: only when one is used
-    ),
-    Setting(
-        "calibration.created_utc",
-        "",
-        "",
-        "text",
-        "when the calibration was made (UTC)",
-        field="calibration",
-        results_key=None,  # results.json settings.calibration: only when one is used
-    ),
-    Setting(
-        "calibration.calibration_json_sha256",
-        "",
-        "",
-        "text",
-        "SHA-256 of the calibration.json written beside this file (the fit's record)",
-        field="calibration",
-        results_key=None,  # results.json settings.calibration: only when one is used
+    *(
+        # results.json settings.calibration: only when one is used (RunSettings.as_dict)
+        Setting(f"calibration.{name}", "", "", "text", doc, field="calibration", results_key=None)
+        for name, doc in (
+            ("command", "the ringqa calibrate command that wrote this file (a calibrated cable)"),
+            ("created_utc", "when the calibration was made (UTC)"),
+            (
+                "calibration_json_sha256",
+                "SHA-256 of the calibration.json written beside this file (the fit's record)",
+            ),
+        )
     ),
 )
 

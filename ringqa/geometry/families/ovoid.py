@@ -80,8 +80,8 @@ class OvoidFamily:
         side = lateral_side(app, pts.mean(axis=0))
         lat = np.asarray(frame.lateral, dtype=float) * (1.0 if side == "left" else -1.0)
         mid = _most_lateral_middle_mm(rel, (pts - c) @ lat)
-        p = channel_points_mm(channel, [mid])[0]
         s_mid = channel.s_ref_m - mm_to_m(mid)
+        p = m_to_mm(np.asarray(channel.centreline.position(s_mid), dtype=float).reshape(3))
         t = np.asarray(channel.centreline.tangent(s_mid), dtype=float).reshape(3)
         out = lat - float(lat @ t) * t
         out = out / float(np.linalg.norm(out))
