@@ -14,7 +14,6 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from ringqa.simulation.band import add_block
 from ringqa.simulation.effects.base import BuildContext, Effect, register_kernels
 
 
@@ -34,37 +33,57 @@ def add_axial(p, q, st, sw, r, B, jac):
 @njit(cache=True, error_model="numpy")
 def axial_kernel(q, nd, n_nodes, kl, link_len, ea_n, r, B, jac):
     """Axial penalty ``k_j / 2 (|e_j| - l_j)^2`` per link (``k_j = EA / l_j``); returns the
-    energy (J)."""
+    energy (J).
+
+    The link stiffness ``K = k e^ e^T + k dl / L (I - e^ e^T)`` is added to the blocks (j, j),
+    (j+1, j+1) with + and (j, j+1), (j+1, j) with - through the flat view of ``B`` (as
+    :func:`~ringqa.simulation.band.add_block_flat`), entry by entry from scalars: each entry
+    receives the same term as four ``add_block`` calls gave it, and ``e^`` is divided out three
+    times a link instead of eighteen (scratch arrays made the compiler reload and divide again).
+    """
     energy = 0.0
-    K = np.empty((3, 3))
-    e = np.empty(3)
+    W = B.shape[1]
+    Bf = B.reshape(-1)
+    step = np.uint64(W - 1)
+    E = np.uint64(nd)
     for j in range(n_nodes - 1):
         i0 = nd * j
         i1 = nd * (j + 1)
-        L = 0.0
-        for a in range(3):
-            e[a] = q[i1 + a] - q[i0 + a]
-            L += e[a] * e[a]
-        L = math.sqrt(L)
+        e0 = q[i1] - q[i0]
+        e1 = q[i1 + 1] - q[i0 + 1]
+        e2 = q[i1 + 2] - q[i0 + 2]
+        L = math.sqrt(e0 * e0 + e1 * e1 + e2 * e2)
         k = ea_n / link_len[j]
         dl = L - link_len[j]
         energy += 0.5 * k * dl * dl
         f = k * dl / L
-        for a in range(3):
-            g = f * e[a]
-            r[i0 + a] -= g
-            r[i1 + a] += g
+        g = f * e0
+        r[i0] -= g
+        r[i1] += g
+        g = f * e1
+        r[i0 + 1] -= g
+        r[i1 + 1] += g
+        g = f * e2
+        r[i0 + 2] -= g
+        r[i1 + 2] += g
         if jac:
             c2 = k * dl / L
+            n0 = e0 / L
+            n1 = e1 / L
+            n2 = e2 / L
             for a in range(3):
+                ea = n0 if a == 0 else (n1 if a == 1 else n2)
+                # B[i0 + a, kl + i0 + b - i0 - a] and B[i1 + a, ...] through the flat view
+                base0 = np.uint64(i0 + a) * step + np.uint64(kl + i0)
+                base1 = np.uint64(i1 + a) * step + np.uint64(kl + i0)
                 for b in range(3):
-                    ea = e[a] / L
-                    eb = e[b] / L
-                    K[a, b] = k * ea * eb + c2 * ((1.0 if a == b else 0.0) - ea * eb)
-            add_block(B, kl, nd, j, j, 1.0, K)
-            add_block(B, kl, nd, j + 1, j + 1, 1.0, K)
-            add_block(B, kl, nd, j, j + 1, -1.0, K)
-            add_block(B, kl, nd, j + 1, j, -1.0, K)
+                    eb = n0 if b == 0 else (n1 if b == 1 else n2)
+                    K = k * ea * eb + c2 * ((1.0 if a == b else 0.0) - ea * eb)
+                    ob = np.uint64(b)
+                    Bf[base0 + ob] += 1.0 * K  # (j, j)
+                    Bf[base1 + E + ob] += 1.0 * K  # (j + 1, j + 1)
+                    Bf[base0 + E + ob] += -1.0 * K  # (j, j + 1)
+                    Bf[base1 + ob] += -1.0 * K  # (j + 1, j)
     return energy
 
 

@@ -37,9 +37,52 @@ def _theta_funcs(th):
     return th / s, (s - th * c) / (s * s * s)
 
 
+#: rows of the per-hinge values :func:`bending_kernel` keeps for the Jacobian (one column a hinge)
+_U, _V, _AH, _BH, _C, _F, _HH, _K, _LA, _LB = 0, 3, 6, 9, 12, 13, 14, 15, 16, 17
+_NX = 18
+
+
+@njit(cache=True, error_model="numpy")
+def _hinge_hessians(X, H, nh):
+    """The 27 entries of every hinge's blocks ``Haa``, ``Hbb``, ``Hab`` (rows ``3 p + m``,
+    ``9 + 3 p + m``, ``18 + 3 p + m`` of ``H`` (27, nh)) from its values in ``X`` (18, nh).
+
+    One loop over the hinges per entry, so that the compiler vectorises it (the 27 divisions a
+    hinge were most of the Jacobian's arithmetic); each entry is the expression the per-hinge
+    loop evaluated, in the same order, so the values are the same bit for bit.
+    """
+    for pp in range(3):
+        for m in range(3):
+            dpm = 1.0 if pp == m else 0.0
+            t = 3 * pp + m
+            for h in range(nh):
+                k = X[_K, h]
+                f = X[_F, h]
+                hh = X[_HH, h]
+                c = X[_C, h]
+                la = X[_LA, h]
+                lb = X[_LB, h]
+                upp = X[_U + pp, h]
+                um = X[_U + m, h]
+                vpp = X[_V + pp, h]
+                vm = X[_V + m, h]
+                app = X[_AH + pp, h]
+                am = X[_AH + m, h]
+                bpp = X[_BH + pp, h]
+                bmm = X[_BH + m, h]
+                H[t, h] = (
+                    k * (hh * upp * um + f * (upp * am + app * um) + f * c * (dpm - app * am))
+                ) / (la * la)
+                H[9 + t, h] = (
+                    k * (hh * vpp * vm + f * (vpp * bmm + bpp * vm) + f * c * (dpm - bpp * bmm))
+                ) / (lb * lb)
+                H[18 + t, h] = (k * (hh * upp * vm - f * (dpm - bpp * bmm - app * vm))) / (la * lb)
+
+
 @njit(cache=True, inline="always", error_model="numpy")
-def _add_hinge_blocks(Bf, W, kl, nd, n0, Haa, Hab, Hbb):
-    """Add one hinge's Jacobian to the nodes ``n0, n0 + 1, n0 + 2`` (through the flat view
+def _add_hinge_blocks(Bf, W, kl, nd, n0, H, h):
+    """Add hinge ``h``'s Jacobian (``Haa = H[0:9, h]``, ``Hbb = H[9:18, h]``, ``Hab =
+    H[18:27, h]``, row-major 3x3) to the nodes ``n0, n0 + 1, n0 + 2`` (through the flat view
     ``Bf``, as :func:`~ringqa.simulation.band.add_block_flat`): with ``Hba = Hab^T`` and the
     nodes at ``-a``, ``a - b``, ``b``, the nine position blocks are
 
@@ -54,10 +97,10 @@ def _add_hinge_blocks(Bf, W, kl, nd, n0, Haa, Hab, Hbb):
     e = np.uint64(nd)
     for a in range(3):
         for b in range(3):
-            haa = Haa[a, b]
-            hab = Hab[a, b]
-            hba = Hab[b, a]
-            hbb = Hbb[a, b]
+            haa = H[3 * a + b, h]
+            hbb = H[9 + 3 * a + b, h]
+            hab = H[18 + 3 * a + b, h]
+            hba = H[18 + 3 * b + a, h]
             col = np.uint64(kl + nd * n0 + b)
             r0 = np.uint64(nd * n0 + a) * step + col
             r1 = np.uint64(nd * (n0 + 1) + a) * step + col
@@ -101,85 +144,104 @@ def bending_kernel(q, nd, n_nodes, kl, hinge_k, r, B, jac):
     """Hinge bending energy ``k_i theta_i^2 / 2`` at every interior node; returns the energy.
 
     ``theta_i`` is the angle between links ``a = x_i - x_{i-1}`` and ``b = x_{i+1} - x_i``.
+
+    Three passes (branch kernels, docs/engine.md "A cheaper iteration"): the residual hinge by
+    hinge, keeping with ``jac`` each hinge's values in a (18, hinges) table; the Hessian blocks
+    of all hinges (:func:`_hinge_hessians`, vectorised); their addition to ``B`` hinge by hinge.
+    Every value is the same expression as in the one-pass form, and every entry of ``r`` and
+    ``B`` receives the same terms in the same order, so the results are the same bit for bit
+    (tests/simulation/effects/test_kernels_identical.py).
     """
     energy = 0.0
-    W = B.shape[1]
-    Bf = B.reshape(-1)
-    a = np.empty(3)
-    b = np.empty(3)
-    ah = np.empty(3)
-    bh = np.empty(3)
-    u = np.empty(3)
-    v = np.empty(3)
-    Haa = np.empty((3, 3))
-    Hab = np.empty((3, 3))
-    Hbb = np.empty((3, 3))
+    nh = max(n_nodes - 2, 0)
+    if jac:
+        X = np.empty((_NX, nh))
+        H = np.empty((27, nh))
+    else:
+        X = np.empty((0, 0))
+        H = X
     for i in range(1, n_nodes - 1):
-        k = hinge_k[i - 1]
+        h = i - 1
+        k = hinge_k[h]
         if k == 0.0:
+            if jac:
+                for t in range(_NX):
+                    X[t, h] = 0.0
             continue
         i0 = nd * (i - 1)
         i1 = nd * i
         i2 = nd * (i + 1)
-        la = 0.0
-        lb = 0.0
-        for d in range(3):
-            a[d] = q[i1 + d] - q[i0 + d]
-            b[d] = q[i2 + d] - q[i1 + d]
-            la += a[d] * a[d]
-            lb += b[d] * b[d]
-        la = math.sqrt(la)
-        lb = math.sqrt(lb)
-        c = 0.0
-        for d in range(3):
-            ah[d] = a[d] / la
-            bh[d] = b[d] / lb
-            c += ah[d] * bh[d]
-        cx0 = ah[1] * bh[2] - ah[2] * bh[1]
-        cx1 = ah[2] * bh[0] - ah[0] * bh[2]
-        cx2 = ah[0] * bh[1] - ah[1] * bh[0]
+        a0 = q[i1] - q[i0]
+        a1 = q[i1 + 1] - q[i0 + 1]
+        a2 = q[i1 + 2] - q[i0 + 2]
+        b0 = q[i2] - q[i1]
+        b1 = q[i2 + 1] - q[i1 + 1]
+        b2 = q[i2 + 2] - q[i1 + 2]
+        la = math.sqrt(a0 * a0 + a1 * a1 + a2 * a2)
+        lb = math.sqrt(b0 * b0 + b1 * b1 + b2 * b2)
+        ah0 = a0 / la
+        ah1 = a1 / la
+        ah2 = a2 / la
+        bh0 = b0 / lb
+        bh1 = b1 / lb
+        bh2 = b2 / lb
+        c = ah0 * bh0 + ah1 * bh1 + ah2 * bh2
+        cx0 = ah1 * bh2 - ah2 * bh1
+        cx1 = ah2 * bh0 - ah0 * bh2
+        cx2 = ah0 * bh1 - ah1 * bh0
         sn = math.sqrt(cx0 * cx0 + cx1 * cx1 + cx2 * cx2)
         th = math.atan2(sn, c)
         energy += 0.5 * k * th * th
         f, hh = _theta_funcs(th)
-        for d in range(3):
-            u[d] = bh[d] - c * ah[d]
-            v[d] = ah[d] - c * bh[d]
+        u0 = bh0 - c * ah0
+        u1 = bh1 - c * ah1
+        u2 = bh2 - c * ah2
+        v0 = ah0 - c * bh0
+        v1 = ah1 - c * bh1
+        v2 = ah2 - c * bh2
         # gradients wrt a and b of theta^2 / 2
-        for d in range(3):
-            ga = -k * f * u[d] / la
-            gb = -k * f * v[d] / lb
-            r[i0 + d] -= ga
-            r[i1 + d] += ga - gb
-            r[i2 + d] += gb
-        if not jac:
-            continue
-        for pp in range(3):
-            for m in range(3):
-                dpm = 1.0 if pp == m else 0.0
-                Haa[pp, m] = (
-                    k
-                    * (
-                        hh * u[pp] * u[m]
-                        + f * (u[pp] * ah[m] + ah[pp] * u[m])
-                        + f * c * (dpm - ah[pp] * ah[m])
-                    )
-                    / (la * la)
-                )
-                Hbb[pp, m] = (
-                    k
-                    * (
-                        hh * v[pp] * v[m]
-                        + f * (v[pp] * bh[m] + bh[pp] * v[m])
-                        + f * c * (dpm - bh[pp] * bh[m])
-                    )
-                    / (lb * lb)
-                )
-                Hab[pp, m] = (
-                    k * (hh * u[pp] * v[m] - f * (dpm - bh[pp] * bh[m] - ah[pp] * v[m])) / (la * lb)
-                )
+        ga = -k * f * u0 / la
+        gb = -k * f * v0 / lb
+        r[i0] -= ga
+        r[i1] += ga - gb
+        r[i2] += gb
+        ga = -k * f * u1 / la
+        gb = -k * f * v1 / lb
+        r[i0 + 1] -= ga
+        r[i1 + 1] += ga - gb
+        r[i2 + 1] += gb
+        ga = -k * f * u2 / la
+        gb = -k * f * v2 / lb
+        r[i0 + 2] -= ga
+        r[i1 + 2] += ga - gb
+        r[i2 + 2] += gb
+        if jac:
+            X[_U, h] = u0
+            X[_U + 1, h] = u1
+            X[_U + 2, h] = u2
+            X[_V, h] = v0
+            X[_V + 1, h] = v1
+            X[_V + 2, h] = v2
+            X[_AH, h] = ah0
+            X[_AH + 1, h] = ah1
+            X[_AH + 2, h] = ah2
+            X[_BH, h] = bh0
+            X[_BH + 1, h] = bh1
+            X[_BH + 2, h] = bh2
+            X[_C, h] = c
+            X[_F, h] = f
+            X[_HH, h] = hh
+            X[_K, h] = k
+            X[_LA, h] = la
+            X[_LB, h] = lb
+    if jac and nh > 0:
+        _hinge_hessians(X, H, nh)
+        W = B.shape[1]
+        Bf = B.reshape(-1)
         # nodes: x_{i-1} = -a, x_i = +a - b, x_{i+1} = +b
-        _add_hinge_blocks(Bf, W, kl, nd, i - 1, Haa, Hab, Hbb)
+        for h in range(nh):
+            if hinge_k[h] != 0.0:
+                _add_hinge_blocks(Bf, W, kl, nd, h, H, h)
     return energy
 
 
