@@ -95,42 +95,29 @@ def _add_hinge_blocks(Bf, W, kl, nd, n0, H, h):
     """
     step = np.uint64(W - 1)
     e = np.uint64(nd)
+    e2 = np.uint64(2 * nd)
+    c0 = np.uint64(kl + nd * n0)
     for a in range(3):
+        # the rows (n0, a), (n1, a), (n2, a) from column (n0, 0) on: three blocks side by side
+        r0 = np.uint64(nd * n0 + a) * step + c0
+        r1 = np.uint64(nd * (n0 + 1) + a) * step + c0
+        r2 = np.uint64(nd * (n0 + 2) + a) * step + c0
         for b in range(3):
             haa = H[3 * a + b, h]
             hbb = H[9 + 3 * a + b, h]
             hab = H[18 + 3 * a + b, h]
             hba = H[18 + 3 * b + a, h]
-            col = np.uint64(kl + nd * n0 + b)
-            r0 = np.uint64(nd * n0 + a) * step + col
-            r1 = np.uint64(nd * (n0 + 1) + a) * step + col
-            r2 = np.uint64(nd * (n0 + 2) + a) * step + col
-            Bf[r0] += 1.0 * haa
-            v = Bf[r0 + e]
-            v += -1.0 * haa
-            v += 1.0 * hab
-            Bf[r0 + e] = v
-            Bf[r0 + 2 * e] += -1.0 * hab
-            v = Bf[r1]
-            v += -1.0 * haa
-            v += 1.0 * hba
-            Bf[r1] = v
-            v = Bf[r1 + e]
-            v += 1.0 * haa
-            v += -1.0 * hab
-            v += -1.0 * hba
-            v += 1.0 * hbb
-            Bf[r1 + e] = v
-            v = Bf[r1 + 2 * e]
-            v += 1.0 * hab
-            v += -1.0 * hbb
-            Bf[r1 + 2 * e] = v
-            Bf[r2] += -1.0 * hba
-            v = Bf[r2 + e]
-            v += 1.0 * hba
-            v += -1.0 * hbb
-            Bf[r2 + e] = v
-            Bf[r2 + 2 * e] += 1.0 * hbb
+            ob = np.uint64(b)
+            # x + (-1.0 * y) is x - y, bit for bit
+            Bf[r0 + ob] += haa
+            Bf[r0 + e + ob] = (Bf[r0 + e + ob] - haa) + hab
+            Bf[r0 + e2 + ob] -= hab
+            Bf[r1 + ob] = (Bf[r1 + ob] - haa) + hba
+            Bf[r1 + e + ob] = (((Bf[r1 + e + ob] + haa) - hab) - hba) + hbb
+            Bf[r1 + e2 + ob] = (Bf[r1 + e2 + ob] + hab) - hbb
+            Bf[r2 + ob] -= hba
+            Bf[r2 + e + ob] = (Bf[r2 + e + ob] + hba) - hbb
+            Bf[r2 + e2 + ob] += hbb
 
 
 @njit(cache=True, inline="always", error_model="numpy")
