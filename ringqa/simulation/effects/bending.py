@@ -37,15 +37,61 @@ def _theta_funcs(th):
     return th / s, (s - th * c) / (s * s * s)
 
 
-#: rows of the per-hinge values :func:`bending_kernel` keeps for the Jacobian (one column a hinge)
-_U, _V, _AH, _BH, _C, _F, _HH, _K, _LA, _LB = 0, 3, 6, 9, 12, 13, 14, 15, 16, 17
-_NX = 18
+@njit(cache=True, error_model="numpy")
+def _links(E, LK, nl):
+    """Every link's length and unit vector: ``LK[0]`` = |e|, ``LK[1:4]`` = e / |e| from the link
+    vectors ``E`` (3, nl) (m) (a loop the compiler vectorises: square roots and divisions)."""
+    for j in range(nl):
+        e0 = E[0, j]
+        e1 = E[1, j]
+        e2 = E[2, j]
+        L = math.sqrt(e0 * e0 + e1 * e1 + e2 * e2)
+        LK[0, j] = L
+        LK[1, j] = e0 / L
+        LK[2, j] = e1 / L
+        LK[3, j] = e2 / L
 
 
 @njit(cache=True, error_model="numpy")
-def _hinge_hessians(X, H, nh):
+def _cos_sin(LK, CS, nh):
+    """Every hinge's ``cos theta = a^.b^`` and ``sin theta = |a^ x b^|`` into ``CS`` (2, nh), from
+    :func:`_links` (hinge h joins links h and h + 1; vectorised)."""
+    for h in range(nh):
+        ah0 = LK[1, h]
+        ah1 = LK[2, h]
+        ah2 = LK[3, h]
+        bh0 = LK[1, h + 1]
+        bh1 = LK[2, h + 1]
+        bh2 = LK[3, h + 1]
+        CS[0, h] = ah0 * bh0 + ah1 * bh1 + ah2 * bh2
+        cx0 = ah1 * bh2 - ah2 * bh1
+        cx1 = ah2 * bh0 - ah0 * bh2
+        cx2 = ah0 * bh1 - ah1 * bh0
+        CS[1, h] = math.sqrt(cx0 * cx0 + cx1 * cx1 + cx2 * cx2)
+
+
+@njit(cache=True, error_model="numpy")
+def _gradients(LK, CS, FH, hinge_k, G, nh):
+    """Every hinge's gradient of ``k theta^2 / 2`` with respect to its links ``a`` and ``b``:
+    ``G[0:3]`` and ``G[3:6]`` (N) (vectorised)."""
+    for h in range(nh):
+        k = hinge_k[h]
+        c = CS[0, h]
+        f = FH[0, h]
+        la = LK[0, h]
+        lb = LK[0, h + 1]
+        for d in range(3):
+            ah = LK[1 + d, h]
+            bh = LK[1 + d, h + 1]
+            G[d, h] = -k * f * (bh - c * ah) / la
+            G[3 + d, h] = -k * f * (ah - c * bh) / lb
+
+
+@njit(cache=True, error_model="numpy")
+def _hinge_hessians(LK, CS, FH, hinge_k, H, nh):
     """The 27 entries of every hinge's blocks ``Haa``, ``Hbb``, ``Hab`` (rows ``3 p + m``,
-    ``9 + 3 p + m``, ``18 + 3 p + m`` of ``H`` (27, nh)) from its values in ``X`` (18, nh).
+    ``9 + 3 p + m``, ``18 + 3 p + m`` of ``H`` (27, nh)) from the per-link and per-hinge values
+    of :func:`bending_kernel` (``u = b^ - c a^``, ``v = a^ - c b^`` recomputed as there).
 
     One loop over the hinges per entry, so that the compiler vectorises it (the 27 divisions a
     hinge were most of the Jacobian's arithmetic); each entry is the expression the per-hinge
@@ -56,20 +102,20 @@ def _hinge_hessians(X, H, nh):
             dpm = 1.0 if pp == m else 0.0
             t = 3 * pp + m
             for h in range(nh):
-                k = X[_K, h]
-                f = X[_F, h]
-                hh = X[_HH, h]
-                c = X[_C, h]
-                la = X[_LA, h]
-                lb = X[_LB, h]
-                upp = X[_U + pp, h]
-                um = X[_U + m, h]
-                vpp = X[_V + pp, h]
-                vm = X[_V + m, h]
-                app = X[_AH + pp, h]
-                am = X[_AH + m, h]
-                bpp = X[_BH + pp, h]
-                bmm = X[_BH + m, h]
+                k = hinge_k[h]
+                f = FH[0, h]
+                hh = FH[1, h]
+                c = CS[0, h]
+                la = LK[0, h]
+                lb = LK[0, h + 1]
+                app = LK[1 + pp, h]
+                am = LK[1 + m, h]
+                bpp = LK[1 + pp, h + 1]
+                bmm = LK[1 + m, h + 1]
+                upp = bpp - c * app
+                um = bmm - c * am
+                vpp = app - c * bpp
+                vm = am - c * bmm
                 H[t, h] = (
                     k * (hh * upp * um + f * (upp * am + app * um) + f * c * (dpm - app * am))
                 ) / (la * la)
@@ -132,97 +178,59 @@ def bending_kernel(q, nd, n_nodes, kl, hinge_k, r, B, jac):
 
     ``theta_i`` is the angle between links ``a = x_i - x_{i-1}`` and ``b = x_{i+1} - x_i``.
 
-    Three passes (branch kernels, docs/engine.md "A cheaper iteration"): the residual hinge by
-    hinge, keeping with ``jac`` each hinge's values in a (18, hinges) table; the Hessian blocks
-    of all hinges (:func:`_hinge_hessians`, vectorised); their addition to ``B`` hinge by hinge.
+    In passes over all links or hinges (branch kernels, docs/engine.md "A cheaper iteration"):
+    the link vectors, lengths and unit vectors (:func:`_links`, once a link instead of twice),
+    the hinges' cos and sin (:func:`_cos_sin`), their angles (atan2) and energies, the
+    gradients (:func:`_gradients`), their addition to ``r`` hinge by hinge; with ``jac`` the
+    Hessian blocks (:func:`_hinge_hessians`) and their addition to ``B`` hinge by hinge. The
+    passes without calls are loops the compiler vectorises (the square roots and the ~40
+    divisions a hinge were most of the kernel's time).
     Every value is the same expression as in the one-pass form, and every entry of ``r`` and
     ``B`` receives the same terms in the same order, so the results are the same bit for bit
     (tests/simulation/effects/test_kernels_identical.py).
     """
     energy = 0.0
     nh = max(n_nodes - 2, 0)
-    if jac:
-        X = np.empty((_NX, nh))
-        H = np.empty((27, nh))
-    else:
-        X = np.empty((0, 0))
-        H = X
-    for i in range(1, n_nodes - 1):
-        h = i - 1
+    if nh == 0:
+        return energy
+    nl = n_nodes - 1
+    E = np.empty((3, nl))
+    LK = np.empty((4, nl))
+    CS = np.empty((2, nh))
+    FH = np.empty((2, nh))
+    G = np.empty((6, nh))
+    for j in range(nl):
+        for d in range(3):
+            E[d, j] = q[nd * (j + 1) + d] - q[nd * j + d]
+    _links(E, LK, nl)
+    _cos_sin(LK, CS, nh)
+    for h in range(nh):
         k = hinge_k[h]
         if k == 0.0:
-            if jac:
-                for t in range(_NX):
-                    X[t, h] = 0.0
+            FH[0, h] = 0.0
+            FH[1, h] = 0.0
             continue
-        i0 = nd * (i - 1)
-        i1 = nd * i
-        i2 = nd * (i + 1)
-        a0 = q[i1] - q[i0]
-        a1 = q[i1 + 1] - q[i0 + 1]
-        a2 = q[i1 + 2] - q[i0 + 2]
-        b0 = q[i2] - q[i1]
-        b1 = q[i2 + 1] - q[i1 + 1]
-        b2 = q[i2 + 2] - q[i1 + 2]
-        la = math.sqrt(a0 * a0 + a1 * a1 + a2 * a2)
-        lb = math.sqrt(b0 * b0 + b1 * b1 + b2 * b2)
-        ah0 = a0 / la
-        ah1 = a1 / la
-        ah2 = a2 / la
-        bh0 = b0 / lb
-        bh1 = b1 / lb
-        bh2 = b2 / lb
-        c = ah0 * bh0 + ah1 * bh1 + ah2 * bh2
-        cx0 = ah1 * bh2 - ah2 * bh1
-        cx1 = ah2 * bh0 - ah0 * bh2
-        cx2 = ah0 * bh1 - ah1 * bh0
-        sn = math.sqrt(cx0 * cx0 + cx1 * cx1 + cx2 * cx2)
-        th = math.atan2(sn, c)
+        th = math.atan2(CS[1, h], CS[0, h])
         energy += 0.5 * k * th * th
         f, hh = _theta_funcs(th)
-        u0 = bh0 - c * ah0
-        u1 = bh1 - c * ah1
-        u2 = bh2 - c * ah2
-        v0 = ah0 - c * bh0
-        v1 = ah1 - c * bh1
-        v2 = ah2 - c * bh2
-        # gradients wrt a and b of theta^2 / 2
-        ga = -k * f * u0 / la
-        gb = -k * f * v0 / lb
-        r[i0] -= ga
-        r[i1] += ga - gb
-        r[i2] += gb
-        ga = -k * f * u1 / la
-        gb = -k * f * v1 / lb
-        r[i0 + 1] -= ga
-        r[i1 + 1] += ga - gb
-        r[i2 + 1] += gb
-        ga = -k * f * u2 / la
-        gb = -k * f * v2 / lb
-        r[i0 + 2] -= ga
-        r[i1 + 2] += ga - gb
-        r[i2 + 2] += gb
-        if jac:
-            X[_U, h] = u0
-            X[_U + 1, h] = u1
-            X[_U + 2, h] = u2
-            X[_V, h] = v0
-            X[_V + 1, h] = v1
-            X[_V + 2, h] = v2
-            X[_AH, h] = ah0
-            X[_AH + 1, h] = ah1
-            X[_AH + 2, h] = ah2
-            X[_BH, h] = bh0
-            X[_BH + 1, h] = bh1
-            X[_BH + 2, h] = bh2
-            X[_C, h] = c
-            X[_F, h] = f
-            X[_HH, h] = hh
-            X[_K, h] = k
-            X[_LA, h] = la
-            X[_LB, h] = lb
-    if jac and nh > 0:
-        _hinge_hessians(X, H, nh)
+        FH[0, h] = f
+        FH[1, h] = hh
+    _gradients(LK, CS, FH, hinge_k, G, nh)
+    for h in range(nh):
+        if hinge_k[h] == 0.0:
+            continue
+        i0 = nd * h
+        i1 = i0 + nd
+        i2 = i1 + nd
+        for d in range(3):
+            ga = G[d, h]
+            gb = G[3 + d, h]
+            r[i0 + d] -= ga
+            r[i1 + d] += ga - gb
+            r[i2 + d] += gb
+    if jac:
+        H = np.empty((27, nh))
+        _hinge_hessians(LK, CS, FH, hinge_k, H, nh)
         W = B.shape[1]
         Bf = B.reshape(-1)
         # nodes: x_{i-1} = -a, x_i = +a - b, x_{i+1} = +b
