@@ -31,59 +31,87 @@ def add_axial(p, q, st, sw, r, B, jac):
 
 
 @njit(cache=True, error_model="numpy")
+def _link_terms(E, link_len, ea_n, LT, nl):
+    """Per link (a loop the compiler vectorises: a square root and five divisions a link):
+    ``LT[0]`` = |e|, ``LT[1]`` = k = EA / l, ``LT[2]`` = |e| - l, ``LT[3]`` = k (|e| - l) / |e|,
+    ``LT[4:7]`` = e / |e|, from the link vectors ``E`` (3, nl) (m)."""
+    for j in range(nl):
+        e0 = E[0, j]
+        e1 = E[1, j]
+        e2 = E[2, j]
+        L = math.sqrt(e0 * e0 + e1 * e1 + e2 * e2)
+        k = ea_n / link_len[j]
+        dl = L - link_len[j]
+        LT[0, j] = L
+        LT[1, j] = k
+        LT[2, j] = dl
+        LT[3, j] = k * dl / L
+        LT[4, j] = e0 / L
+        LT[5, j] = e1 / L
+        LT[6, j] = e2 / L
+
+
+@njit(cache=True, error_model="numpy")
 def axial_kernel(q, nd, n_nodes, kl, link_len, ea_n, r, B, jac):
     """Axial penalty ``k_j / 2 (|e_j| - l_j)^2`` per link (``k_j = EA / l_j``); returns the
     energy (J).
 
     The link stiffness ``K = k e^ e^T + k dl / L (I - e^ e^T)`` is added to the blocks (j, j),
     (j+1, j+1) with + and (j, j+1), (j+1, j) with - through the flat view of ``B`` (as
-    :func:`~ringqa.simulation.band.add_block_flat`), entry by entry from scalars: each entry
-    receives the same term as four ``add_block`` calls gave it, and ``e^`` is divided out three
-    times a link instead of eighteen (scratch arrays made the compiler reload and divide again).
+    :func:`~ringqa.simulation.band.add_block_flat`), entry by entry from scalars. The square
+    roots and divisions of all links come first (:func:`_link_terms`, vectorised), then the
+    energy, ``r`` and ``B`` link by link: each entry of ``r`` and ``B`` receives the same terms
+    in the same order as the one-pass kernel with four ``add_block`` calls gave it, bit for bit
+    (tests/simulation/effects/test_kernels_identical.py).
     """
     energy = 0.0
+    nl = n_nodes - 1
+    if nl <= 0:
+        return energy
+    E = np.empty((3, nl))
+    LT = np.empty((7, nl))
+    for j in range(nl):
+        for d in range(3):
+            E[d, j] = q[nd * (j + 1) + d] - q[nd * j + d]
+    _link_terms(E, link_len, ea_n, LT, nl)
+    for j in range(nl):
+        k = LT[1, j]
+        dl = LT[2, j]
+        energy += 0.5 * k * dl * dl
+        f = LT[3, j]
+        i0 = nd * j
+        i1 = nd * (j + 1)
+        for d in range(3):
+            g = f * E[d, j]
+            r[i0 + d] -= g
+            r[i1 + d] += g
+    if not jac:
+        return energy
     W = B.shape[1]
     Bf = B.reshape(-1)
     step = np.uint64(W - 1)
-    E = np.uint64(nd)
-    for j in range(n_nodes - 1):
+    En = np.uint64(nd)
+    for j in range(nl):
+        k = LT[1, j]
+        c2 = LT[3, j]  # k dl / L, the same expression as the force factor
+        n0 = LT[4, j]
+        n1 = LT[5, j]
+        n2 = LT[6, j]
         i0 = nd * j
         i1 = nd * (j + 1)
-        e0 = q[i1] - q[i0]
-        e1 = q[i1 + 1] - q[i0 + 1]
-        e2 = q[i1 + 2] - q[i0 + 2]
-        L = math.sqrt(e0 * e0 + e1 * e1 + e2 * e2)
-        k = ea_n / link_len[j]
-        dl = L - link_len[j]
-        energy += 0.5 * k * dl * dl
-        f = k * dl / L
-        g = f * e0
-        r[i0] -= g
-        r[i1] += g
-        g = f * e1
-        r[i0 + 1] -= g
-        r[i1 + 1] += g
-        g = f * e2
-        r[i0 + 2] -= g
-        r[i1 + 2] += g
-        if jac:
-            c2 = k * dl / L
-            n0 = e0 / L
-            n1 = e1 / L
-            n2 = e2 / L
-            for a in range(3):
-                ea = n0 if a == 0 else (n1 if a == 1 else n2)
-                # B[i0 + a, kl + i0 + b - i0 - a] and B[i1 + a, ...] through the flat view
-                base0 = np.uint64(i0 + a) * step + np.uint64(kl + i0)
-                base1 = np.uint64(i1 + a) * step + np.uint64(kl + i0)
-                for b in range(3):
-                    eb = n0 if b == 0 else (n1 if b == 1 else n2)
-                    K = k * ea * eb + c2 * ((1.0 if a == b else 0.0) - ea * eb)
-                    ob = np.uint64(b)
-                    Bf[base0 + ob] += 1.0 * K  # (j, j)
-                    Bf[base1 + E + ob] += 1.0 * K  # (j + 1, j + 1)
-                    Bf[base0 + E + ob] += -1.0 * K  # (j, j + 1)
-                    Bf[base1 + ob] += -1.0 * K  # (j + 1, j)
+        for a in range(3):
+            ea = n0 if a == 0 else (n1 if a == 1 else n2)
+            # B[i0 + a, kl + i0 + b - i0 - a] and B[i1 + a, ...] through the flat view
+            base0 = np.uint64(i0 + a) * step + np.uint64(kl + i0)
+            base1 = np.uint64(i1 + a) * step + np.uint64(kl + i0)
+            for b in range(3):
+                eb = n0 if b == 0 else (n1 if b == 1 else n2)
+                K = k * ea * eb + c2 * ((1.0 if a == b else 0.0) - ea * eb)
+                ob = np.uint64(b)
+                Bf[base0 + ob] += 1.0 * K  # (j, j)
+                Bf[base1 + En + ob] += 1.0 * K  # (j + 1, j + 1)
+                Bf[base0 + En + ob] += -1.0 * K  # (j, j + 1)
+                Bf[base1 + ob] += -1.0 * K  # (j + 1, j)
     return energy
 
 
