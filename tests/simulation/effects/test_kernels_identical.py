@@ -75,3 +75,56 @@ def test_bending_and_axial_kernels_bit_for_bit(torsion, jac):
         _compare(ref.bending_kernel, bending_kernel, (q, m.nd, m.n_nodes, m.kl, hk), m, rng, jac)
         _compare(ref.axial_kernel, axial_kernel,
                  (q, m.nd, m.n_nodes, m.kl, ax.link_len, ax.ea_n), m, rng, jac)  # fmt: skip
+
+
+def _u_lumen_model():
+    """The U-shaped lumen of test_effect_jacobians (a flat side 0.32 mm out on the outside of a
+    13 mm arc): samples near the flat take the blended branch."""
+    from ringqa.simulation.analytic import ArcCentreline, SimpleChannel, SimpleLumen
+
+    cl = ArcCentreline(0.04, 0.013, 1.9 * np.pi)
+    lumen = SimpleLumen((0.0, np.inf), (0.5e-3,), (0.45e-3,), (0.32e-3,))
+    sc = scene(SimpleChannel("u", cl, lumen, 0.1), rod(), effects=Effects(friction="stribeck"),
+               solver=SolverSettings(axial_stiffness_n=1e6))  # fmt: skip
+    return model(sc, 0.06)
+
+
+def _geometry(fn, m, q, sw, mode):
+    p = m.unit("contact").args()
+    ch = p.chan
+    return fn(
+        q, m.nd, sw.link, sw.alpha, sw.ro, sw.wt, ch.h, ch.pos, ch.tan, ch.flat_normal,
+        ch.kappa_min_flat, ch.seg_s, ch.seg_rb, ch.seg_ra, ch.seg_flat, p.transition, p.max_frac,
+        p.k_wall, sw.s, sw.p, sw.d, sw.n, sw.H, sw.z, sw.w, sw.F, sw.dF, mode,
+    )  # fmt: skip
+
+
+@pytest.mark.parametrize("lumen", ["circle", "u"])
+def test_contact_geometry_bit_for_bit(lumen):
+    """Every sample result (s, p, d, n, H, z, w, F, dF) and the energy of the new
+    ``contact_geometry`` equal the old one's, bit for bit, in its three modes: every sample,
+    far samples skipped (after a first evaluation, then a small move) and far samples only;
+    some samples in contact (and, in the U lumen, on the flat side's blend), some not."""
+    from ringqa.simulation.effects.contact import ONLY_FAR, SKIP_FAR, contact_geometry
+
+    m = _model(False) if lumen == "circle" else _u_lumen_model()
+    blended_seen = in_contact = out = 0
+    for k, q, rng in _states(m):
+        sw_old = m.samples._replace(**{f: getattr(m.samples, f).copy() for f in m.samples._fields})
+        sw_new = sw_old._replace(**{f: getattr(sw_old, f).copy() for f in sw_old._fields})
+        q2 = q + rng.normal(scale=2e-6, size=q.shape)
+        for mode, qq in ((0, q), (SKIP_FAR, q2), (ONLY_FAR, q2 + 1e-6)):
+            e1 = _geometry(ref.contact_geometry, m, qq, sw_old, mode)
+            e2 = _geometry(contact_geometry, m, qq, sw_new, mode)
+            assert _same(e1, e2)
+            for f in sw_old._fields:
+                assert _same(getattr(sw_old, f), getattr(sw_new, f)), (k, mode, f)
+        in_contact += int(np.sum(sw_new.F > 0))
+        out += int(np.sum(sw_new.z < 0))
+        # a blended sample's normal is not radial (its offset has a component along it)
+        on = sw_new.F > 0
+        radial = np.abs(np.sum(sw_new.n[on] * sw_new.H[on, :, 0], axis=1))
+        blended_seen += int(np.sum(radial > 1e-9))
+    assert in_contact >= 10 and out >= 10
+    if lumen == "u":
+        assert blended_seen > 0
