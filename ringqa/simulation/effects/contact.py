@@ -95,56 +95,6 @@ def _lumen_at(seg_s, seg_rb, seg_ra, seg_flat, g, s, ro):
     return (1 - t) * r0 + t * r1, (1 - t) * a0 + t * a1, (1 - t) * f0 + t * f1
 
 
-#: rows of the per-sample values :func:`contact_geometry` keeps for :func:`_normals_hessians`:
-#: offset o (3), |o|, c' (3), D, blended (1/0), the flat side's normal (3) and its rate (3), and
-#: the corner blend's weights wa, wb, cc
-_NCV = 18
-
-
-@njit(cache=True, error_model="numpy")
-def _normals_hessians(CV, NH, nc):
-    """The wall normal ``grad d`` (``NH[0:3]``) and the Hessian of ``d`` (``NH[3:12]``, row-major)
-    of the ``nc`` samples in contact, from their values in ``CV`` (``_NCV``, nc).
-
-    Circle: ``grad = o / |o|``, Hessian ``(I - n n^T - c' c'^T / D) / |o|`` (zero where
-    ``|o| <= 1e-12``); with a flat side (blended) the C1 corner blend of that and the flat's
-    ``-nor``, ``-(dnor/ds) c'^T / D``. One loop over the samples per entry, which the compiler
-    vectorises (about 20 divisions a sample were most of this arithmetic); every value is the
-    expression the per-sample code evaluated, in the same order, so the results are the same
-    bit for bit
-    (tests/simulation/effects/test_kernels_identical.py).
-    """
-    # one loop over the samples per entry, every expression evaluated and the branch taken by
-    # selects: loops without branches and with few outputs are what the compiler vectorises (a
-    # value not selected is never used)
-    for a in range(3):
-        for m in range(nc):
-            dcirc = CV[3, m]
-            ga_a = CV[a, m] / dcirc
-            ga_a = ga_a if dcirc > 1e-12 else 0.0
-            gb_a = -CV[9 + a, m]
-            nb = CV[15, m] * ga_a + CV[16, m] * gb_a
-            NH[a, m] = nb if CV[8, m] != 0.0 else ga_a
-    for a in range(3):
-        for bb in range(3):
-            dab = 1.0 if a == bb else 0.0
-            for m in range(nc):
-                dcirc = CV[3, m]
-                D = CV[7, m]
-                big = dcirc > 1e-12
-                ga_a = CV[a, m] / dcirc
-                ga_a = ga_a if big else 0.0
-                ga_b = CV[bb, m] / dcirc
-                ga_b = ga_b if big else 0.0
-                gb_a = -CV[9 + a, m]
-                gb_b = -CV[9 + bb, m]
-                Ha = (dab - ga_a * ga_b - CV[4 + a, m] * CV[4 + bb, m] / D) / dcirc
-                Ha = Ha if big else 0.0
-                Hb = -CV[12 + a, m] * CV[4 + bb, m] / D
-                Hbl = CV[15, m] * Ha + CV[16, m] * Hb + CV[17, m] * (ga_a - gb_a) * (ga_b - gb_b)
-                NH[3 + 3 * a + bb, m] = Hbl if CV[8, m] != 0.0 else Ha
-
-
 @njit(cache=True, inline="always", error_model="numpy")
 def prepare_contact(p, q, st, sw):
     """The effect's uniform signature: call :func:`contact_geometry` on the samples."""
@@ -191,10 +141,9 @@ def contact_geometry(
     work = np.empty(9)
     nv = np.empty(3)
     dnv = np.empty(3)
-    P = samp_link.shape[0]
-    ci = np.empty(P, dtype=np.int64)  # the samples found in contact, in order
-    CV = np.empty((_NCV, P))  # their values for the gradient and Hessian of d
-    nc = 0
+    ga = np.empty(3)
+    gb = np.empty(3)
+    Ha = np.empty((3, 3))
     energy = 0.0
     nseg = seg_rb.shape[0]
     for i in range(samp_link.shape[0]):
@@ -269,25 +218,36 @@ def contact_geometry(
             blended = True
         z = (dc - aa) / w
         if z > 0.0:
-            # in contact: the distance's gradient (outward wall normal) and Hessian, computed
-            # for all such samples after this loop (_normals_hessians); a sample with z <= 0
-            # carries no force and no stiffness, so nothing reads them
-            CV[0, nc] = o0
-            CV[1, nc] = o1
-            CV[2, nc] = o2
-            CV[3, nc] = dcirc
-            for a in range(3):
-                CV[4 + a, nc] = d1[a]
-            CV[7, nc] = D
-            CV[8, nc] = 1.0 if blended else 0.0
-            for a in range(3):
-                CV[9 + a, nc] = nv[a] if blended else 0.0
-                CV[12 + a, nc] = dnv[a] if blended else 0.0
-            CV[15, nc] = wa
-            CV[16, nc] = wb
-            CV[17, nc] = cc
-            ci[nc] = i
-            nc += 1
+            # in contact: the distance's gradient (outward wall normal) and Hessian; a sample
+            # with z <= 0 carries no force and no stiffness, so nothing reads them
+            # circle: d = |o|, grad = o/|o|, Hessian (I - n n^T - c' c'^T / D) / |o|
+            if dcirc > 1e-12:
+                for a in range(3):
+                    ga[a] = (o0, o1, o2)[a] / dcirc
+                for a in range(3):
+                    for bb in range(3):
+                        dab = 1.0 if a == bb else 0.0
+                        Ha[a, bb] = (dab - ga[a] * ga[bb] - d1[a] * d1[bb] / D) / dcirc
+            else:
+                for a in range(3):
+                    ga[a] = 0.0
+                    for bb in range(3):
+                        Ha[a, bb] = 0.0
+            if blended:
+                for a in range(3):
+                    gb[a] = -nv[a]
+                for a in range(3):
+                    samp_n[i, a] = wa * ga[a] + wb * gb[a]
+                    for bb in range(3):
+                        Hb = -dnv[a] * d1[bb] / D
+                        samp_H[i, a, bb] = (
+                            wa * Ha[a, bb] + wb * Hb + cc * (ga[a] - gb[a]) * (ga[bb] - gb[bb])
+                        )
+            else:
+                for a in range(3):
+                    samp_n[i, a] = ga[a]
+                    for bb in range(3):
+                        samp_H[i, a, bb] = Ha[a, bb]
         else:
             for a in range(3):
                 samp_n[i, a] = 0.0
@@ -307,15 +267,6 @@ def contact_geometry(
             samp_F[i] = kw * w * (z - 0.5)
             samp_dF[i] = kw
             energy += kw * w * w * (0.5 * z * z - 0.5 * z + 1.0 / 6.0)
-    if nc > 0:
-        NH = np.empty((12, nc))
-        _normals_hessians(CV, NH, nc)
-        for m in range(nc):
-            i = ci[m]
-            for a in range(3):
-                samp_n[i, a] = NH[a, m]
-                for bb in range(3):
-                    samp_H[i, a, bb] = NH[3 + 3 * a + bb, m]
     return energy
 
 
