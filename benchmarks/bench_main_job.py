@@ -38,7 +38,10 @@ its forks and waits, a child is runnable from its fork, a parent waiting for a c
 until the child exits, and the runnable processes share the cores. It printed 4.39 s (median,
 load 6) for main at 18b4b26, which the lead measured at 3.8-4.0 s on the quiet machine: CPU
 times under load run 10-15 % high, so compare checkouts interleaved, not with the quiet
-figure. Printed per process: its phases' CPU and when it forked and waited.
+figure. Printed per process: its phases' CPU and when it forked and waited; and, medians over
+the runs, the CPU of each step on the critical path (:func:`critical_path`: the start-up
+before the fork, reading the input, the commissioning run, the longest forked engine run, the
+report in this process, the longest figure child).
 """
 
 from __future__ import annotations
@@ -340,6 +343,47 @@ def describe(events: list[list]) -> list[str]:
     return lines
 
 
+def _phase_cpu(evs: list[list], name: str) -> float:
+    """CPU seconds of phase ``name`` (begin .. end, outermost) in one process's events."""
+    total, begun = 0.0, []
+    for _pid, kind, arg, _wall, cpu in evs:
+        if kind == "begin" and arg == name:
+            begun.append(cpu)
+        elif kind == "end" and arg == name and begun:
+            c0 = begun.pop()
+            total += 0.0 if begun else cpu - c0
+    return total
+
+
+def critical_path(events: list[list]) -> dict[str, float]:
+    """The CPU seconds of the steps on the main job's critical path (each in the process that
+    makes it; 0 where that process did not fork): the command's start-up before it forks the
+    commissioning, reading the input (the commissioning child), the commissioning run (its
+    first engine run), the whole channel's refined run (the child's longest forked engine run),
+    the report after the result (this process: tables, report.html, the PDF's layout and its
+    waits), the figures' children (the longest), and the command's CPU after the report."""
+    procs = processes(events)
+    root = events[0][0]
+    parent = {e[0]: e[2] for e in events if e[1] == "child"}
+    mine = procs[root]
+    first_fork = next((e[4] for e in mine if e[1] == "fork"), 0.0)
+    kids = [p for p, q in parent.items() if q == root]
+    child = next((p for p in kids if _phase_cpu(procs[p], "input") > 0), None)
+    out = {"start-up before the fork": first_fork}
+    if child is not None:
+        out["reading the input (child)"] = _phase_cpu(procs[child], "input")
+        runs = [e for e in procs[child] if e[1] in ("begin", "end") and e[2] == "engine run"]
+        out["commissioning run (child)"] = runs[1][4] - runs[0][4] if len(runs) >= 2 else 0.0
+        grand = [p for p, q in parent.items() if q == child]
+        out["longest forked engine run"] = max(
+            (_phase_cpu(procs[p], "engine run") for p in grand), default=0.0
+        )
+    out["report (this process)"] = _phase_cpu(mine, "report")
+    figures = [p for p in kids if p != child]
+    out["longest figure child"] = max((procs[p][-1][4] for p in figures), default=0.0)
+    return out
+
+
 def timeline(trees: dict[str, Path], reps: int, free_core: bool) -> int:
     """``--timeline``: per checkout, ``reps`` traced runs (after one warm-up run); the median
     (and the least: the run other users disturbed least) predicted quiet wall on 2 cores (and 1
@@ -362,15 +406,18 @@ def timeline(trees: dict[str, Path], reps: int, free_core: bool) -> int:
                                    ("CPU, all processes", total),
                                    ("wall measured", ev[-1][3] - ev[0][3])):  # fmt: skip
                     r.setdefault(key, []).append(value)
+                for key, value in critical_path(ev).items():
+                    r.setdefault(f"CPU: {key}", []).append(value)
                 print(f"  {name} {i + 1}/{reps}: model 2 cores {r['quiet 2 cores (model)'][-1]:.2f}"
                       f" s, CPU {total:.2f} s", flush=True)  # fmt: skip
     load = os.getloadavg()[0]
     print(f"\nseconds, medians ({os.cpu_count()} cores, load {load:.1f}; the model: each "
           "process's CPU between its forks and waits, on an idle machine)")  # fmt: skip
-    print(f"{'':32s}" + "".join(f"{k:>9s}" for k in rows) + "  (least of the runs)")
+    print(f"{'':40s}" + "".join(f"{k:>9s}" for k in rows) + "  (least of the runs)")
     for key in next(iter(rows.values())):
-        print(f"{key:32s}" + "".join(f"{med(v[key]):9.2f}" for v in rows.values())
-              + "  (" + ", ".join(f"{min(v[key]):.2f}" for v in rows.values()) + ")")  # fmt: skip
+        print(f"{key:40s}" + "".join(f"{med(v.get(key, [0.0])):9.2f}" for v in rows.values())
+              + "  (" + ", ".join(f"{min(v.get(key, [0.0])):.2f}" for v in rows.values())
+              + ")")  # fmt: skip
     for name, ev in last.items():
         print(f"\n{name}: processes of the last run")
         print("\n".join(describe(ev)))

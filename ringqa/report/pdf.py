@@ -37,6 +37,7 @@ the user or the applicator library supplies, a measurement only when its source 
 from __future__ import annotations
 
 import dataclasses
+import functools
 import hashlib
 import re
 from collections.abc import Callable, Iterable, Sequence
@@ -63,6 +64,7 @@ from ringqa.report.cross_check import cross_check_figure, cross_check_page, fail
 from ringqa.report.fields import ReportFields
 from ringqa.report.figures import (
     DEVIATIONS_SIZE,
+    DOSE_MAP_SIZE,
     FLAG_COLOURS,
     FLAG_NAMES,
     POSITIONS_SIZE,
@@ -783,43 +785,50 @@ def summary_flowables(result, fields: ReportFields | None = None, notes=()) -> l
 # Figures drawn ahead, in a forked process (the second core), while this one lays out the rest
 # ---------------------------------------------------------------------------------------------
 
-#: the report's figures :func:`draw_ahead` can draw in another process: maker, size (inches)
+#: the report's figures :func:`draw_ahead` can draw in other processes: maker, size (inches);
+#: in the order of their pages (positions on page 3, deviations on page 4, the dose map on 5)
 AHEAD_FIGURES: dict[str, tuple[Callable, tuple[float, float]]] = {
     "positions": (positions_figure, POSITIONS_SIZE),
     "deviations": (deviations_figure, DEVIATIONS_SIZE),
+    "doses": (dose_points_figure, DOSE_MAP_SIZE),
 }
 
 
 class DrawnAhead:
-    """The report figures of one result (:data:`AHEAD_FIGURES`) being drawn in a forked child
-    process (:class:`ringqa.parallel.ForkedCall`) while this process writes the tables,
-    report.html and the rest of the PDF; the PDF waits for their pixels only when it draws
-    their page. Without a free core (or ``os.fork``) they are drawn here when first needed:
-    the pixels, and so the PDF, are the same either way (the child is a copy of this process,
-    matplotlib's state included). Give it to :func:`write_pdf` (``drawn=``)."""
+    """The report figures of one result (:data:`AHEAD_FIGURES`) being drawn in forked child
+    processes (:class:`ringqa.parallel.ForkedCall`, one a figure: each is ready as soon as it
+    is drawn, the first one needed soonest) while this process writes the tables, report.html
+    and the rest of the PDF; the PDF waits for a figure's pixels only when it draws its page.
+    Without a free core (or ``os.fork``) they are drawn here when first needed: the pixels, and
+    so the PDF, are the same either way (each child is a copy of this process, matplotlib's
+    state included). Give it to :func:`write_pdf` (``drawn=``)."""
 
     def __init__(self, result, fork: bool | None = None) -> None:
         from ringqa.parallel import ForkedCall, second_core_free
 
         self.result = result
         fork = second_core_free() if fork is None else fork
-        self._call = ForkedCall(lambda: _draw_figures(result, tuple(AHEAD_FIGURES)), fork)
-        self._pixels: dict | None = None
+        self._calls = {
+            name: ForkedCall(functools.partial(_draw_figures, result, (name,)), fork)
+            for name in AHEAD_FIGURES
+        }
+        self._pixels: dict = {}
 
     @property
     def forked(self) -> bool:
-        """The figures are being drawn in a child process (until their pixels arrive)."""
-        return self._call.forked
+        """The figures are being drawn in child processes (until their pixels arrive)."""
+        return any(call.forked for call in self._calls.values())
 
     def pixels(self, name: str):
-        """``(rgb, size_in)`` of figure ``name`` (waits for the child the first time)."""
-        if self._pixels is None:
-            self._pixels = self._call.result()
+        """``(rgb, size_in)`` of figure ``name`` (waits for its child the first time)."""
+        if name not in self._pixels:
+            self._pixels.update(self._calls[name].result())
         return self._pixels[name]
 
     def cancel(self) -> None:
-        """Stop the child if its figures are no longer needed."""
-        self._call.cancel()
+        """Stop the children whose figures are no longer needed."""
+        for call in self._calls.values():
+            call.cancel()
 
 
 def draw_ahead(result, fork: bool | None = None) -> DrawnAhead:
@@ -899,7 +908,7 @@ def doses_flowables(res) -> list:
     header, cells = dose_table(res)
     out = [
         heading("Dose points and standard-plan doses", 1),
-        layout.figure_image(dose_points_figure(res)),
+        _figure("doses", res, layout.FRAME_WIDTH),
         para(dose_points_caption(res), "small"),
         layout.spacer(2),
         para(_dose_table_title(res) + " [2]."),
