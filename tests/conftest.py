@@ -34,12 +34,15 @@ REPO_ROOT = Path(__file__).resolve().parents[1]
 #: whichever file needs it first). pytest-xdist (``--dist loadfile --no-loadscope-reorder`` in
 #: pyproject.toml) hands out whole files in collection order, each to the next free worker, so
 #: these start first and the short files fill the end: the suite does not end with one core
-#: still working through a long file. Files that need different kernels alternate at the top,
-#: so the two workers do not compile the same kernels at the same time on an empty cache.
+#: still working through a long file. The second worker starts on kernels the first (the
+#: corpus: the commissioning kernels) does not need, so on an empty cache the two do not compile
+#: the same geometry and engine kernels at the same time (the engine's tests came second in a
+#: full run at load 6: 82 s for their first test).
 #: A file missing from the list runs after these (more tests first); a name that no longer
 #: exists is ignored. Only the order changes: every test runs, in its file's own order.
 LONG_FIRST = (
     "tests/corpus/test_corpus.py",  # ~190 s: 141 cases, most of them commissioning runs
+    "tests/tg43/test_tg43_kernels.py",  # ~15 s: TG-43 kernels only, while the corpus compiles
     "tests/simulation/test_engine_api.py",  # ~100 s: the engine's effect specialisations
     "tests/cli/test_commission_cli.py",  # ~120 s: the example, every shipped ring, a batch
     "tests/report/test_consistency.py",  # ~100 s: the example's and a batch's reports
