@@ -2,6 +2,7 @@
 
     .venv/bin/python benchmarks/compare_dwells.py save DIR      # before a change
     .venv/bin/python benchmarks/compare_dwells.py compare DIR   # after: max differences
+    .venv/bin/python benchmarks/compare_dwells.py compare DIR ring13_torsion   # named scenes only
 
 Scenes: every shipped scene in data/scenes/ as shipped; variants of ring13-push100 that switch
 other kernel paths on (finer links, torsion, gravity, friction off, Coulomb + wall damping,
@@ -15,6 +16,7 @@ position moves by more than ``TOL_M`` (1e-9 mm, the engine-refactor rule) or a s
 
 from __future__ import annotations
 
+import argparse
 import sys
 from pathlib import Path
 
@@ -71,6 +73,11 @@ def example_scene():
     return scene_for_channel(app.channel("ring"), cable="flexitron")
 
 
+def case_names() -> list[str]:
+    """The names :func:`cases` yields, in its order (without building the scenes)."""
+    return [*shipped_scenes(), *VARIANTS, "oncentra_example_ring"]
+
+
 def cases():
     for name in shipped_scenes():
         yield name, load_scene(SC / f"{name}.toml")
@@ -91,9 +98,33 @@ def outputs(res) -> dict:
     return got
 
 
-def main() -> int:
-    mode, d = sys.argv[1], Path(sys.argv[2])
-    only = set(sys.argv[3:])
+def parse_args(argv=None) -> argparse.Namespace:
+    """The command line (``--help`` prints it); a wrong mode, a missing ``compare`` folder or an
+    unknown scene name is refused with a usage message (exit status 2), not a traceback."""
+    ap = argparse.ArgumentParser(
+        prog="compare_dwells.py",
+        description=__doc__.split("\n\n")[0],
+        epilog="Scenes: " + ", ".join(case_names()),
+    )
+    ap.add_argument("mode", choices=("save", "compare"),
+                    help="save: write the outputs to DIR; compare: compare with them")  # fmt: skip
+    ap.add_argument("dir", type=Path, metavar="DIR",
+                    help="folder of the saved outputs (one .npz a scene)")  # fmt: skip
+    ap.add_argument("scenes", nargs="*", metavar="SCENE",
+                    help="only these scenes (default: all, listed below)")  # fmt: skip
+    args = ap.parse_args(argv)
+    unknown = sorted(set(args.scenes) - set(case_names()))
+    if unknown:
+        ap.error(f"unknown scene(s): {', '.join(unknown)} (the scenes are listed by --help)")
+    if args.mode == "compare" and not args.dir.is_dir():
+        ap.error(f"{args.dir}: no such folder (run 'save {args.dir}' first, before the change)")
+    return args
+
+
+def main(argv=None) -> int:
+    args = parse_args(argv)
+    mode, d = args.mode, args.dir
+    only = set(args.scenes)
     d.mkdir(parents=True, exist_ok=True)
     worst = 0.0
     bad = []

@@ -5,6 +5,8 @@
   the ONLY skip in the suite outside tests/simulation and tests/tg43: anything else a test needs
   must exist, and its absence is a failure.
 - Hypothesis runs with a deterministic profile so CI results are reproducible.
+- The longest test files start first (:data:`LONG_FIRST`, :func:`pytest_collection_modifyitems`),
+  so the suite does not end on one core.
 """
 
 from __future__ import annotations
@@ -26,7 +28,60 @@ settings.register_profile(
 settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ringqa"))
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
+
+#: The test files that take longest, longest first (seconds of test time in one run with an empty
+#: numba cache, `pytest -q --durations=0`, 2026-11-29; the first compile of a kernel lands on
+#: whichever file needs it first). pytest-xdist (``--dist loadfile --no-loadscope-reorder`` in
+#: pyproject.toml) hands out whole files in collection order, each to the next free worker, so
+#: these start first and the short files fill the end: the suite does not end with one core
+#: still working through a long file. The second worker starts on kernels the first (the
+#: corpus: the commissioning kernels) does not need, so on an empty cache the two do not compile
+#: the same geometry and engine kernels at the same time (the engine's tests came second in a
+#: full run at load 6: 82 s for their first test).
+#: A file missing from the list runs after these (more tests first); a name that no longer
+#: exists is ignored. Only the order changes: every test runs, in its file's own order.
+LONG_FIRST = (
+    "tests/corpus/test_corpus.py",  # ~190 s: 141 cases, most of them commissioning runs
+    "tests/tg43/test_tg43_kernels.py",  # ~15 s: TG-43 kernels only, while the corpus compiles
+    "tests/simulation/test_engine_api.py",  # ~100 s: the engine's effect specialisations
+    "tests/cli/test_commission_cli.py",  # ~120 s: the example, every shipped ring, a batch
+    "tests/report/test_consistency.py",  # ~100 s: the example's and a batch's reports
+    "tests/sweep/test_sweep_cluster.py",  # ~70 s: Dask clusters, an interrupted sweep
+    "tests/simulation/test_validation.py",  # ~45 s
+    "tests/pipeline/test_commission_numerics.py",  # ~40 s
+    "tests/cli/test_output_transactions.py",  # ~35 s
+    "tests/pipeline/test_measured_points.py",  # ~24 s
+    "tests/simulation/flexible/test_flexible_validation.py",  # ~22 s
+    "tests/calibration/test_per_applicator_lumen.py",  # ~15 s
+    "tests/geometry/test_geometry_centreline.py",  # ~17 s
+    "tests/pipeline/test_public_tandem_ovoids.py",  # ~14 s
+    "tests/needle/test_needle_sweep.py",  # ~14 s
+    "tests/test_wheel_paths.py",  # ~15 s: late enough that the checkout's kernels are compiled
+    "tests/cli/test_warmup.py",  # ~13 s
+    "tests/simulation/effects/test_add_effect.py",  # ~12 s
+    "tests/simulation/solvers/test_stress_regressions.py",  # ~12 s
+    "tests/calibration/test_commission_with_calibration.py",  # ~11 s
+    "tests/simulation/test_hard_cases.py",  # ~11 s
+    "tests/calibration/test_leave_one_out.py",  # ~10 s
+)
 SHARED_DIR = Path(os.environ.get("RINGQA_SHARED", REPO_ROOT.parent / "shared")).resolve()
+
+
+def pytest_collection_modifyitems(config, items):
+    """Order the files: :data:`LONG_FIRST` in its order, then the rest, more tests first (what
+    pytest-xdist's own reordering does, which ``--no-loadscope-reorder`` switches off so that
+    this order is kept). A stable sort: the tests of a file keep their order."""
+    rank = {name: k for k, name in enumerate(LONG_FIRST)}
+    counts: dict[str, int] = {}
+    for item in items:
+        name = item.nodeid.split("::", 1)[0]
+        counts[name] = counts.get(name, 0) + 1
+
+    def key(item):
+        name = item.nodeid.split("::", 1)[0]
+        return (rank.get(name, len(rank)), -counts[name] if name not in rank else 0)
+
+    items.sort(key=key)
 
 
 @pytest.fixture(scope="session")

@@ -103,11 +103,21 @@ def test_precompile_leaves_match_the_kernels():
 
 def test_no_helper_on_a_warm_cache(monkeypatch):
     """The helper starts only on an empty cache: with Newton's cache index present (this test
-    session has run the engine) or RINGQA_NO_PRECOMPILE set, start_helper starts nothing."""
+    session has run the engine) or RINGQA_NO_PRECOMPILE set, start_helper starts nothing.
+    The engine is run here on the example's first dwell with the commissioning settings (the
+    kernels every commissioning test uses: loaded, or compiled once for all of them), not with
+    ``warm_up()``, whose every-effect-on kernels no other test needs (~40 s of compiling)."""
     from ringqa.cli._precompile import start_helper
-    from ringqa.simulation.engine import warm_up
+    from ringqa.datasets import example_plan
+    from ringqa.pipeline.dwells import reference_dwells
+    from ringqa.pipeline.inputs import load_input
+    from ringqa.pipeline.simulate import simulate_dwells
 
-    warm_up()
+    app = load_input(example_plan()).applicator
+    ring = app.channel("ring")
+    first = reference_dwells(app, ring, 5.0).relative_position_mm[:1]
+    simulate_dwells(app, ring, first, cable="microselectron", scene_overrides={}, stem_mm=60.0,
+                    cross_check=False, stem_check=False)  # fmt: skip
     assert start_helper() is None
     monkeypatch.setenv("RINGQA_NO_PRECOMPILE", "1")
     assert start_helper() is None

@@ -177,7 +177,9 @@ def _library_edit(ds, old: str, new: str, count: int = 1):
     text = oncentra.decode_library(el.value)
     assert old in text, old
     text = text.replace(old, new, count)
-    el.value = gzip.compress(text.encode("utf-16"))
+    # level 1: the same XML once decompressed; level 9 took ~1 s a library, at every
+    # collection in every test process (the corpus is built on import)
+    el.value = gzip.compress(text.encode("utf-16"), compresslevel=1)
     return ds
 
 

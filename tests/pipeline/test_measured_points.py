@@ -100,8 +100,17 @@ def _film_subset(
     return path, rel[list(rows)]
 
 
+@pytest.fixture(scope="module")
+def plan_alone():
+    """``commission(example_plan())`` with the default settings, run once for the two tests
+    that compare a measured file's run with the plan's own (each only reads it)."""
+    from ringqa.datasets import example_plan
+
+    return commission(example_plan())
+
+
 @pytest.mark.slow
-def test_subset_of_an_rt_plan_keeps_the_plan_on_the_library_path(tmp_path):
+def test_subset_of_an_rt_plan_keeps_the_plan_on_the_library_path(tmp_path, plan_alone):
     """The example RT Plan with ``measured = film subset`` (every 4th library position, sd
     0.3 mm): the standard plan and the dwell table stay on the plan's library path, so the
     dwells and doses are those of the plan alone, cell for cell; the measured points are
@@ -111,7 +120,7 @@ def test_subset_of_an_rt_plan_keeps_the_plan_on_the_library_path(tmp_path):
 
     film, rel = _film_subset(tmp_path)
     plan = example_plan()
-    dense = commission(plan)
+    dense = plan_alone
     sub = commission(plan, CommissionSettings(measured=film))
     import pandas as pd
 
@@ -154,7 +163,7 @@ def test_measured_file_refusals_name_file_field_and_fix(tmp_path, kwargs, match)
 
 
 @pytest.mark.slow
-def test_dense_measured_file_is_the_reference(tmp_path):
+def test_dense_measured_file_is_the_reference(tmp_path, plan_alone):
     """``measured = FILE`` holding every library position (a dense path, sd 0.3 mm): it is the
     reference itself (no subset: no measured-points verdict), and the dwell table is the plan's
     own up to the file's 4 decimals (<= 0.9e-4 mm per coordinate)."""
@@ -162,7 +171,7 @@ def test_dense_measured_file_is_the_reference(tmp_path):
 
     film, _rel = _film_subset(tmp_path, every=1)
     plan = example_plan()
-    dense = commission(plan)
+    dense = plan_alone
     own = commission(plan, CommissionSettings(measured=film))
     assert own.measured_points is None and own.reference == "measured"
     assert CHECK_MEASURED_POINTS not in [v.check for v in own.verdicts]

@@ -5,7 +5,8 @@ the uncertainty page).
 Two runs, as a user makes them:
 
 - the shipped example with ``--register plane-height --uncertainty 16`` (README's quick start
-  plus the uncertainty page);
+  plus the uncertainty page; the sweep's numerical check calibrated on 2 samples, see
+  ``example_run``);
 - a batch of two copies of the example plan in two folders, registered (two inputs of the same
   model, told apart by summary.csv's ``input``).
 
@@ -54,6 +55,7 @@ from tests.report.conftest import pdf_pages_text
 pytestmark = pytest.mark.slow
 
 INSTALL = str(Path(ringqa.__file__).resolve().parent.parent)
+REPO = Path(__file__).resolve().parents[2]
 
 
 def flat(text: str) -> str:
@@ -67,10 +69,19 @@ def pdf_text(path: Path) -> str:
 
 @pytest.fixture(scope="module")
 def example_run(tmp_path_factory):
-    """``ringqa commission --example --register plane-height --uncertainty 16``."""
-    out = tmp_path_factory.mktemp("consistency") / "example"
-    code = main(["commission", "--example", "--register", "plane-height", "--uncertainty",
-                 "16", "--out", str(out), "--quiet"])  # fmt: skip
+    """``ringqa commission --example --register plane-height --uncertainty 16``, given as what
+    ``--uncertainty 16`` stands for (``--sweep`` with the shipped ring26-uncertainty.toml at 16
+    samples) with the sweep's numerical check calibrated on 2 samples instead of 5: each is a
+    run at the tight settings (~8 s of CPU each), and no check here reads the calibration."""
+    root = tmp_path_factory.mktemp("consistency")
+    shipped = (REPO / "data" / "sweeps" / "ring26-uncertainty.toml").read_text(encoding="utf-8")
+    text, n = re.subn(r"(?m)^samples = 256\b.*$", "samples = 16\ncalibration_samples = 2", shipped)
+    assert n == 1, "the shipped spec's 'samples = 256' line moved: update this fixture"
+    spec = root / "uncertainty16.toml"
+    spec.write_text(text, encoding="utf-8")
+    out = root / "example"
+    code = main(["commission", "--example", "--register", "plane-height", "--sweep", str(spec),
+                 "--out", str(out), "--quiet"])  # fmt: skip
     assert code == 0
     return out
 
