@@ -3,7 +3,7 @@
 Newton stops when ``max |r| <= tol_abs`` or, in its quadratic phase (the last step cut the
 residual >= ``STEP_TOL_DROP`` times, the residual <= ``STEP_TOL_RES tol_abs``), when the Newton
 correction at the state is at most ``STEP_TOL_M`` in every coordinate: the polishing iterations
-(e.g. 2.5e-4 -> 2.6e-6 -> 1.2e-9 N on ring26-flexitron) move the nodes by ~0.1 um and ~1 nm.
+(e.g. 2.5e-4 -> 2.6e-6 -> 1.2e-9 N on ring26-flexitron) move the nodes by ~0.1 um and ~1 nm (the second is skipped).
 """
 
 from __future__ import annotations
@@ -47,7 +47,7 @@ def test_a_step_converged_by_step_size_is_within_the_step_tolerance_of_the_full_
     ``tol_abs``; solving it on to ``tol_abs`` (a fresh Newton call from there: at least one more
     iteration) moves no coordinate by more than 1.2 ``STEP_TOL_M``. Hand-derived bound: the
     continued solve's first step is the correction the test saw (<= ``STEP_TOL_M``; the chain
-    update adds only its second-order length terms, ~l beta^2 / 2 with beta ~ 1e-7 m / 2 mm),
+    update adds only its second-order length terms, ~l beta^2 / 2 with beta ~ 1e-8 m / 2 mm),
     and with Newton contracting at least ``STEP_TOL_DROP`` = 10 times a step the later steps
     add at most a geometric tail, 1 / (1 - 0.1) = 1.11 times the first in all. The remaining
     residual drops at least ``STEP_TOL_DROP`` times too."""
