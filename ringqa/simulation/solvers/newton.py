@@ -25,18 +25,6 @@ STATUS_TEXT = {
 }
 #: indices of the work counters :func:`newton` adds to
 N_RESIDUALS, N_JACOBIANS, N_SOLVES, N_HALVINGS = 0, 1, 2, 3
-#: step-size convergence (see :func:`newton`): a state whose Newton correction is at most this
-#: large in every coordinate (m) is converged. The residual test admits more: at max |r| =
-#: 1.3 tol_abs ring13-push100's free tip still had a 1.6e-7 m correction to make; 1e-7 m moved
-#: a BDF2 run's work balance 0.70 -> 1.04 % (1e-8: 0.63 %). docs/engine.md, "Fewer Newton
-#: iterations"
-STEP_TOL_M = 1e-8
-#: ... provided the last step cut the residual at least this many times (Newton's quadratic
-#: phase: the state's error is then the correction to ~1 %; 10 saved a few more iterations but
-#: put ring13's backward stepping on another branch of its snap-through, 1.5 mm away)
-STEP_TOL_DROP = 100.0
-#: ... and the residual is at most this many times ``tol_abs``
-STEP_TOL_RES = 1e3
 
 
 @njit(cache=True, error_model="numpy")
@@ -81,12 +69,7 @@ def newton(effects, q, st, sw, n_free, tol_abs, max_iter, max_step, r, B, energi
 
     Newton with the exact banded Jacobian, every step limited to ``max_step`` (m) per coordinate
     (a trust region that stops a step from crossing the lumen) and a backtracking line search on
-    ``|r|^2`` (Armijo, halving up to 8 times). Converged when ``max |r_free| <= tol_abs``, or
-    by step size: when the last step cut ``max |r_free|`` at least :data:`STEP_TOL_DROP` times
-    (Newton's quadratic phase), the residual is at most :data:`STEP_TOL_RES` ``tol_abs`` and
-    the Newton correction at the state is at most :data:`STEP_TOL_M` in every coordinate, the
-    state is accepted without taking that correction (which would move it by about that much:
-    the polishing iteration's chain update and residual assembly are saved).
+    ``|r|^2`` (Armijo, halving up to 8 times). Converged when ``max |r_free| <= tol_abs``.
 
     Parameters
     ----------
@@ -187,13 +170,6 @@ def newton(effects, q, st, sw, n_free, tol_abs, max_iter, max_step, r, B, energi
                 mx = a
         if not math.isfinite(mx):
             return 2, it, res
-        if (
-            it > 0
-            and mx <= STEP_TOL_M
-            and res <= STEP_TOL_RES * tol_abs
-            and res * STEP_TOL_DROP <= res_prev
-        ):
-            return 0, it, res  # converged by step size (docstring)
         # negative curvature: r = grad E, so the Newton step d = -J^-1 r goes uphill in energy
         # (r.d > 0) only where J is indefinite along r, i.e. past a buckling load (the straight
         # free cable pushed past Euler's load sits on a saddle that Newton on |r| is drawn to
