@@ -107,7 +107,8 @@ class PlanChannel:
     number : int
         ``ChannelNumber``.
     name : str
-        ``SourceApplicatorName``, else the library part label, else ``"channel <N>"``.
+        ``SourceApplicatorName``, else the library part label, else ``SourceApplicatorID`` when
+        it is a word (Eclipse's ``'tandem'``; not Oncentra's number), else ``"channel <N>"``.
     length_mm : float or None
         ``ChannelLength`` (indexer length).
     step_mm : float or None
@@ -534,7 +535,7 @@ def _parse(p: Path, ds) -> RTPlan:
             for c in channels
         ]
         _check_library(channels, library, warnings)
-    channels = [_with_name(c, f"channel {c.number}") if not c.name else c for c in channels]
+    channels = [c if c.name else _with_name(c, _fallback_name(c)) for c in channels]
     if treatment_type == "PDR":
         warnings.append("PDR plan: dwell times are per pulse (ChannelTotalTime covers one pulse)")
     prescription = None
@@ -555,6 +556,17 @@ def _parse(p: Path, ds) -> RTPlan:
         applicator_name=app_name,
         warnings=tuple(warnings),
     )
+
+
+def _fallback_name(ch: PlanChannel) -> str:
+    """A channel's name when the plan has no ``SourceApplicatorName`` and no library label.
+
+    ``SourceApplicatorID`` when it is a word (Eclipse writes ``'tandem'``, ``'left ovoid'``);
+    Oncentra writes a number there (``'1'``, ``'3'``), which names nothing, so then
+    ``"channel <N>"``.
+    """
+    aid = ch.applicator_id.strip()
+    return aid if any(c.isalpha() for c in aid) else f"channel {ch.number}"
 
 
 def _with_name(ch: PlanChannel, name: str) -> PlanChannel:

@@ -230,3 +230,17 @@ def test_ovoid_surface_points_lie_beside_the_real_caps():
         assert 5.0 <= rel[int(np.argmin(d))] <= 15.0
         gain = abs(surface[0]) - abs(cl[int(np.argmin(d))][0])
         assert 9.5 <= gain <= 10.0
+
+
+def test_channels_take_their_names_from_the_applicator_id():
+    """Eclipse leaves ``SourceApplicatorName`` empty and names each channel in
+    ``SourceApplicatorID`` ('tandem', 'right ovoid', 'left ovoid'; read with pydicom below), so
+    the plan alone (no structure set) names them so, not "channel 1/2/3". Oncentra's ID is a
+    number ('1', '3'): its channels keep the library's labels ('R' the ring, 'IU' the tandem)."""
+    ds = pydicom.dcmread(PLAN)
+    setups = ds.ApplicationSetupSequence
+    ids = [str(c.SourceApplicatorID) for a in setups for c in a.ChannelSequence]
+    assert ids == ["tandem", "right ovoid", "left ovoid"]
+    assert [c.name for c in read_rtplan(PLAN).channels] == ids
+    oncentra = data_dir() / "examples" / "oncentra_ring26x60" / "RP_ring26x60_oncentra43.dcm"
+    assert [c.name for c in read_rtplan(oncentra).channels] == ["R", "IU"]
