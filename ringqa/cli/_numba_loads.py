@@ -25,7 +25,8 @@ in ``sys.modules``; a later ``import scipy.linalg`` works as usual.
 
 Only the command line installs it (:func:`ringqa.cli._jit_notice`, for the commands that run
 kernels), for the process and the processes it forks; ``RINGQA_LEAN_NUMBA=0`` leaves numba as it
-is. It is installed only where numba has the loader's parts this relies on, and not where
+is. It is installed only for the numba releases it was checked on (:data:`CHECKED_NUMBA`),
+where numba has the loader's parts this relies on, and not where
 numba's BLAS/LAPACK integer width would not match scipy's (numba's own check, which its full
 set-up makes, then refuses as before).
 """
@@ -41,6 +42,11 @@ from pathlib import Path
 #: the environment variable that switches the lean loads off (``0``)
 ENV = "RINGQA_LEAN_NUMBA"
 
+#: the numba releases (major, minor) whose cache loader this was written against and checked on
+#: (tests/cli/test_numba_loads.py; constraints/clinical.txt pins 0.68.1): any other numba is
+#: left as it is, whatever attributes it has
+CHECKED_NUMBA = ((0, 68),)
+
 #: the BLAS module numba's helper library imports for ``np.dot`` in compiled code
 CYTHON_BLAS = "scipy.linalg.cython_blas"
 
@@ -48,6 +54,8 @@ CYTHON_BLAS = "scipy.linalg.cython_blas"
 def lean_cache_loads() -> bool:
     """Install the lean cache loader (once per process); whether it is in place."""
     if os.environ.get(ENV, "1") == "0":
+        return False
+    if not numba_checked():
         return False
     try:
         from numba.core import caching
@@ -76,6 +84,23 @@ def lean_cache_loads() -> bool:
     cache.load_overload = load_overload
     preload_cython_blas()
     return True
+
+
+def numba_checked(version: str | None = None) -> bool:
+    """The installed numba (or ``version``) is a release in :data:`CHECKED_NUMBA`."""
+    if version is None:
+        from importlib.metadata import PackageNotFoundError
+        from importlib.metadata import version as dist_version
+
+        try:
+            version = dist_version("numba")
+        except PackageNotFoundError:  # pragma: no cover - numba is a dependency
+            return False
+    parts = version.split(".")
+    try:
+        return (int(parts[0]), int(parts[1])) in CHECKED_NUMBA
+    except (IndexError, ValueError):
+        return False
 
 
 def _blas_width_matches() -> bool:

@@ -139,7 +139,8 @@ def stream(
     (``nominal``: the values each worker runs once first, to warm its numba kernels; ``task``:
     the Dask task, ``task(job, batch, *task_args)``, default :func:`run_batch`; ``ticks``: the
     name of the ``distributed.Queue`` the task puts an item on per finished sample and the
-    function called, from a thread here, with the number of new items)."""
+    function called, from a thread here, with 1 for each new item, so that the bar steps
+    through every count even when several samples finish between two polls)."""
 
     with _pumping(client, ticks):
         _stream(client, job, todo, batch_size, on_batch, nominal, task, task_args)
@@ -166,8 +167,8 @@ def _pumping(client, ticks):
                 n = len(queue.get(batch=True))
             except Exception:
                 return
-            if n:
-                fn(n)
+            for _ in range(n):  # one step per sample, also when several came in one poll
+                fn(1)
             if done:
                 return
 

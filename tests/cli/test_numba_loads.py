@@ -109,3 +109,14 @@ def test_switched_off_by_environment(monkeypatch):
 
     monkeypatch.setenv(_numba_loads.ENV, "0")
     assert _numba_loads.lean_cache_loads() is False
+
+
+def test_only_the_checked_numba_releases():
+    """The lean loader is installed only on numba releases it was checked on (0.68.x, the
+    clinical pin): 0.68.1 and 0.68.0 yes; 0.69.0, 0.59.1, 1.0.0 and a malformed version no.
+    The installed numba (0.68.1 in constraints/clinical.txt) counts as checked."""
+    from ringqa.cli._numba_loads import numba_checked
+
+    assert numba_checked("0.68.1") and numba_checked("0.68.0")
+    assert not any(numba_checked(v) for v in ("0.69.0", "0.59.1", "1.0.0", "dev"))
+    assert numba_checked()

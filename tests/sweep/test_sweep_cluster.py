@@ -205,7 +205,12 @@ def test_interrupted_sweep_resumes_without_recomputing(tmp_path, spec_writer):
     # a progress line per sample into the pipe (not a terminal: plain lines, ringqa.progress)
     env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[2]),
            "RINGQA_PROGRESS_INTERVAL_S": "0"}  # fmt: skip
-    proc = subprocess.Popen(cmd, stderr=subprocess.PIPE, stdout=subprocess.PIPE, env=env)
+    # A shell starts background jobs with SIGINT ignored, a child inherits that, and ringqa
+    # keeps an ignored signal ignored (as it should: nohup, `cmd &`): give the child the
+    # interactive disposition, as a terminal's Ctrl-C finds it (with SIGINT ignored in the
+    # test's own process the sweep ran all 40 samples and exited 0).
+    proc = subprocess.Popen(cmd, stderr=subprocess.PIPE, stdout=subprocess.PIPE, env=env,
+                            preexec_fn=_interactive_sigint)  # fmt: skip
     seen = b""
     # the bar moves per sample finished on the worker, a little ahead of samples.h5: wait
     # for 5 (the first tasks of one sample each are stored by then)
@@ -222,3 +227,11 @@ def test_interrupted_sweep_resumes_without_recomputing(tmp_path, spec_writer):
     assert done.returncode == 0, done.stderr
     assert f"{n} of {n} samples ok (0 failed, {n - stored} computed now)" in done.stdout
     assert list(read_samples(out / "samples.h5").index) == list(range(n))
+
+
+def _interactive_sigint() -> None:
+    """In the child before exec: SIGINT back to its default, which Python turns into
+    KeyboardInterrupt."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
