@@ -24,7 +24,8 @@
   ``summary.csv``; ``time_s`` and ``pareto``, which follows from the times, in ``accuracy.csv``;
   ``time_s`` in ``reference.csv``): those are left out and every other cell compared as text;
 - JSON files value for value (floats exactly), except the time stamp ``created_utc``, the timings
-  (``timings_s``, ``solve_time_s``, ``wall_time_s``, ``time_s``) and what follows from timings
+  (``timings_s``, ``solve_time_s``, ``wall_time_s``, ``time_s``, ``refined_solve_time_s``,
+  ``total_solve_time_s``, ``added_wall_s``) and what follows from timings
   (``recommended``, ``recommendations``, ``recommended_overrides`` in ``study.json``: the
   cheapest run can change when times change) and ``engine_fingerprint`` (a hash of the engine's
   source files). A value that is NaN/inf (or the string ``"nan"``) on one side and ``null`` on the
@@ -78,6 +79,7 @@ CSV_VOLATILE = {
     "reference.csv": {"time_s"},
 }
 JSON_VOLATILE = {"created_utc", "timings_s", "solve_time_s", "wall_time_s", "time_s",
+                 "refined_solve_time_s", "total_solve_time_s", "added_wall_s",
                  "engine_fingerprint"}  # fmt: skip
 JSON_TIMING_DEPENDENT = {"recommended", "recommendations", "recommended_overrides"}
 
@@ -145,7 +147,9 @@ def _csv_rows(path: Path, drop: set[str]) -> list[list[str]]:
 
 def _pdf_streams(path: Path) -> list[bytes]:
     out = []
-    for m in re.finditer(rb"stream\r?\n(.*?)\r?\nendstream", path.read_bytes(), re.S):
+    # reportlab ends a binary stream with ``endstream`` right after its last byte (no end-of-line
+    # before it), so the line break there is optional; the shortest match is the content
+    for m in re.finditer(rb"stream\r?\n(.*?)(?:\r?\n)?endstream", path.read_bytes(), re.S):
         try:
             out.append(zlib.decompress(m.group(1)))
         except zlib.error:

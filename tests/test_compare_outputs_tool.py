@@ -1,0 +1,61 @@
+"""tools/compare_outputs.py: the PDF content streams it compares, and the timings it leaves out."""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import re
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture(scope="module")
+def tool():
+    spec = importlib.util.spec_from_file_location(
+        "compare_outputs", ROOT / "tools" / "compare_outputs.py"
+    )
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def test_every_stream_of_a_ringqa_pdf_is_read(tool):
+    """reports/example/report.pdf (reportlab): as many content streams as ``endstream``
+    keywords in the file (the pattern used to need a line break before ``endstream``, which
+    reportlab's binary streams do not have, and read 0 of them); the first page's stream
+    decompresses to drawing operators (``BT`` begins a text object)."""
+    pdf = ROOT / "reports" / "example" / "report.pdf"
+    streams = tool._pdf_streams(pdf)
+    n = len(re.findall(rb"endstream", pdf.read_bytes()))
+    assert n > 0 and len(streams) == n
+    assert any(b"BT" in s for s in streams)
+
+
+def test_a_changed_stream_is_found_and_timings_are_left_out(tool, tmp_path):
+    """Two PDFs that differ in one stream's content (the second of two): ``differing streams
+    [1]``. Two results.json that differ only in refined_solve_time_s, total_solve_time_s and
+    added_wall_s (the timings the list missed): 'volatile-only', not DIFFERENT."""
+
+    def pdf(text: bytes) -> bytes:
+        return (b"%PDF-1.4\n1 0 obj\n<< /Length 3 >>\nstream\nabcendstream\nendobj\n"
+                b"2 0 obj\n<< /Length 3 >>\nstream\n" + text + b"endstream\nendobj\n")  # fmt: skip
+
+    a, b = tmp_path / "a" / "report.pdf", tmp_path / "b" / "report.pdf"
+    for path, text in ((a, b"xyz"), (b, b"xyw")):
+        path.parent.mkdir(exist_ok=True)
+        path.write_bytes(pdf(text))
+    kind, details = tool.compare_file(a, b)
+    assert kind == "info" and "2 vs 2 streams; differing streams [1]" in details[0]
+    common = {"dwell_mm": 1.0}
+    ja, jb = tmp_path / "a" / "results.json", tmp_path / "b" / "results.json"
+    ja.write_text(json.dumps({**common, "refined_solve_time_s": 1.0, "total_solve_time_s": 2.0,
+                              "added_wall_s": 0.1}))  # fmt: skip
+    jb.write_text(json.dumps({**common, "refined_solve_time_s": 1.5, "total_solve_time_s": 2.5,
+                              "added_wall_s": 0.2}))  # fmt: skip
+    assert tool.compare_file(ja, jb)[0] == "volatile-only"
+    jb.write_text(json.dumps({**common, "dwell_mm": 1.1, "refined_solve_time_s": 1.0,
+                              "total_solve_time_s": 2.0, "added_wall_s": 0.1}))  # fmt: skip
+    assert tool.compare_file(ja, jb)[0] == "DIFFERENT"
