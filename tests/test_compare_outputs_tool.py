@@ -59,3 +59,36 @@ def test_a_changed_stream_is_found_and_timings_are_left_out(tool, tmp_path):
     jb.write_text(json.dumps({**common, "dwell_mm": 1.1, "refined_solve_time_s": 1.0,
                               "total_solve_time_s": 2.0, "added_wall_s": 0.1}))  # fmt: skip
     assert tool.compare_file(ja, jb)[0] == "DIFFERENT"
+
+
+def test_output_record_and_quoted_times_are_volatile(tool, tmp_path):
+    """The folder's .ringqa-output.json with another pid, times and hashes but the same command
+    and files: 'volatile-only'; a file missing from its list: DIFFERENT. A results.json sentence
+    that differs only in the cross-check's quoted times ("(0.17 s; the command waited 0.01 s for
+    it)" vs "(0.50 s; ... 0.04 s ...)"): 'volatile-only'; the same sentence with another distance:
+    DIFFERENT."""
+
+    def record(pid: int, files: list[str]) -> str:
+        listed = [{"path": f, "size": pid, "sha256": str(pid), "mtime_ns": pid} for f in files]
+        return json.dumps({"software": "ringqa", "version": "0.1.0", "command": "simulate",
+                           "created_utc": str(pid), "pid": pid, "files": listed})  # fmt: skip
+
+    (tmp_path / "a").mkdir()
+    (tmp_path / "b").mkdir()
+    ma, mb = tmp_path / "a" / tool.MANIFEST, tmp_path / "b" / tool.MANIFEST
+    ma.write_text(record(1, ["dwells.csv", "run.json"]))
+    mb.write_text(record(2, ["dwells.csv", "run.json"]))
+    assert tool.compare_file(ma, mb)[0] == "volatile-only"
+    mb.write_text(record(2, ["dwells.csv"]))
+    assert tool.compare_file(ma, mb)[0] == "DIFFERENT"
+
+    def sentence(mm: str, ran: str, waited: str) -> str:
+        return (f"the dwells agree to {mm} mm; it ran beside the rigid runs on the second core "
+                f"({ran} s; the command waited {waited} s for it).")  # fmt: skip
+
+    ja, jb = tmp_path / "a" / "results.json", tmp_path / "b" / "results.json"
+    ja.write_text(json.dumps({"text": sentence("0.043", "0.17", "0.01")}))
+    jb.write_text(json.dumps({"text": sentence("0.043", "0.50", "0.04")}))
+    assert tool.compare_file(ja, jb)[0] == "volatile-only"
+    jb.write_text(json.dumps({"text": sentence("0.044", "0.17", "0.01")}))
+    assert tool.compare_file(ja, jb)[0] == "DIFFERENT"

@@ -27,9 +27,11 @@
   (``timings_s``, ``solve_time_s``, ``wall_time_s``, ``time_s``, ``refined_solve_time_s``,
   ``total_solve_time_s``, ``added_wall_s``) and what follows from timings
   (``recommended``, ``recommendations``, ``recommended_overrides`` in ``study.json``: the
-  cheapest run can change when times change) and ``engine_fingerprint`` (a hash of the engine's
-  source files). A value that is NaN/inf (or the string ``"nan"``) on one side and ``null`` on the
-  other is listed as a NaN SPELLING change, apart from real differences;
+  cheapest run can change when times change), ``engine_fingerprint`` (a hash of the engine's
+  source files) and, inside a sentence, the times it quotes (the cross-check's "(0.17 s; the
+  command waited 0.01 s for it)"). A value that is NaN/inf (or the string ``"nan"``) on one
+  side and ``null`` on the other is listed as a NaN SPELLING change, apart from real
+  differences;
 - ``runs.jsonl`` line by line (the runs in the order they ran) the same way, without ``key``
   (a hash that includes the engine's source files) and ``times_s``;
 - ``provenance.inputs`` by file name and SHA-256 (the paths are absolute, so they name the
@@ -39,6 +41,8 @@
   settings page (solve time) are expected to differ, so the indices of differing streams are
   printed for a reader to judge;
 - HDF5 files attribute by attribute and dataset by dataset (NaN equals NaN);
+- the folder's ``.ringqa-output.json`` (what ringqa wrote there) by command and the files it
+  lists (its pid, times, sizes and hashes follow from the run and the files compared above);
 - other binary files (PNG) by size only.
 
 Exit status: 0 when nothing but the listed volatile fields differs, 1 otherwise.
@@ -81,6 +85,9 @@ CSV_VOLATILE = {
 JSON_VOLATILE = {"created_utc", "timings_s", "solve_time_s", "wall_time_s", "time_s",
                  "refined_solve_time_s", "total_solve_time_s", "added_wall_s",
                  "engine_fingerprint"}  # fmt: skip
+#: the output folder's record of what ringqa wrote there (ringqa.outdir): its pid, times and the
+#: files' sizes and hashes differ run to run (the files themselves are compared one by one)
+MANIFEST = ".ringqa-output.json"
 JSON_TIMING_DEPENDENT = {"recommended", "recommendations", "recommended_overrides"}
 
 
@@ -94,6 +101,14 @@ def run(out: Path, root: Path = ROOT) -> int:
         print(f"{name}: exit {proc.returncode}: {proc.stdout.strip().splitlines()[-1:]}")
         worst = max(worst, proc.returncode if name != "sim-jam" else 0)
     return worst
+
+
+#: the times a sentence quotes: "(0.17 s; the command waited 0.01 s for it)" (the cross-check)
+TIMES_IN_TEXT = re.compile(r"\(\d+(?:\.\d+)? s; the command waited \d+(?:\.\d+)? s for it\)")
+
+
+def _timeless(text: str) -> str:
+    return TIMES_IN_TEXT.sub("(<times>)", text)
 
 
 def _is_nonfinite(v) -> bool:
@@ -123,6 +138,8 @@ def _json_diff(a, b, where: str, out: list[tuple[str, str]]) -> None:
         return
     if a == b and type(a) is type(b):
         return
+    if isinstance(a, str) and isinstance(b, str) and _timeless(a) == _timeless(b):
+        return  # the same sentence but for the times it quotes (the cross-check's)
     if (_is_nonfinite(a) and b is None) or (a is None and _is_nonfinite(b)):
         out.append(("nan", f"{where}: {a!r} -> {b!r}"))
     elif _is_nonfinite(a) and _is_nonfinite(b) and str(a) == str(b):
@@ -160,6 +177,13 @@ def _pdf_streams(path: Path) -> list[bytes]:
 def compare_file(a: Path, b: Path) -> tuple[str, list[str]]:
     """('same' | 'volatile-only' | 'nan-spelling' | 'DIFFERENT' | 'info', details) for a pair."""
     name = a.name
+    if name == MANIFEST:
+        ma, mb = (json.loads(x.read_text()) for x in (a, b))
+        keys = ("software", "version", "command")
+        pa, pb = ([f["path"] for f in m.get("files", [])] for m in (ma, mb))
+        if [ma.get(k) for k in keys] == [mb.get(k) for k in keys] and pa == pb:
+            return "volatile-only", [f"the same {len(pa)} files listed (pid, times, hashes differ)"]
+        return "DIFFERENT", [f"command or files listed differ: {pa} vs {pb}"]
     if a.suffix == ".csv":
         if a.read_bytes() == b.read_bytes():
             return "same", []
