@@ -380,18 +380,44 @@ def _run(args: argparse.Namespace) -> int:
     except OSError as exc:
         print(os_error_line(args.command, exc, getattr(args, "out", None)), file=sys.stderr)
         return 2
-    except OutputInterrupted as exc:
-        name = signal.Signals(exc.signum).name
-        what = (
-            " after the output was complete"
-            if exc.output_complete
-            else "; nothing written (the output folder is as it was)"
-        )
-        print(f"ringqa {args.command}: interrupted by {name}{what}", file=sys.stderr)
-        return exc.exit_status
-    except KeyboardInterrupt:
-        print(f"ringqa {args.command}: interrupted", file=sys.stderr)
+    except (OutputInterrupted, KeyboardInterrupt) as exc:
+        return _interrupted(args.command, exc)
+    except Exception as exc:
+        # a signal's exception wrapped by the code it landed in (Python 3.11 turns one raised in
+        # a class body's __set_name__ - a library being imported - into RuntimeError from it)
+        stop = _interruption_in(exc)
+        if stop is None:
+            raise
+        return _interrupted(args.command, stop)
+
+
+def _interruption_in(exc: BaseException) -> KeyboardInterrupt | None:
+    """The :class:`KeyboardInterrupt` (or :class:`OutputInterrupted`) that ``exc`` was raised
+    from or while handling, if any (its ``__cause__`` / ``__context__`` chain)."""
+    seen: set[int] = set()
+    cause = exc.__cause__ or exc.__context__
+    while cause is not None and id(cause) not in seen:
+        if isinstance(cause, KeyboardInterrupt):
+            return cause
+        seen.add(id(cause))
+        cause = cause.__cause__ or cause.__context__
+    return None
+
+
+def _interrupted(command: str, exc: KeyboardInterrupt) -> int:
+    """One line for a signal that stopped ``command``; its exit status (130 without a signal
+    number: Ctrl-C outside an output folder)."""
+    if not isinstance(exc, OutputInterrupted):
+        print(f"ringqa {command}: interrupted", file=sys.stderr)
         return 130
+    name = signal.Signals(exc.signum).name
+    what = (
+        " after the output was complete"
+        if exc.output_complete
+        else "; nothing written (the output folder is as it was)"
+    )
+    print(f"ringqa {command}: interrupted by {name}{what}", file=sys.stderr)
+    return exc.exit_status
 
 
 #: commands that keep a cache in their --out folder while they work (checked by the command)

@@ -204,6 +204,49 @@ def _interrupt_while_staging(tmp_path, capsys, monkeypatch, signum, status):
     assert signal.getsignal(signal.SIGTERM) is before
 
 
+@pytest.mark.usefixtures("fake_world")
+def test_sigterm_inside_an_import_is_still_an_interruption(tmp_path, capsys, monkeypatch):
+    """SIGTERM while the report imports a library whose class body has a descriptor (as
+    matplotlib's ScalarFormatter does): Python 3.11 turns the OutputInterrupted raised in
+    ``__set_name__`` into ``RuntimeError`` from it (a real ``--all-shipped`` run exited 1 with a
+    traceback that way). Still exit 143, one line, nothing left, the handler restored."""
+    before = signal.getsignal(signal.SIGTERM)
+
+    class Descriptor:
+        def __set_name__(self, owner, name):
+            os.kill(os.getpid(), signal.SIGTERM)
+            time.sleep(5)  # the handler raises before this ends
+
+    def importing(result, folder):
+        (Path(folder) / "dwells.csv").write_text("partial")
+        type("Formatter", (), {"order": Descriptor()})  # a class body being executed
+
+    monkeypatch.setattr(report, "write_tables", importing)
+    assert main(["commission", "fake26", "--out", str(tmp_path / "out")]) == 143
+    line = _one_line(capsys.readouterr().err)
+    assert line.startswith("ringqa commission: interrupted by SIGTERM")
+    assert list(tmp_path.iterdir()) == []
+    assert signal.getsignal(signal.SIGTERM) is before
+
+
+def test_a_runtime_error_without_a_signal_keeps_its_traceback():
+    """A RuntimeError that no signal caused is a bug: it is raised, not turned into an exit
+    status (the cause chain is looked at, not the type)."""
+    from ringqa.cli import _interruption_in
+    from ringqa.outdir import OutputInterrupted
+
+    plain = RuntimeError("a bug")
+    assert _interruption_in(plain) is None
+    try:
+        try:
+            raise OutputInterrupted(signal.SIGTERM)
+        except OutputInterrupted as stop:
+            raise RuntimeError("Error calling __set_name__") from stop
+    except RuntimeError as wrapped:
+        found = _interruption_in(wrapped)
+    assert isinstance(found, OutputInterrupted) and found.exit_status == 143
+
+
 def test_accuracy_resumes_from_the_cache_of_an_interrupted_run(tmp_path, monkeypatch, capsys):
     """An interrupted first study leaves only runs.jsonl (no marker): the next run accepts the
     folder, reuses every cached run, and the replaced folder still holds the cache."""

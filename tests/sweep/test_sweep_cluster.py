@@ -98,9 +98,11 @@ def test_sweep_through_scheduler_address_resumes_and_is_worker_independent(
 @pytest.mark.slow
 def test_full_numerics_bar_moves_per_sample(local_cluster, tmp_path, spec_writer, capsys,
                                             monkeypatch):  # fmt: skip
-    """numerics = "full" with 3 samples in ONE task (batch_size = 3): the bar still says 1/3,
-    2/3 and 3/3 (each sample ticks when it finishes on the worker), not 0/3 until the task is
-    done; the nominal run is announced before it starts."""
+    """numerics = "full" with 3 samples in ONE task (batch_size = 3): the bar shows a count
+    below 3/3 (1/3 or 2/3), which only the samples' ticks from the worker can produce (the
+    stored task moves it 0 -> 3 at once), so it is not 0/3 until the task is done; then 3/3.
+    (Not every count: the ticks are polled every 0.2 s and the last sample's tick can arrive
+    after the task's result.) The nominal run is announced before it starts."""
     monkeypatch.setenv("RINGQA_PROGRESS_INTERVAL_S", "0")
     spec = spec_writer(tmp_path, samples=3)
     addr = local_cluster.scheduler_address
@@ -109,8 +111,8 @@ def test_full_numerics_bar_moves_per_sample(local_cluster, tmp_path, spec_writer
     assert main(args) == 0
     err = capsys.readouterr().err
     assert "ringqa sweep: the nominal run" in err
-    for k in (1, 2, 3):
-        assert f"ringqa sweep: {k}/3 sample" in err, err
+    assert "ringqa sweep: 1/3 sample" in err or "ringqa sweep: 2/3 sample" in err, err
+    assert "ringqa sweep: 3/3 sample" in err, err
 
 
 def test_a_different_spec_does_not_mix_into_finished_samples(
