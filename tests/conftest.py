@@ -11,6 +11,7 @@
 
 from __future__ import annotations
 
+import importlib.util
 import os
 from pathlib import Path
 
@@ -88,6 +89,21 @@ def pytest_collection_modifyitems(config, items):
 def repo_root() -> Path:
     """The checkout's root folder."""
     return REPO_ROOT
+
+
+@pytest.fixture(scope="session")
+def load_script():
+    """Import a script of the checkout that is not in a package (``benchmarks/``, ``tools/``) by
+    its path: ``load_script("tools/compare_outputs.py")`` -> the module."""
+
+    def load(relpath: str):
+        path = REPO_ROOT / relpath
+        spec = importlib.util.spec_from_file_location(path.stem, path)
+        module = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(module)
+        return module
+
+    return load
 
 
 @pytest.fixture(scope="session")

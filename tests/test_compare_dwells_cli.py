@@ -2,22 +2,12 @@
 
 from __future__ import annotations
 
-import importlib.util
-from pathlib import Path
-
 import pytest
-
-ROOT = Path(__file__).resolve().parents[1]
 
 
 @pytest.fixture(scope="module")
-def tool():
-    spec = importlib.util.spec_from_file_location(
-        "compare_dwells", ROOT / "benchmarks" / "compare_dwells.py"
-    )
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+def tool(load_script):
+    return load_script("benchmarks/compare_dwells.py")
 
 
 def test_help_lists_the_modes_and_scenes(tool, capsys):

@@ -5,7 +5,6 @@ report.html's text for the installation, home, temporary and checkout folders.""
 
 from __future__ import annotations
 
-import importlib.util
 import os
 import shutil
 import subprocess
@@ -17,19 +16,14 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def _tool():
-    spec = importlib.util.spec_from_file_location(
-        "check_wheel_paths", ROOT / "tools" / "check_wheel_paths.py"
-    )
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+@pytest.fixture(scope="module")
+def tool(load_script):
+    return load_script("tools/check_wheel_paths.py")
 
 
-def test_search_finds_an_install_path_and_passes_package_names(tmp_path):
+def test_search_finds_an_install_path_and_passes_package_names(tmp_path, tool):
     """The search itself: a log line naming the installed example (as pipeline.commission once
     logged it) is a hit; ``ringqa:data/...`` and a relative output folder are not."""
-    tool = _tool()
     site = tmp_path / "venv" / "lib" / "python3.11" / "site-packages"
     bad = tool.forbidden(site, tmp_path / "elsewhere")
     texts = {
@@ -120,12 +114,11 @@ def test_seed_numba_cache_copies_to_numba_s_folder_for_the_copy(tmp_path, monkey
 
 
 @pytest.mark.slow
-def test_wheel_installed_example_names_no_absolute_path():
+def test_wheel_installed_example_names_no_absolute_path(tool):
     """The whole check: the wheel, installed elsewhere, runs the example there. The checkout's
     compiled kernels are copied to the installed copy's numba cache first (:func:`seed_numba_cache`;
     the example then loads them instead of compiling them again under the new path, which took
     ~60 s of CPU); whatever the checkout has not compiled yet, the installed copy compiles."""
-    tool = _tool()
     install = tool.install
 
     def install_and_seed(wheel, where, fresh_venv):

@@ -89,13 +89,7 @@ def lean_cache_loads() -> bool:
 def numba_checked(version: str | None = None) -> bool:
     """The installed numba (or ``version``) is a release in :data:`CHECKED_NUMBA`."""
     if version is None:
-        from importlib.metadata import PackageNotFoundError
-        from importlib.metadata import version as dist_version
-
-        try:
-            version = dist_version("numba")
-        except PackageNotFoundError:  # pragma: no cover - numba is a dependency
-            return False
+        from numba import __version__ as version  # lean_cache_loads imports numba next anyway
     parts = version.split(".")
     try:
         return (int(parts[0]), int(parts[1])) in CHECKED_NUMBA
