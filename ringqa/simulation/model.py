@@ -34,6 +34,14 @@ EXTRAPOLATE_FRACTION = 0.5
 #: 0.5, ring26-flexitron 602 -> 573 iterations and the Oncentra example's ring 960 iterations and
 #: 6 stabilised steps -> 762 and 2 (plain slide: 815 and 2); 5: 641 and 789, 2; 10: 578 and 772, 1
 EXTRAPOLATE_MAX_ITERS = 8
+#: the plain-slide retry after a failed extrapolated start (:meth:`Model.solve`) gets at most this
+#: many Newton iterations (never more than ``solver.max_iter``): a retry that is going to rescue the
+#: step converges like an ordinary step from the plain slide, while most retries repeat the failed
+#: attempt's crawl to the limit. Measured (2026-11-29, docs/engine.md "Failed steps reach the
+#: fallback sooner"): over 47 runs (the 21 compare_dwells scenes, the README job's 6 rigid runs,
+#: the six shipped rings' 20 runs) 7 of 77 retries rescued their step, in 8-16 iterations; the 70
+#: that failed took 4-50 (median 30). 20 leaves every rescue alone (answers bit for bit).
+PLAIN_RETRY_MAX_ITERS = 20
 #: counters of :func:`ringqa.simulation.solvers.newton.newton`
 N_COUNTERS = 4
 
@@ -318,12 +326,13 @@ class Model:
         )  # fmt: skip
         if out[0] != 0 and self._extrapolated:
             # the extrapolated start failed: try the plain slide before the step is retried
-            # (with the fallback stabilisation)
+            # (with the fallback stabilisation), with at most PLAIN_RETRY_MAX_ITERS iterations
             q[:] = self._pred_plain
             self.samples.s[:] = self._pred_hints
             again = self._newton_call(
-                effects, q, st, self.samples, self.n_free, self.tol_abs, self.max_iter,
-                self.max_step, self.r, self.B, self.energies, self.counters,
+                effects, q, st, self.samples, self.n_free, self.tol_abs,
+                min(self.max_iter, PLAIN_RETRY_MAX_ITERS), self.max_step, self.r, self.B,
+                self.energies, self.counters,
             )  # fmt: skip
             out = (again[0], out[1] + again[1], again[2])
         self._extrapolated = False

@@ -351,7 +351,7 @@ def _march_args(model: Model, schedule: Schedule, monitor: Monitor, q, v, target
         model.max_iter, model.max_step, model.chain.link_len, model._chan, model._cum, model.cft,
         model._node_sample, np.ascontiguousarray(model.table.tan[0]), bool(model.extrapolate),
         float(model_mod.EXTRAPOLATE_FRACTION), int(model_mod.EXTRAPOLATE_MAX_ITERS),
-        model._pred_plain,
+        min(int(model.max_iter), int(model_mod.PLAIN_RETRY_MAX_ITERS)), model._pred_plain,
         model._pred_hints, targets, bool(schedule.history_free), bool(schedule.slide_grow),
         float(model.increment), float(schedule_mod.JUMP_FACTOR),
         int(schedule_mod.SLIDE_GROW_MAX_ITERS), float(model.speed),
