@@ -20,7 +20,12 @@ from ringqa.simulation.channel import ChannelTable
 from ringqa.simulation.effects import EFFECTS, Bending, Contact, Tether
 from ringqa.simulation.effects.base import BuildContext, Samples, Step, is_cacheable
 from ringqa.simulation.effects.contact import refresh_far
-from ringqa.simulation.solvers.newton import newton, newton_uncached
+from ringqa.simulation.solvers.newton import (
+    ITERATION_LIMIT,
+    NO_PROGRESS,
+    newton,
+    newton_uncached,
+)
 from ringqa.simulation.solvers.predictor import predict
 
 #: Load-step predictor: the fraction of the previous step's Newton correction added to the slide
@@ -40,8 +45,22 @@ EXTRAPOLATE_MAX_ITERS = 8
 #: attempt's crawl to the limit. Measured (2026-11-29, docs/engine.md "Failed steps reach the
 #: fallback sooner"): over 47 runs (the 21 compare_dwells scenes, the README job's 6 rigid runs,
 #: the six shipped rings' 20 runs) 7 of 77 retries rescued their step, in 8-16 iterations; the 70
-#: that failed took 4-50 (median 30). 20 leaves every rescue alone (answers bit for bit).
+#: that failed took 4-50 (median 30)
 PLAIN_RETRY_MAX_ITERS = 20
+#: ... and at most this many after an extrapolated start that failed the long way (the iteration
+#: limit or no progress: Newton crawled): the 2 rescues after such a failure took 8 and 9
+#: iterations, the 45 retries that failed 8-50 (the 5 rescues after a stall, 11-16, keep 20)
+PLAIN_RETRY_AFTER_CRAWL_MAX_ITERS = 12
+
+
+def plain_retry_iters(status: int, max_iter: int) -> int:
+    """The plain-slide retry's iteration limit after an extrapolated start failed with Newton
+    status ``status`` (:data:`PLAIN_RETRY_MAX_ITERS`, :data:`PLAIN_RETRY_AFTER_CRAWL_MAX_ITERS`
+    after the iteration limit or no progress; never more than ``max_iter``)."""
+    crawled = status in (ITERATION_LIMIT, NO_PROGRESS)
+    return min(max_iter, PLAIN_RETRY_AFTER_CRAWL_MAX_ITERS if crawled else PLAIN_RETRY_MAX_ITERS)
+
+
 #: counters of :func:`ringqa.simulation.solvers.newton.newton`
 N_COUNTERS = 4
 
@@ -326,12 +345,12 @@ class Model:
         )  # fmt: skip
         if out[0] != 0 and self._extrapolated:
             # the extrapolated start failed: try the plain slide before the step is retried
-            # (with the fallback stabilisation), with at most PLAIN_RETRY_MAX_ITERS iterations
+            # (with the fallback stabilisation), with fewer iterations (plain_retry_iters)
             q[:] = self._pred_plain
             self.samples.s[:] = self._pred_hints
             again = self._newton_call(
                 effects, q, st, self.samples, self.n_free, self.tol_abs,
-                min(self.max_iter, PLAIN_RETRY_MAX_ITERS), self.max_step, self.r, self.B,
+                plain_retry_iters(out[0], self.max_iter), self.max_step, self.r, self.B,
                 self.energies, self.counters,
             )  # fmt: skip
             out = (again[0], out[1] + again[1], again[2])

@@ -70,9 +70,10 @@ def _push_force(r, nd, n_nodes, t0):
 def march(
     effects, q, v, sw, d_prev, r, B, energies, counters, nd, n_nodes, kl, n_free, tol_abs,
     max_iter, max_step, link_len, chan, cum, cft, node_sample, t0, extrapolate, ext_fraction,
-    ext_max_iters, plain_max_iter, pred_plain, pred_hints, targets, history_free, slide_grow,
-    base_inc, jump_factor, slide_grow_max_iters, speed, i_fr, i_damp, contact_on, jam_force,
-    jam_length, hist_u, hist_s, fs, ist, max_steps, rec_q, rec_push, rec_iters, rec_contact, rec_u,
+    ext_max_iters, plain_max_iter, plain_max_iter_crawled, pred_plain, pred_hints, targets,
+    history_free, slide_grow, base_inc, jump_factor, slide_grow_max_iters, speed, i_fr, i_damp,
+    contact_on, jam_force, jam_length, hist_u, hist_s, fs, ist, max_steps, rec_q, rec_push,
+    rec_iters, rec_contact, rec_u,
 ):  # fmt: skip
     """March the quasi-static load steps from ``fs[F_U]`` along the waypoints ``targets`` from
     ``ist[I_LEG]`` on (module docstring); returns a code (:data:`DONE` ...).
@@ -101,9 +102,10 @@ def march(
         The predictor extrapolates (:attr:`Model.extrapolate`).
     ext_fraction, ext_max_iters : float, int
         :data:`~ringqa.simulation.model.EXTRAPOLATE_FRACTION` and ``..._MAX_ITERS``.
-    plain_max_iter : int
-        Iteration limit of the plain-slide retry after a failed extrapolated start
-        (``min(max_iter,`` :data:`~ringqa.simulation.model.PLAIN_RETRY_MAX_ITERS` ``)``).
+    plain_max_iter, plain_max_iter_crawled : int
+        Iteration limits of the plain-slide retry after a failed extrapolated start, and after
+        one that failed at the iteration limit or without progress
+        (:func:`~ringqa.simulation.model.plain_retry_iters`).
     pred_plain, pred_hints : (n_all,), (P,) float64
         The model's last plain slide prediction and its sample hints (shared, in place).
     targets : (L,) float64
@@ -191,7 +193,8 @@ def march(
                     q[i] = pred_plain[i]
                 for i in range(sw.s.shape[0]):
                     sw.s[i] = pred_hints[i]
-                status, it2, res = newton(effects, q, st, sw, n_free, tol_abs, plain_max_iter,
+                lim = plain_max_iter_crawled if status == 1 or status == 5 else plain_max_iter
+                status, it2, res = newton(effects, q, st, sw, n_free, tol_abs, lim,
                                           max_step, r, B, energies, counters)  # fmt: skip
                 it = it + it2
             if status != 0 or it > ext_max_iters:

@@ -1,12 +1,14 @@
-"""The plain-slide retry's iteration budget (ringqa.simulation.model.PLAIN_RETRY_MAX_ITERS).
+"""The plain-slide retry's iteration budget (ringqa.simulation.model.plain_retry_iters).
 
 When Newton fails from the extrapolated predictor, the step is tried once more from the plain
 slide before the stepper's fallback stabilisation. A retry that rescues its step converges like
-an ordinary step (8-16 iterations measured over 47 runs); most retries instead repeat the failed
-crawl up to ``solver.max_iter``. The retry therefore gets ``min(max_iter, PLAIN_RETRY_MAX_ITERS)``
-iterations. These tests check the wiring in both loops (the Python loop's ``Model.solve`` and the
-compiled :func:`~ringqa.simulation.solvers.march.march`) and, on the shipped scene whose run has
-both kinds of retry, that the rescue is kept and only failing retries are shortened.
+an ordinary step (8-16 iterations measured over 47 runs; 8-9 after a first attempt that failed
+at the iteration limit or without progress); most retries instead repeat the failed crawl up to
+``solver.max_iter``. The retry therefore gets ``min(max_iter, PLAIN_RETRY_MAX_ITERS)`` = 20
+iterations, 12 (``PLAIN_RETRY_AFTER_CRAWL_MAX_ITERS``) after such a long failure. These tests
+check the wiring in both loops (the Python loop's ``Model.solve`` and the compiled
+:func:`~ringqa.simulation.solvers.march.march`) and, on the shipped scene whose run has both
+kinds of retry, that the rescue is kept and only failing retries are shortened.
 """
 
 from __future__ import annotations
@@ -21,38 +23,41 @@ from ringqa.simulation.scenefile import load_scene, scene_with_overrides
 from ringqa.simulation.solvers import driver
 
 SCENES = Path(__file__).resolve().parents[3] / "data" / "scenes"
-#: the shipped budget (read before any test patches it)
-BUDGET = model_mod.PLAIN_RETRY_MAX_ITERS
+#: the shipped budgets (read before any test patches them)
+BUDGET = (model_mod.PLAIN_RETRY_MAX_ITERS, model_mod.PLAIN_RETRY_AFTER_CRAWL_MAX_ITERS)
 
 
 def _run(scene, monkeypatch, budget, march=True):
-    monkeypatch.setattr(model_mod, "PLAIN_RETRY_MAX_ITERS", budget)
+    monkeypatch.setattr(model_mod, "PLAIN_RETRY_MAX_ITERS", budget[0])
+    monkeypatch.setattr(model_mod, "PLAIN_RETRY_AFTER_CRAWL_MAX_ITERS", budget[1])
     monkeypatch.setattr(driver, "USE_MARCH", march)
     return driver.run(scene, np.asarray(scene.motion.advances_m, dtype=float))
 
 
 def test_retry_gets_the_budget_never_more_than_max_iter():
     """``Model.solve`` with an extrapolated start that fails: the plain retry is called with
-    ``min(solver.max_iter, PLAIN_RETRY_MAX_ITERS)`` = min(50, 20) = 20, and with
-    ``solver.max_iter = 12`` with 12 (the scene's limit stays the upper bound); a start that is
-    not extrapolated gets no retry; the iterations of both calls are added."""
+    ``min(solver.max_iter, 20)`` iterations after a stall (status 4): 20 for max_iter 50, 12
+    for 12, 8 for 8 (the scene's limit stays the upper bound); after the iteration limit (1) or
+    no progress (5) with ``min(max_iter, 12)``: 12, 12, 8. A start that is not extrapolated gets
+    no retry; the iterations of both calls are added."""
     base = load_scene(SCENES / "ring13-push100.toml")
-    for max_iter, expected in ((50, 20), (12, 12)):
+    cases = ((50, 4, 20), (12, 4, 12), (8, 4, 8), (50, 1, 12), (50, 5, 12), (8, 1, 8))
+    for max_iter, first, expected in cases:
         scene = scene_with_overrides(base, {"solver.max_iter": max_iter})
         model = Model(scene, np.asarray(scene.motion.advances_m, dtype=float))
         seen = []
 
-        def fake(*args, seen=seen):
+        def fake(*args, seen=seen, first=first):
             seen.append(args[6])  # max_iter
-            return (1, args[6], 1.0)
+            return (first if len(seen) == 1 else 4, args[6], 1.0)
 
         model._newton_call = fake
         q = model.initial_state(0.0)
         st = model.step(q.copy(), np.zeros_like(q), 1.0)
         model._extrapolated = True
         status, iters, _ = model.solve(model.effects, q, st)
-        assert seen == [max_iter, expected]
-        assert (status, iters) == (1, max_iter + expected)
+        assert seen == [max_iter, expected], (max_iter, first)
+        assert (status, iters) == (4, max_iter + expected)
         seen.clear()
         model._extrapolated = False
         model.solve(model.effects, q, st)
@@ -60,25 +65,26 @@ def test_retry_gets_the_budget_never_more_than_max_iter():
 
 
 def test_rescue_kept_failing_retries_shortened(monkeypatch):
-    """ring-u-lumen-stepwise: 11 first attempts fail (5 no progress, 6 stalled); one plain retry
-    rescues its step in 14 iterations, the others fail after 8, 11, 21, 25 and 32 (traced,
-    2026-11-29). With the budget 20 against no budget (50 = max_iter): the same 5 stabilised
-    steps and failed attempts, the source and tip within 1e-12 m (round-off at most: the
-    contact's far-sample cache is left where the shortened retry stopped), and the three long
-    retries cut to 20: 1 + 5 + 12 = 18 iterations fewer (596 -> 578). With a budget of 12 (below
-    the rescue's 14) the rescue is lost and the run takes more stabilised steps, which shows the
-    run does exercise a rescue the default budget keeps."""
+    """ring-u-lumen-stepwise: 6 extrapolated starts fail, 3 with no progress (after 21, 21, 41
+    iterations) and 3 stalled (11, 7, 11); their plain retries took 21, 8, 32 and 11, 25 and 14,
+    the last one rescuing its step after the stall (traced, 2026-11-29). With the budgets
+    (20; 12 after no progress) against none (50 = max_iter): the same 5 stabilised steps and
+    failed attempts, the source and tip within 1e-12 m (round-off at most: the contact's
+    far-sample cache is left where the shortened retry stopped), and the long retries cut:
+    (21 - 12) + (32 - 12) + (25 - 20) = 34 iterations fewer (596 -> 562). With 12 also after a
+    stall (below the rescue's 14) the rescue is lost and the run takes more stabilised steps,
+    which shows the run does exercise a rescue the shipped budget keeps."""
     scene = load_scene(SCENES / "ring-u-lumen-stepwise.toml")
-    old = _run(scene, monkeypatch, 50)
+    old = _run(scene, monkeypatch, (50, 50))
     new = _run(scene, monkeypatch, BUDGET)
     assert old.status == new.status == 0
     assert new.stats.n_stabilised_steps == old.stats.n_stabilised_steps == 5
     assert new.stats.n_failed_attempts == old.stats.n_failed_attempts
     for k in ("source_pos_m", "tip_pos_m"):
         assert np.max(np.abs(getattr(new, k) - getattr(old, k))) <= 1e-12, k
-    assert BUDGET == 20
-    assert old.stats.n_newton_iters - new.stats.n_newton_iters == 18
-    short = _run(scene, monkeypatch, 12)
+    assert BUDGET == (20, 12)
+    assert old.stats.n_newton_iters - new.stats.n_newton_iters == 34
+    short = _run(scene, monkeypatch, (12, 12))
     assert short.stats.n_stabilised_steps > old.stats.n_stabilised_steps
 
 
