@@ -44,12 +44,12 @@ EXTRAPOLATE_MAX_ITERS = 8
 #: step converges like an ordinary step from the plain slide, while most retries repeat the failed
 #: attempt's crawl to the limit. Measured (2026-11-29, docs/engine.md "Failed steps reach the
 #: fallback sooner"): over 47 runs (the 21 compare_dwells scenes, the README job's 6 rigid runs,
-#: the six shipped rings' 20 runs) 7 of 77 retries rescued their step, in 8-16 iterations; the 70
+#: the six shipped rings' 20 runs) 6 of 74 retries rescued their step, in 8-16 iterations; the 68
 #: that failed took 4-50 (median 30)
 PLAIN_RETRY_MAX_ITERS = 20
 #: ... and at most this many after an extrapolated start that failed the long way (the iteration
 #: limit or no progress: Newton crawled): the 2 rescues after such a failure took 8 and 9
-#: iterations, the 45 retries that failed 8-50 (the 5 rescues after a stall, 11-16, keep 20)
+#: iterations, the 45 retries that failed 8-50 (the 4 rescues after a stall, 11-16, keep 20)
 PLAIN_RETRY_AFTER_CRAWL_MAX_ITERS = 12
 
 
