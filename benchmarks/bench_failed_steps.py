@@ -6,9 +6,9 @@
 The main job (``ringqa commission data/examples/oncentra_ring26x60/RP_ring26x60_oncentra43.dcm
 --register plane-height``) runs the engine several times (the commissioning run, its refined
 run, the probes, the whole channel for the stem check at both settings, the flexible
-cross-check). The runs are captured once, in this process, by running the job with its runs in
-one process and recording each engine run's ``(scene, advances_mm)`` (at the pipeline's
-``_run_with_retries``). Each run is then
+cross-check). The runs are captured once, by running the job with its runs in one process and
+recording each engine run's ``(scene, advances_mm)`` (at the pipeline's ``_run_with_retries``,
+in the order they start). Each run is then
 solved in fresh processes of this checkout (and of ``--baseline DIR``, alternated): after a
 warm-up run, the minimum CPU time (``time.process_time``) of 3 ``simulate()`` calls, and the
 solver's counters. Printed: per run iterations, residual assemblies, failed attempts /
@@ -50,23 +50,30 @@ print(json.dumps(out))
 
 
 def capture(path: Path) -> int:
-    """Run the main job here with its engine runs in this process; pickle the runs to ``path``."""
+    """Run the main job with its engine runs in one process (the command may run the job in a
+    forked child: each run is written to a file as it starts); pickle the runs to ``path``."""
     sys.path.insert(0, str(ROOT))
+    import os
+    import time
+
     import ringqa.pipeline.simulate as ps
 
-    runs = []
     ps.CONCURRENT_RUNS = False
     inner = ps._run_with_retries
-
-    def recorded(engine, scene, advances, progress):
-        runs.append((scene, advances))
-        return inner(engine, scene, advances, progress)
-
-    ps._run_with_retries = recorded
-    from ringqa.cli import main
-
     with tempfile.TemporaryDirectory() as tmp:
+        spool = Path(tmp)
+
+        def recorded(engine, scene, advances, progress):
+            name = f"{time.monotonic_ns():020d}_{os.getpid()}.pkl"
+            with open(spool / name, "wb") as f:
+                pickle.dump((scene, advances), f)
+            return inner(engine, scene, advances, progress)
+
+        ps._run_with_retries = recorded
+        from ringqa.cli import main
+
         main(["commission", str(EXAMPLE), "--register", "plane-height", "--out", tmp + "/o"])
+        runs = [pickle.loads(f.read_bytes()) for f in sorted(spool.glob("*.pkl"))]
     with open(path, "wb") as f:
         pickle.dump(runs, f)
     return len(runs)
