@@ -51,12 +51,6 @@ PLAIN_RETRY_MAX_ITERS = 20
 #: limit or no progress: Newton crawled): the 2 rescues after such a failure took 8 and 9
 #: iterations, the 45 retries that failed 8-50 (the 4 rescues after a stall, 11-16, keep 20)
 PLAIN_RETRY_AFTER_CRAWL_MAX_ITERS = 12
-#: no plain retry for the load step right after one the fallback stabilisation solved
-#: (:attr:`Model.after_stabilised`): failed steps come in stretches of consecutive stabilised
-#: steps (the whole channel's refined run: 28 in a row) where no unstabilised equilibrium lies
-#: near the tethered path; of the 64 retries made right after a stabilised step over the 47
-#: traced runs 1 rescued its step (ring-u-lumen-stepwise, whose dwells then move 5.7e-12 m)
-RETRY_AFTER_STABILISED = False
 
 
 def plain_retry_iters(status: int, max_iter: int) -> int:
@@ -234,9 +228,6 @@ class Model:
         self._pred_u = np.nan
         self._pred_hints = np.zeros(self.samples.s.size)
         self._extrapolated = False
-        #: the last load step was solved with the fallback stabilisation (set by the stepper;
-        #: no plain retry for the next one unless :data:`RETRY_AFTER_STABILISED`)
-        self.after_stabilised = False
 
     # -- construction helpers ------------------------------------------------------------
     def _chain(self, inst, u_deep: float, approach: float):
@@ -352,8 +343,7 @@ class Model:
             effects, q, st, self.samples, self.n_free, self.tol_abs, self.max_iter,
             self.max_step, self.r, self.B, self.energies, self.counters,
         )  # fmt: skip
-        retry = RETRY_AFTER_STABILISED or not self.after_stabilised
-        if out[0] != 0 and self._extrapolated and retry:
+        if out[0] != 0 and self._extrapolated:
             # the extrapolated start failed: try the plain slide before the step is retried
             # (with the fallback stabilisation), with fewer iterations (plain_retry_iters)
             q[:] = self._pred_plain

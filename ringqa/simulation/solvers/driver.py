@@ -352,8 +352,7 @@ def _march_args(model: Model, schedule: Schedule, monitor: Monitor, q, v, target
         model._node_sample, np.ascontiguousarray(model.table.tan[0]), bool(model.extrapolate),
         float(model_mod.EXTRAPOLATE_FRACTION), int(model_mod.EXTRAPOLATE_MAX_ITERS),
         model_mod.plain_retry_iters(0, int(model.max_iter)),
-        model_mod.plain_retry_iters(ITERATION_LIMIT, int(model.max_iter)),
-        bool(model_mod.RETRY_AFTER_STABILISED), model._pred_plain,
+        model_mod.plain_retry_iters(ITERATION_LIMIT, int(model.max_iter)), model._pred_plain,
         model._pred_hints, targets, bool(schedule.history_free), bool(schedule.slide_grow),
         float(model.increment), float(schedule_mod.JUMP_FACTOR),
         int(schedule_mod.SLIDE_GROW_MAX_ITERS), float(model.speed),
@@ -381,7 +380,6 @@ def _sync_in(fs, ist, hist_u, hist_s, model, schedule, monitor, u, time_s, iters
     ist[M.I_ITERS] = monitor.total_iters
     ist[M.I_STEPS] = monitor.n_steps
     ist[M.I_SINCE] = iters_since
-    ist[M.I_AFTER_STAB] = int(model.after_stabilised)
     hu, hs = monitor._hist_u, monitor._hist_s
     if len(hu) > hist_u.size:  # drop what no later jam test reaches (as the kernel does)
         k0 = max(bisect_right(hu, u - model.scene.solver.jam_length_m) - 1, 0)
@@ -410,7 +408,6 @@ def _sync_out(fs, ist, hist_u, hist_s, model, schedule, monitor) -> tuple[float,
     model._pred_du = float(fs[M.F_PRED_DU])
     model._pred_u = float(fs[M.F_PRED_U])
     model._extrapolated = False
-    model.after_stabilised = bool(ist[M.I_AFTER_STAB])
     return float(fs[M.F_U]), float(fs[M.F_TIME]), int(ist[M.I_SINCE])
 
 

@@ -51,11 +51,10 @@ DONE, STEP_FAILED, JAM_FORCE, JAM_PROGRESS, PAUSED = 0, 1, 2, 3, 4
 N_FS = 15
 #: ``ist`` indices: Newton iterations of the run, accepted steps, iterations since the last
 #: recorded waypoint, the current waypoint, the predictor extrapolated, entries of the jam
-#: history, a failed first attempt's iterations and Newton status, the last step was stabilised
-#: (:attr:`ringqa.simulation.model.Model.after_stabilised`: no plain retry)
+#: history, a failed first attempt's iterations and Newton status
 (I_ITERS, I_STEPS, I_SINCE, I_LEG, I_EXTRAPOLATED, I_HIST, I_FAIL_ITERS,
- I_FAIL_STATUS, I_AFTER_STAB) = range(9)  # fmt: skip
-N_IST = 9
+ I_FAIL_STATUS) = range(8)  # fmt: skip
+N_IST = 8
 
 
 @njit(cache=True, error_model="numpy")
@@ -71,10 +70,10 @@ def _push_force(r, nd, n_nodes, t0):
 def march(
     effects, q, v, sw, d_prev, r, B, energies, counters, nd, n_nodes, kl, n_free, tol_abs,
     max_iter, max_step, link_len, chan, cum, cft, node_sample, t0, extrapolate, ext_fraction,
-    ext_max_iters, plain_max_iter, plain_max_iter_crawled, retry_after_stab, pred_plain,
-    pred_hints, targets, history_free, slide_grow, base_inc, jump_factor, slide_grow_max_iters,
-    speed, i_fr, i_damp, contact_on, jam_force, jam_length, hist_u, hist_s, fs, ist, max_steps,
-    rec_q, rec_push, rec_iters, rec_contact, rec_u,
+    ext_max_iters, plain_max_iter, plain_max_iter_crawled, pred_plain, pred_hints, targets,
+    history_free, slide_grow, base_inc, jump_factor, slide_grow_max_iters, speed, i_fr, i_damp,
+    contact_on, jam_force, jam_length, hist_u, hist_s, fs, ist, max_steps, rec_q, rec_push,
+    rec_iters, rec_contact, rec_u,
 ):  # fmt: skip
     """March the quasi-static load steps from ``fs[F_U]`` along the waypoints ``targets`` from
     ``ist[I_LEG]`` on (module docstring); returns a code (:data:`DONE` ...).
@@ -107,9 +106,6 @@ def march(
         Iteration limits of the plain-slide retry after a failed extrapolated start, and after
         one that failed at the iteration limit or without progress
         (:func:`~ringqa.simulation.model.plain_retry_iters`).
-    retry_after_stab : bool
-        :data:`~ringqa.simulation.model.RETRY_AFTER_STABILISED` (else no plain retry while
-        ``ist[I_AFTER_STAB]``).
     pred_plain, pred_hints : (n_all,), (P,) float64
         The model's last plain slide prediction and its sample hints (shared, in place).
     targets : (L,) float64
@@ -192,7 +188,7 @@ def march(
             # Model.solve
             status, it, res = newton(effects, q, st, sw, n_free, tol_abs, max_iter, max_step,
                                      r, B, energies, counters)  # fmt: skip
-            if status != 0 and extrapolated and (retry_after_stab or ist[I_AFTER_STAB] == 0):
+            if status != 0 and extrapolated:
                 for i in range(n_all):
                     q[i] = pred_plain[i]
                 for i in range(sw.s.shape[0]):
@@ -217,7 +213,6 @@ def march(
                 ist[I_EXTRAPOLATED] = 0
                 code = STEP_FAILED
                 break
-            ist[I_AFTER_STAB] = 0  # solved without the fallback
             for i in range(d_prev.shape[0]):
                 d_prev[i] = sw.d[i]
             pen = max_penetration(sw.z, sw.w)

@@ -167,7 +167,6 @@ class Stepper:
                 attempts += 1
                 iters_total += got[0]
                 if ok:
-                    model.after_stabilised = fallback  # Model.solve: the next step's retry
                     return got[1]._replace(iters=iters_total, attempts=attempts)
                 last_iters, last_status, last_res = got[4], got[2], got[3]
             if not fallback and not integ.dynamic and stab == 0.0 and sub >= fallback_after:
