@@ -39,26 +39,29 @@ EXTRAPOLATE_FRACTION = 0.5
 #: 0.5, ring26-flexitron 602 -> 573 iterations and the Oncentra example's ring 960 iterations and
 #: 6 stabilised steps -> 762 and 2 (plain slide: 815 and 2); 5: 641 and 789, 2; 10: 578 and 772, 1
 EXTRAPOLATE_MAX_ITERS = 8
-#: the plain-slide retry after a failed extrapolated start (:meth:`Model.solve`) gets at most this
-#: many Newton iterations (never more than ``solver.max_iter``): a retry that is going to rescue the
-#: step converges like an ordinary step from the plain slide, while most retries repeat the failed
-#: attempt's crawl to the limit. Measured (2026-11-29, docs/engine.md "Failed steps reach the
-#: fallback sooner"): over 47 runs (the 21 compare_dwells scenes, the README job's 6 rigid runs,
-#: the six shipped rings' 20 runs) 6 of 74 retries rescued their step, in 8-16 iterations; the 68
-#: that failed took 4-50 (median 30)
+#: the plain-slide retry after an extrapolated start that stalled (:meth:`Model.solve`) gets at
+#: most this many Newton iterations (never more than ``solver.max_iter``). Measured (2026-11-29,
+#: docs/engine.md "Failed steps reach the fallback sooner"; 64 runs traced: the 21 compare_dwells
+#: scenes, the README job's 6 rigid runs, the six shipped rings' 20 and the tandem-and-ovoids
+#: example's 17): the 5 retries after a stall that rescued their step took 6-16 iterations, the
+#: 50 that failed 4-47
 PLAIN_RETRY_MAX_ITERS = 20
-#: ... and at most this many after an extrapolated start that failed the long way (the iteration
-#: limit or no progress: Newton crawled): the 2 rescues after such a failure took 8 and 9
-#: iterations, the 45 retries that failed 8-50 (the 4 rescues after a stall, 11-16, keep 20)
-PLAIN_RETRY_AFTER_CRAWL_MAX_ITERS = 12
+#: ... and after an extrapolated start that failed the long way (the iteration limit or no
+#: progress), at most this many (None: ``solver.max_iter``). The 6 rescues after such a failure
+#: took 8-45 iterations (35, 42 and 45 in the tandem-and-ovoids example's ovoid runs), so any
+#: budget below 45 changes answers; 12 takes the README job's whole-channel run from 3008 to 2356
+#: iterations but turns those 3 rescues into stabilised steps (an ovoid channel 3 -> 6, its
+#: dwells moved by up to 0.025 mm, half their numerical error): not the default
+PLAIN_RETRY_AFTER_CRAWL_MAX_ITERS: int | None = None
 
 
 def plain_retry_iters(status: int, max_iter: int) -> int:
     """The plain-slide retry's iteration limit after an extrapolated start failed with Newton
-    status ``status`` (:data:`PLAIN_RETRY_MAX_ITERS`, :data:`PLAIN_RETRY_AFTER_CRAWL_MAX_ITERS`
-    after the iteration limit or no progress; never more than ``max_iter``)."""
+    status ``status``: :data:`PLAIN_RETRY_MAX_ITERS`, or :data:`PLAIN_RETRY_AFTER_CRAWL_MAX_ITERS`
+    after the iteration limit or no progress; never more than ``max_iter``."""
     crawled = status in (ITERATION_LIMIT, NO_PROGRESS)
-    return min(max_iter, PLAIN_RETRY_AFTER_CRAWL_MAX_ITERS if crawled else PLAIN_RETRY_MAX_ITERS)
+    limit = PLAIN_RETRY_AFTER_CRAWL_MAX_ITERS if crawled else PLAIN_RETRY_MAX_ITERS
+    return max_iter if limit is None else min(max_iter, limit)
 
 
 #: counters of :func:`ringqa.simulation.solvers.newton.newton`
