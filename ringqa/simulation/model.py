@@ -49,7 +49,7 @@ PLAIN_RETRY_MAX_ITERS = 20
 #: ... and after an extrapolated start that failed the long way (the iteration limit or no
 #: progress), at most this many (None: ``solver.max_iter``). The 6 rescues after such a failure
 #: took 8-45 iterations (35, 42 and 45 in the tandem-and-ovoids example's ovoid runs), so any
-#: budget below 45 changes answers; 12 takes the README job's whole-channel run from 3008 to 2356
+#: budget below 45 changes answers; 12 takes the README job's whole-channel run from 3032 to 2356
 #: iterations but turns those 3 rescues into stabilised steps (an ovoid channel 3 -> 6, its
 #: dwells moved by up to 0.025 mm, half their numerical error): not the default
 PLAIN_RETRY_AFTER_CRAWL_MAX_ITERS: int | None = None

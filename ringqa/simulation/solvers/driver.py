@@ -47,7 +47,7 @@ from ringqa.simulation.solvers import march as march_kernel
 from ringqa.simulation.solvers import schedule as schedule_mod
 from ringqa.simulation.solvers.integrators import combine, integrator_for
 from ringqa.simulation.solvers.monitor import Monitor, max_penetration
-from ringqa.simulation.solvers.newton import ITERATION_LIMIT, newton
+from ringqa.simulation.solvers.newton import ITERATION_LIMIT, STALLED, newton
 from ringqa.simulation.solvers.predictor import predict
 from ringqa.simulation.solvers.recorder import Recorder, lump_to_nodes
 from ringqa.simulation.solvers.schedule import Schedule
@@ -351,7 +351,7 @@ def _march_args(model: Model, schedule: Schedule, monitor: Monitor, q, v, target
         model.max_iter, model.max_step, model.chain.link_len, model._chan, model._cum, model.cft,
         model._node_sample, np.ascontiguousarray(model.table.tan[0]), bool(model.extrapolate),
         float(model_mod.EXTRAPOLATE_FRACTION), int(model_mod.EXTRAPOLATE_MAX_ITERS),
-        model_mod.plain_retry_iters(0, int(model.max_iter)),
+        model_mod.plain_retry_iters(STALLED, int(model.max_iter)),
         model_mod.plain_retry_iters(ITERATION_LIMIT, int(model.max_iter)), model._pred_plain,
         model._pred_hints, targets, bool(schedule.history_free), bool(schedule.slide_grow),
         float(model.increment), float(schedule_mod.JUMP_FACTOR),
