@@ -145,7 +145,9 @@ print("BENCH" + json.dumps({"phases": T, "calls": N, "timings": rec, "modules": 
 #: ``--timeline``: the real command (``ringqa.cli.console_main``, as the ``ringqa`` script runs
 #: it) with every process's events written to a trace file: each process's start, every fork
 #: (``os.fork``: the parent's and the child's side), every wait for a child's result
-#: (``ForkedCall.result``), every child stopped (``ForkedCall.cancel`` of a running child), the
+#: (``ForkedCall.result``), the end of every forked call in its child (``done``: the parent
+#: kills a child once it has its result, often before the child's exit is traced), every child
+#: stopped (``ForkedCall.cancel`` of a running child), the
 #: phases below (begin/end) and each process's exit (``os._exit``), each stamped with the
 #: monotonic wall clock and the process's own CPU time (a forked child's starts at zero).
 TIMELINE_WORKER = r"""
@@ -189,6 +191,18 @@ def forked_result(fn):
             ev("waited", pid)
     return result
 
+def forked_init(init):
+    # the call's end in the child ("done"): a parent that has read the result kills the child
+    # at once, often before the child's exit is traced, which lost the child's CPU
+    def __init__(self, fn, fork=True):
+        def traced():
+            try:
+                return fn()
+            finally:
+                ev("done")
+        init(self, traced, fork)
+    return __init__
+
 def forked_cancel(fn):
     def cancel(self):
         if self._pid:
@@ -220,6 +234,7 @@ class Hook(importlib.abc.MetaPathFinder):
             real(module)
             if name == "ringqa.parallel":
                 fc = module.ForkedCall
+                fc.__init__ = forked_init(fc.__init__)
                 fc.result = forked_result(fc.result)
                 fc.cancel = forked_cancel(fc.cancel)
                 if FREE == "free-core":  # as on a quiet machine: the second core is used
