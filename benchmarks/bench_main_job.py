@@ -4,6 +4,8 @@
     .venv/bin/python benchmarks/bench_main_job.py --baseline /work/main # ... and main, interleaved
     .venv/bin/python benchmarks/bench_main_job.py --timeline --free-core --baseline DIR
                                         # every process traced; the idle 2-core wall modelled
+    ... --bytecode written              # each checkout's bytecode written first (a user's
+                                        # install; default as-is: see below)
 
 Each rep runs, for each checkout (this one and ``--baseline``, through ``PYTHONPATH``,
 interleaved), a fresh process that runs ``ringqa commission <example plan> --register
@@ -42,6 +44,14 @@ figure. Printed per process: its phases' CPU and when it forked and waited; and,
 the runs, the CPU of each step on the critical path (:func:`critical_path`: the start-up
 before the fork, reading the input, the commissioning run, the longest forked engine run, the
 report in this process, the longest figure child).
+
+Bytecode: under ``PYTHONDONTWRITEBYTECODE`` (set in some containers, CI images and this
+project's sessions) an editable install compiles ringqa's ~150 modules from source on every
+run, 0.1-0.25 s of CPU that a user's install (whose first run writes ``__pycache__``) does not
+pay; ``ringqa warmup`` and a first run on an empty kernel cache now write them. The first line
+printed says how many modules of each checkout lack bytecode; ``--bytecode written`` gives
+every checkout its bytecode in a temporary folder (``PYTHONPYCACHEPREFIX``), so that only the
+code's own differences are compared.
 """
 
 from __future__ import annotations
@@ -135,7 +145,9 @@ print("BENCH" + json.dumps({"phases": T, "calls": N, "timings": rec, "modules": 
 #: ``--timeline``: the real command (``ringqa.cli.console_main``, as the ``ringqa`` script runs
 #: it) with every process's events written to a trace file: each process's start, every fork
 #: (``os.fork``: the parent's and the child's side), every wait for a child's result
-#: (``ForkedCall.result``), every child stopped (``ForkedCall.cancel`` of a running child), the
+#: (``ForkedCall.result``), the end of every forked call in its child (``done``: the parent
+#: kills a child once it has its result, often before the child's exit is traced), every child
+#: stopped (``ForkedCall.cancel`` of a running child), the
 #: phases below (begin/end) and each process's exit (``os._exit``), each stamped with the
 #: monotonic wall clock and the process's own CPU time (a forked child's starts at zero).
 TIMELINE_WORKER = r"""
@@ -179,6 +191,18 @@ def forked_result(fn):
             ev("waited", pid)
     return result
 
+def forked_init(init):
+    # the call's end in the child ("done"): a parent that has read the result kills the child
+    # at once, often before the child's exit is traced, which lost the child's CPU
+    def __init__(self, fn, fork=True):
+        def traced():
+            try:
+                return fn()
+            finally:
+                ev("done")
+        init(self, traced, fork)
+    return __init__
+
 def forked_cancel(fn):
     def cancel(self):
         if self._pid:
@@ -210,6 +234,7 @@ class Hook(importlib.abc.MetaPathFinder):
             real(module)
             if name == "ringqa.parallel":
                 fc = module.ForkedCall
+                fc.__init__ = forked_init(fc.__init__)
                 fc.result = forked_result(fc.result)
                 fc.cancel = forked_cancel(fc.cancel)
                 if FREE == "free-core":  # as on a quiet machine: the second core is used
@@ -229,10 +254,49 @@ console_main()
 """
 
 
+#: ``--bytecode written``: the folder the measured processes keep their bytecode in (set by
+#: :func:`main`; None: the environment as it is)
+BYTECODE_DIR: Path | None = None
+
+
+def environment(root: Path) -> dict[str, str]:
+    """The environment of a measured process under ``root``: this one's, with ``PYTHONPATH``
+    the checkout; with ``--bytecode written`` also without ``PYTHONDONTWRITEBYTECODE`` and with
+    ``PYTHONPYCACHEPREFIX`` a temporary folder (the warm-up run writes every checkout's bytecode
+    there, as a user's first run does beside the sources; the checkouts are not written)."""
+    env = dict(os.environ, PYTHONPATH=str(root))
+    if BYTECODE_DIR is not None:
+        env.pop("PYTHONDONTWRITEBYTECODE", None)
+        env["PYTHONPYCACHEPREFIX"] = str(BYTECODE_DIR)
+    return env
+
+
+def missing_bytecode(root: Path) -> int:
+    """How many modules of ringqa and tg43 under ``root`` have no bytecode file where this
+    environment's Python looks for it (each is compiled from source on every run when
+    ``PYTHONDONTWRITEBYTECODE`` is set: ``ringqa warmup`` writes them)."""
+    from importlib.util import cache_from_source
+
+    files = [f for pkg in ("ringqa", "tg43") for f in (root / pkg).rglob("*.py")]
+    return sum(not Path(cache_from_source(str(f))).is_file() for f in files)
+
+
+def bytecode_note(trees: dict[str, Path]) -> str:
+    """One line on how the measured processes get their bytecode."""
+    if BYTECODE_DIR is not None:
+        return ("bytecode: written once per checkout by the warm-up run into a temporary "
+                "PYTHONPYCACHEPREFIX (as a user's first run does)")  # fmt: skip
+    flag = os.environ.get("PYTHONDONTWRITEBYTECODE")
+    missing = ", ".join(f"{k} {missing_bytecode(v)}" for k, v in trees.items())
+    return (f"bytecode: as the environment has it (PYTHONDONTWRITEBYTECODE={flag or 'unset'}; "
+            f"ringqa/tg43 modules without bytecode: {missing}; --bytecode written measures "
+            "a user's install)")  # fmt: skip
+
+
 def run_timeline(root: Path, out: Path, trace: Path, free_core: bool) -> list[list]:
     """One ``TIMELINE_WORKER`` run under ``root``; its trace events (pid, kind, arg, wall s,
     process CPU s)."""
-    env = dict(os.environ, PYTHONPATH=str(root))
+    env = environment(root)
     trace.unlink(missing_ok=True)
     p = subprocess.run(
         [sys.executable, "-c", TIMELINE_WORKER, EXAMPLE, str(out), str(trace),
@@ -426,7 +490,7 @@ def timeline(trees: dict[str, Path], reps: int, free_core: bool) -> int:
 
 def run(root: Path, out: Path, free_core: bool) -> dict:
     """One worker process under ``root``; its record."""
-    env = dict(os.environ, PYTHONPATH=str(root))
+    env = environment(root)
     p = subprocess.run(
         [sys.executable, "-c", WORKER, EXAMPLE, str(out), "free-core" if free_core else "load"],
         env=env, cwd=root, capture_output=True, text=True, check=False,
@@ -456,11 +520,26 @@ def main(argv=None) -> int:
                     "process (forks, waits, phases, CPU) and predict its wall time on an idle "
                     "2-core machine from the CPU each process needs between its forks and "
                     "waits (for a loaded machine, where wall times mislead)")  # fmt: skip
+    ap.add_argument("--bytecode", choices=("as-is", "written"), default="as-is",
+                    help="as-is (default): the measured processes find ringqa's bytecode as the "
+                    "environment leaves it (under PYTHONDONTWRITEBYTECODE an editable install "
+                    "compiles its modules from source on every run); written: every checkout's "
+                    "bytecode is written once, into a temporary folder, as on a user's "
+                    "machine")  # fmt: skip
     add_baseline_option(ap)
     args = ap.parse_args(argv)
     trees = baseline_trees(args.baseline)
-    if args.timeline:
-        return timeline(trees, args.reps, args.free_core)
+    global BYTECODE_DIR
+    with tempfile.TemporaryDirectory(prefix="bench_main_job_pyc_") as pyc:
+        BYTECODE_DIR = Path(pyc) if args.bytecode == "written" else None
+        print(bytecode_note(trees), flush=True)
+        if args.timeline:
+            return timeline(trees, args.reps, args.free_core)
+        return measure(trees, args)
+
+
+def measure(trees: dict[str, Path], args: argparse.Namespace) -> int:
+    """The in-process phases (without ``--timeline``): medians over ``args.reps`` runs."""
     recs: dict[str, list[dict]] = {k: [] for k in trees}
     with tempfile.TemporaryDirectory(prefix="bench_main_job_") as tmp:
         for name, root in trees.items():

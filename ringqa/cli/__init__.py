@@ -244,8 +244,13 @@ def terminal_streams():
 
 #: the cyclic garbage collector's generation-0 threshold while the ``ringqa`` script runs
 #: (Python's default 700 makes it collect hundreds of times while numpy, scipy, pandas,
-#: matplotlib and reportlab are imported: 0.25-0.3 s of the warm example's ~3 s, measured)
-GC_THRESHOLD_0 = 100_000
+#: matplotlib and reportlab are imported: 0.25-0.3 s of the warm example's ~3 s, measured).
+#: Nearly everything those imports make lives until the exit, so each collection only
+#: traverses survivors: at 100 000 the warm example still made three generation-0 and one
+#: generation-1 collection, 0.2 s of CPU (one of 0.06 s in the start-up before the
+#: commissioning is forked); at 1 000 000 it makes none, for 10 MB more peak memory
+#: (docs/speed.md, 2026-11-29). A long batch or sweep still collects, every million objects.
+GC_THRESHOLD_0 = 1_000_000
 
 
 def console_main() -> None:

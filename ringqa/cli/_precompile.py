@@ -13,7 +13,9 @@ leaves cost about half their serial time. Answers do not change: the same kernel
 signatures, compiled the same way (``benchmarks/compare_dwells.py``).
 
 The helper starts only when Newton's cache index does not exist (an empty or dropped cache), is
-silent, and is ended when the command ends. ``python -m ringqa.cli._precompile`` runs it.
+silent, and is ended when the command ends. ``python -m ringqa.cli._precompile`` runs it. After
+the kernels it writes the bytecode of ringqa's own modules (:func:`write_bytecode`), which
+``ringqa warmup`` writes too.
 """
 
 from __future__ import annotations
@@ -110,6 +112,42 @@ def compile_leaves() -> int:
     return done
 
 
+#: the packages whose modules :func:`write_bytecode` compiles (this distribution's)
+BYTECODE_PACKAGES = ("ringqa", "tg43")
+
+
+def write_bytecode(folders=None) -> None:
+    """Write the bytecode (``__pycache__/*.pyc``) of every module of ringqa and tg43 that lacks
+    an up-to-date one, as pip does for a regular install.
+
+    An editable install (README's ``pip install -e .``) gets its bytecode from the first
+    imports, unless the environment says ``PYTHONDONTWRITEBYTECODE`` (some containers and CI
+    images do): then every run compiles ringqa's ~150 modules from source again (0.1-0.25 s
+    of CPU of the warm example, measured 2026-11-29, docs/speed.md). Python still reads an
+    up-to-date ``.pyc`` under that setting, so writing them once here (beside numba's cache
+    files in the same ``__pycache__`` folders) saves that on every later run; a module edited
+    later is compiled from source until the next write. A folder that cannot be written (a
+    read-only install) is left as it is; nothing is raised.
+
+    Parameters
+    ----------
+    folders : sequence of path-like, optional
+        The package folders (default: those of :data:`BYTECODE_PACKAGES`).
+    """
+    import compileall
+    import contextlib
+    import io
+
+    if folders is None:
+        folders = []
+        for name in BYTECODE_PACKAGES:
+            with contextlib.suppress(ImportError):
+                folders.append(Path(importlib.import_module(name).__file__).parent)
+    for folder in folders:
+        with contextlib.redirect_stdout(io.StringIO()), contextlib.suppress(OSError):
+            compileall.compile_dir(str(folder), quiet=2)
+
+
 def cache_is_cold() -> bool:
     """True when Newton has no disk-cache index (nothing of the engine was compiled here yet).
 
@@ -156,3 +194,4 @@ def stop_helper(proc: subprocess.Popen | None) -> None:
 
 if __name__ == "__main__":
     compile_leaves()
+    write_bytecode()

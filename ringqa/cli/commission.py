@@ -407,7 +407,10 @@ def audit_verdicts(res) -> None:
 
 
 def audit_files(out: Path) -> None:
-    """Log every file in ``out`` (just written) with its size and SHA-256."""
+    """Log every file in ``out`` (just written) with its size and SHA-256 (nothing is read or
+    hashed when no handler takes the log's INFO lines: neither ``-v`` nor ``--log-file``)."""
+    if not log.isEnabledFor(logging.INFO):
+        return
     from ringqa.provenance import sha256_of
 
     files = sorted(p for p in Path(out).rglob("*") if p.is_file())

@@ -11,7 +11,9 @@ commissioning scene of every cable preset commission chooses (a 3 mm push), the 
 engine of commission's cross-check (the same push; one compiled set serves every scene, torsion
 included), and the TG-43 kernel. Afterwards ``ringqa commission`` compiles nothing
 (benchmarks/bench_coldstart.py checks it). Progress goes to stderr; a warm cache makes it
-finish in a few seconds, silently.
+finish in a few seconds, silently. It also writes the bytecode of ringqa's own modules where
+it is missing (:func:`ringqa.cli._precompile.write_bytecode`: under ``PYTHONDONTWRITEBYTECODE``
+an editable install would otherwise compile them from source on every run).
 """
 
 from __future__ import annotations
@@ -75,8 +77,11 @@ def warm_commission() -> list[str]:
 
 def run(args) -> int:
     """Warm the kernels; print what was done (stderr carries the compile progress)."""
+    from ringqa.cli._precompile import write_bytecode
+
     t0 = time.perf_counter()
     cables = warm_commission()
+    write_bytecode()
     if args.all:
         from ringqa.simulation.engine import warm_up
 

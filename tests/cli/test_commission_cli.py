@@ -330,6 +330,35 @@ def test_log_file_is_an_audit_trail(fake_world, tmp_path):
     assert "exit status 0 (" in text and "wall time" in text
 
 
+def test_files_not_hashed_for_a_log_nobody_reads(tmp_path, monkeypatch, caplog):
+    """audit_files reads and hashes the written files only when the log's INFO lines go
+    somewhere (``-v``, ``--log-file``): at the command line's default level (warnings) no file
+    is hashed; at INFO each file is logged with its size and SHA-256 (hashlib here)."""
+    import hashlib
+    import logging
+
+    import ringqa.provenance
+    from ringqa.cli.commission import audit_files
+
+    (tmp_path / "a.csv").write_text("x\n1\n")
+    (tmp_path / "sub").mkdir()
+    (tmp_path / "sub" / "b.json").write_text("{}")
+    hashed = []
+    real = ringqa.provenance.sha256_of
+    monkeypatch.setattr(ringqa.provenance, "sha256_of", lambda p: hashed.append(p) or real(p))
+    caplog.set_level(logging.WARNING, logger="ringqa")
+    audit_files(tmp_path)
+    assert hashed == [] and "file written" not in caplog.text
+    caplog.set_level(logging.INFO, logger="ringqa")
+    audit_files(tmp_path)
+    assert len(hashed) == 2
+    for name in ("a.csv", "sub/b.json"):
+        digest = hashlib.sha256((tmp_path / name).read_bytes()).hexdigest()
+        assert f"file written: {name} ({(tmp_path / name).stat().st_size} bytes, SHA-256 " \
+               f"{digest})" in caplog.text  # fmt: skip
+    assert "2 file(s) written in" in caplog.text
+
+
 @pytest.mark.slow
 def test_example_is_the_readme_quick_start(tmp_path):
     """``ringqa commission --example`` gives README's quick start (its command read from

@@ -62,7 +62,9 @@ def test_warmup_command(capsys, monkeypatch):
     (Flexitron, microSelectron) and says so on stdout; it also runs commission's cross-check
     scene once through the flexible engine (whose kernels a first commission would otherwise
     compile: ~20 s of CPU), and afterwards that engine's Newton kernel has a cached
-    signature."""
+    signature. It writes the package's bytecode (:func:`write_bytecode`, tested on its own
+    below; here a stand-in, so that the test leaves the checkout's ``__pycache__`` alone)."""
+    import ringqa.cli._precompile as precompile
     import ringqa.simulation.flexible as flexible
     from ringqa.simulation.flexible import kernels
 
@@ -74,11 +76,67 @@ def test_warmup_command(capsys, monkeypatch):
         return real(scene, advances_m, progress)
 
     monkeypatch.setattr(flexible, "run_flexible", spy)
+    wrote = []
+    monkeypatch.setattr(precompile, "write_bytecode", lambda folders=None: wrote.append(folders))
     assert main(["warmup"]) == 0
     out = capsys.readouterr().out
     assert "flexitron, microselectron cables" in out
     assert seen == ["flexible"]
     assert kernels.newton.signatures
+    assert wrote == [None]  # every package of this distribution
+
+
+#: a fresh interpreter that never writes bytecode imports ``probe_pkg.mod`` and prints how many
+#: modules it compiled from source
+_COUNT_COMPILES = """
+import importlib._bootstrap_external as be, sys
+n = []
+real = be.SourceLoader.source_to_code
+be.SourceLoader.source_to_code = lambda self, *a, **k: n.append(1) or real(self, *a, **k)
+sys.path.insert(0, sys.argv[1])
+import probe_pkg.mod
+assert probe_pkg.mod.VALUE == 42
+print(len(n))
+"""
+
+
+def test_write_bytecode_spares_later_runs_the_compile(tmp_path):
+    """Under ``PYTHONDONTWRITEBYTECODE=1`` Python compiles a module without bytecode from source
+    on every import (2 modules: the package and its module, each run); after
+    :func:`write_bytecode` of the package's folder it compiles none (it reads the ``.pyc``
+    files), and a second call leaves the written files as they are. A folder that does not
+    exist raises nothing."""
+    import subprocess
+    import sys
+    from importlib.util import cache_from_source
+    from pathlib import Path
+
+    from ringqa.cli._precompile import write_bytecode
+
+    pkg = tmp_path / "probe_pkg"
+    pkg.mkdir()
+    (pkg / "__init__.py").write_text("")
+    (pkg / "mod.py").write_text("VALUE = 41 + 1\n")
+    env = {"PYTHONDONTWRITEBYTECODE": "1", "PATH": ""}
+    if sys.pycache_prefix:  # where this process writes bytecode, the child reads it
+        env["PYTHONPYCACHEPREFIX"] = sys.pycache_prefix
+
+    def compiles() -> int:
+        cmd = [sys.executable, "-c", _COUNT_COMPILES, str(tmp_path)]
+        proc = subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=60)
+        assert proc.returncode == 0, proc.stderr
+        return int(proc.stdout)
+
+    assert compiles() == 2
+    assert compiles() == 2  # nothing was written by the first run
+    write_bytecode([pkg])
+    pycs = [Path(cache_from_source(str(pkg / f))) for f in ("__init__.py", "mod.py")]
+    assert all(p.is_file() for p in pycs)
+    stamps = [p.stat().st_mtime_ns for p in pycs]
+    assert compiles() == 0
+    write_bytecode([pkg])
+    assert [p.stat().st_mtime_ns for p in pycs] == stamps
+    write_bytecode([tmp_path / "no-such-folder"])
 
 
 def test_precompile_leaves_match_the_kernels():
