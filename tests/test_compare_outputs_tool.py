@@ -59,8 +59,8 @@ def test_output_record_and_quoted_times_are_volatile(tool, tmp_path):
     """The folder's .ringqa-output.json with another pid, times and hashes but the same command
     and files: 'volatile-only'; a file missing from its list: DIFFERENT. A results.json sentence
     that differs only in the cross-check's quoted times ("(0.17 s; the command waited 0.01 s for
-    it)" vs "(0.50 s; ... 0.04 s ...)"): 'volatile-only'; the same sentence with another distance:
-    DIFFERENT."""
+    it)" vs "(0.50 s; ... 0.04 s ...)", or the serial form "it took 0.16 s"): 'volatile-only'; the
+    same sentence with another distance: DIFFERENT."""
 
     def record(pid: int, files: list[str]) -> str:
         listed = [{"path": f, "size": pid, "sha256": str(pid), "mtime_ns": pid} for f in files]
@@ -85,4 +85,10 @@ def test_output_record_and_quoted_times_are_volatile(tool, tmp_path):
     jb.write_text(json.dumps({"text": sentence("0.043", "0.50", "0.04")}))
     assert tool.compare_file(ja, jb)[0] == "volatile-only"
     jb.write_text(json.dumps({"text": sentence("0.044", "0.17", "0.01")}))
+    assert tool.compare_file(ja, jb)[0] == "DIFFERENT"
+    # the same cross-check run in the command's own process (a loaded machine): "it took 0.16 s"
+    serial = "the dwells agree to {} mm; it took {} s."
+    jb.write_text(json.dumps({"text": serial.format("0.043", "0.16")}))
+    assert tool.compare_file(ja, jb)[0] == "volatile-only"
+    jb.write_text(json.dumps({"text": serial.format("0.044", "0.16")}))
     assert tool.compare_file(ja, jb)[0] == "DIFFERENT"
