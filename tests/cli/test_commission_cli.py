@@ -415,3 +415,31 @@ def test_unknown_scene_lists_the_shipped_ones(tmp_path, capsys):
     err = capsys.readouterr().err
     assert len(err.strip().splitlines()) == 1
     assert "ring26-flexitron" in err and "ring13-push100" in err
+
+
+def test_audit_reuses_the_markers_checksums(tmp_path, monkeypatch, caplog):
+    """A folder with ringqa's marker (ringqa.outdir.write_markers lists every file with its
+    size, time and SHA-256): audit_files hashes only what the marker does not vouch for - the
+    marker itself and a file changed after it was written - and every logged digest is the
+    file's own (hashlib here)."""
+    import hashlib
+    import logging
+
+    import ringqa.provenance
+    from ringqa.cli.commission import audit_files
+    from ringqa.outdir import MARKER_NAME, write_markers
+
+    (tmp_path / "a.csv").write_text("x\n1\n")
+    (tmp_path / "b.json").write_text("{}")
+    write_markers(tmp_path)
+    (tmp_path / "b.json").write_text('{"changed": 1}')  # another size: not the listed file
+    hashed = []
+    real = ringqa.provenance.sha256_of
+    monkeypatch.setattr(ringqa.provenance, "sha256_of", lambda p: hashed.append(p) or real(p))
+    caplog.set_level(logging.INFO, logger="ringqa")
+    audit_files(tmp_path)
+    assert sorted(p.name for p in hashed) == sorted(["b.json", MARKER_NAME])
+    for name in ("a.csv", "b.json", MARKER_NAME):
+        digest = hashlib.sha256((tmp_path / name).read_bytes()).hexdigest()
+        assert f"file written: {name} ({(tmp_path / name).stat().st_size} bytes, SHA-256 " \
+               f"{digest})" in caplog.text  # fmt: skip

@@ -36,7 +36,7 @@ from numba import njit
 from ringqa.simulation._kernels import closest_point, curve_eval, restore_lengths
 from ringqa.simulation.effects.base import Step
 from ringqa.simulation.solvers.monitor import max_penetration
-from ringqa.simulation.solvers.newton import newton
+from ringqa.simulation.solvers.newton import ITERATION_LIMIT, NO_PROGRESS, newton
 from ringqa.simulation.solvers.predictor import predict
 from ringqa.simulation.solvers.recorder import lump_to_nodes
 
@@ -193,7 +193,8 @@ def march(
                     q[i] = pred_plain[i]
                 for i in range(sw.s.shape[0]):
                     sw.s[i] = pred_hints[i]
-                lim = plain_max_iter_crawled if status == 1 or status == 5 else plain_max_iter
+                crawled = status == ITERATION_LIMIT or status == NO_PROGRESS
+                lim = plain_max_iter_crawled if crawled else plain_max_iter
                 status, it2, res = newton(effects, q, st, sw, n_free, tol_abs, lim,
                                           max_step, r, B, energies, counters)  # fmt: skip
                 it = it + it2
