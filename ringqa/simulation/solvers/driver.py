@@ -327,22 +327,15 @@ def marchable(model: Model, scene, integrator, progress: bool) -> bool:
 
 
 def _march_args(model: Model, schedule: Schedule, monitor: Monitor, q, v, targets, hist_cap,
-                max_steps: int, shared=None, base=None):  # fmt: skip
+                max_steps: int):  # fmt: skip
     """The arguments of :func:`.march.march` for this run (scalars from the monitor, schedule and
     model; the modules' constants read now, so that a test may patch them), with its record
-    arrays; returns (args, fs, ist, hist_u, hist_s, records). ``shared``: the ``(fs, ist,
-    hist_u, hist_s)`` of an earlier call to reuse (the coarse approach's leg and the rest share
-    the run's scalars); ``base``: the step's reset and cap (:meth:`Schedule.step_base`; default
-    the schedule's phase now)."""
+    arrays; returns (args, fs, ist, hist_u, hist_s, records)."""
     n_legs = targets.shape[0]
-    if shared is None:
-        fs = np.zeros(march_kernel.N_FS)
-        ist = np.zeros(march_kernel.N_IST, dtype=np.int64)
-        hist_u = np.zeros(max(hist_cap, len(monitor._hist_u), 2))
-        hist_s = np.zeros_like(hist_u)
-    else:
-        fs, ist, hist_u, hist_s = shared
-    base_inc, jump_factor = schedule.coarse_base() if base is None else base
+    fs = np.zeros(march_kernel.N_FS)
+    ist = np.zeros(march_kernel.N_IST, dtype=np.int64)
+    hist_u = np.zeros(max(hist_cap, len(monitor._hist_u), 2))
+    hist_s = np.zeros_like(hist_u)
     rec = (
         np.full((n_legs, model.n_all), np.nan),
         np.full(n_legs, np.nan),
@@ -361,7 +354,7 @@ def _march_args(model: Model, schedule: Schedule, monitor: Monitor, q, v, target
         model_mod.plain_retry_iters(STALLED, int(model.max_iter)),
         model_mod.plain_retry_iters(ITERATION_LIMIT, int(model.max_iter)), model._pred_plain,
         model._pred_hints, targets, bool(schedule.history_free), bool(schedule.slide_grow),
-        base_inc, jump_factor,
+        float(model.increment), float(schedule_mod.JUMP_FACTOR),
         int(schedule_mod.SLIDE_GROW_MAX_ITERS), float(model.speed),
         names.index("friction") if "friction" in names else -1,
         names.index("wall_damping") if "wall_damping" in names else -1, bool(model.contact_on),
@@ -427,36 +420,17 @@ def _marched(model, schedule, stepper, monitor, recorder, q, v, u, iters_since, 
     targets = np.array([leg.target_m for leg in legs], dtype=np.float64)
     hist_cap = schedule.estimated_steps() + 2 * len(legs) + 8
     max_steps = 0 if deadline is None else 8
-    coarse = None  # the coarse approach: a leg of its own to the settling point (.schedule)
-    shared = None
-    if schedule.coarse:
-        coarse = _march_args(model, schedule, monitor, q, v, np.array([schedule.settle_u]),
-                             hist_cap, max_steps, base=schedule.step_base(True))  # fmt: skip
-        shared = coarse[1:5]
     args, fs, ist, hist_u, hist_s, rec = _march_args(
-        model, schedule, monitor, q, v, targets, hist_cap, max_steps, shared,
-        base=schedule.step_base(False),
-    )  # fmt: skip
-    rest = args
-    if coarse is not None:
-        args = coarse[0]
+        model, schedule, monitor, q, v, targets, hist_cap, max_steps
+    )
     time_s = 0.0
     _sync_in(fs, ist, hist_u, hist_s, model, schedule, monitor, u, time_s, iters_since)
     status, message, over = STATUS_SUCCESS, "", False
     while True:
         code = march_kernel.march(*args)
         if code == M.DONE:
-            if coarse is None:
-                break
-            # the coarse leg reached the settling point: the kernel recorded the iterations so
-            # far as that leg's and restarted the count; they belong to the first waypoint
-            ist[M.I_SINCE] = coarse[5][2][0]
-            ist[M.I_LEG] = 0
+            break
         u, time_s, iters_since = _sync_out(fs, ist, hist_u, hist_s, model, schedule, monitor)
-        if code == M.DONE:  # the run's own legs from here, with the increment's steps
-            schedule.end_coarse()
-            coarse = None
-            args = rest
         if code == M.JAM_FORCE:
             status, message = monitor.jam_message(u, None, None)
             break

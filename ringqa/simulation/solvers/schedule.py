@@ -10,15 +10,6 @@ increment at the first harder step); dynamically they are time steps of ``solver
 on a trapezoidal velocity profile (:func:`ramped_step`) with the pauses of stepwise motion
 simulated.
 
-The approach to the first waypoint records nothing, and a quasi-static path's memory of how it
-was stepped fades as the cable slides on (measured: differences in the state shrink about 7-50
-times per millimetre of input). So on the approach of a history-dependent quasi-static run a hard
-step (one that resets the step) sets the step back to :data:`APPROACH_COARSE_FACTOR` increments
-instead of one, up to :data:`APPROACH_SETTLE_INCREMENTS` increments before the first waypoint
-(the "settling point", on the increment grid from the start); from there the steps are the
-increment's again, as without the rule, so the first record has been reached over the same last
-millimetres as before (docs/engine.md, "Fewer load steps").
-
 A simulated pause (the input at rest) needs no input-time resolution: the cable only relaxes
 under friction at rest, once the motion the stop left has died out. Its time step starts at
 ``solver.time_step_s`` and doubles after every pause step solved in one piece (without a cut) in
@@ -49,19 +40,6 @@ JUMP_FACTOR = 8
 #: step's end state does not depend on how the slide was cut (ring26's straight approach: 60 of
 #: its 147 steps; dwells unchanged to 1e-12 mm); any harder step sets it back to the increment
 SLIDE_GROW_MAX_ITERS = 1
-#: a history-dependent quasi-static run's approach to its first waypoint: after a hard step the
-#: step is this many increments (not one) until the settling point (module docstring; 1: off)
-APPROACH_COARSE_FACTOR = 2
-#: ... the settling point lies at least this many increments before the first waypoint, on the
-#: increment grid from the start; from there the steps are the increment's (the state at the first
-#: record moved by <= 5e-10 m on every compare_dwells scene with 4, <= 3e-13 m with 8)
-APPROACH_SETTLE_INCREMENTS = 4
-#: the settling point lies this far past its grid point (m; half the loops' 1e-12 m waypoint
-#: tolerance): a whole step from the accumulated advance then ends on it. Aimed exactly at the
-#: grid point computed apart, the last step came out ~1e-17 m short, which costs it the
-#: extrapolated predictor (that needs the same step as the last one) and moved helix-torsion
-#: onto another equilibrium branch (10 stabilised steps, dwells 0.08 mm away)
-SETTLE_SLACK_M = 5e-13
 #: dynamic runs: the input accelerates from rest to motion.speed over this time and decelerates
 #: likewise into every stop (a jump to full speed in one time step is an impulse ~ 1/dt)
 MOTION_RAMP_S = 0.01
@@ -121,49 +99,9 @@ class Schedule:
         #: (not with the always-on tether: its dissipation is per step)
         self.slide_grow = not history_free and not self.dynamic and model.stab == 0
         self.inc = model.increment
-        #: the approach's settling point (m; None: no coarse approach) and whether the run is
-        #: still before it (:meth:`coarse_base`)
-        self.settle_u = self._settling_point() if self.slide_grow else None
-        self.coarse = self.settle_u is not None
         self.t_move = 0.0  # time since the input last started from rest (dynamic)
         self.pause_dt = model.time_step if self.dynamic else 0.0  # next pause step (s)
         self.in_pause = False  # the last step handed out was a pause step
-
-    def _settling_point(self) -> float | None:
-        """Where a coarse approach ends (m): the last point of the increment grid from the start
-        that lies :data:`APPROACH_SETTLE_INCREMENTS` increments or more before the first waypoint
-        (None: no waypoint ahead, the rule off, or too short an approach for a coarse step)."""
-        factor = APPROACH_COARSE_FACTOR
-        if factor <= 1 or not self.path:
-            return None
-        u0 = float(self.model.u_start)
-        inc = float(self.model.increment)
-        room = (self.path[0][0] - u0) / inc - APPROACH_SETTLE_INCREMENTS
-        n = int(np.floor(room + 1e-9))
-        if n < factor + 1:  # the first step is one increment; then at least one coarse step
-            return None
-        return u0 + n * inc + SETTLE_SLACK_M
-
-    def step_base(self, coarse: bool) -> tuple[float, float]:
-        """(the step a hard step resets to (m), the cap as a multiple of it):
-        ``(APPROACH_COARSE_FACTOR x increment, JUMP_FACTOR / APPROACH_COARSE_FACTOR)`` on the
-        coarse approach, else ``(increment, JUMP_FACTOR)``; the cap is JUMP_FACTOR increments
-        either way (:meth:`adapt` and the compiled loop compute it from the same two numbers)."""
-        inc = float(self.model.increment)
-        if coarse:
-            f = float(APPROACH_COARSE_FACTOR)
-            return f * inc, float(JUMP_FACTOR) / f
-        return inc, float(JUMP_FACTOR)
-
-    def coarse_base(self) -> tuple[float, float]:
-        """:meth:`step_base` of the phase the run is in (before the settling point or not)."""
-        return self.step_base(self.coarse)
-
-    def end_coarse(self) -> None:
-        """At the settling point: the steps are the increment's from here (a step grown while
-        the cable slid is kept up to the increment only)."""
-        self.coarse = False
-        self.inc = min(self.inc, float(self.model.increment))
 
     def legs(self):
         """The waypoints in travel order as :class:`Leg` s."""
@@ -212,11 +150,6 @@ class Schedule:
                     dt = dwell_left
                 self.in_pause = True
             return du, dt
-        if self.coarse:
-            if leg.index == 0 and abs(self.settle_u - u) > 1e-12:
-                target = self.settle_u  # the compiled loop's coarse leg (driver._marched)
-            else:
-                self.end_coarse()
         inc = self.inc
         du = min(max(target - u, -inc), inc)  # np.clip without its per-call cost
         return du, abs(du) / self.model.speed
@@ -243,8 +176,7 @@ class Schedule:
             self.inc = min(2 * self.inc, JUMP_FACTOR * base)
         elif not self.history_free:
             easy = self.slide_grow and sub == 1 and last_iters <= SLIDE_GROW_MAX_ITERS
-            reset, cap = self.coarse_base()
-            self.inc = min(2 * self.inc, cap * reset) if easy else reset
+            self.inc = min(2 * self.inc, JUMP_FACTOR * base) if easy else base
         elif sub > 1:
             self.inc = max(base, self.inc / sub)
 

@@ -46,12 +46,9 @@ def _steps(schedule: Schedule, iters: list[int]) -> list[float]:
     return out
 
 
-def test_the_step_doubles_after_one_iteration_steps_and_resets_after_a_harder_one(monkeypatch):
+def test_the_step_doubles_after_one_iteration_steps_and_resets_after_a_harder_one():
     """Steps 1, 2, 4, 8, 8 increments while every step takes 1 iteration (cap JUMP_FACTOR = 8);
-    a 2-iteration step sets the next back to 1 increment, and it grows again from there (the
-    coarse approach off: it resets to 2 increments before the settling point,
-    tests/simulation/solvers/test_coarse_approach.py)."""
-    monkeypatch.setattr(schedule_mod, "APPROACH_COARSE_FACTOR", 1)
+    a 2-iteration step sets the next back to 1 increment, and it grows again from there."""
     got = _steps(_schedule(), [1, 1, 1, 1, 1, 2, 1, 1])
     assert JUMP_FACTOR == 8
     assert got == [1, 2, 4, 8, 8, 8, 1, 2]
@@ -71,10 +68,9 @@ def test_ring26_takes_fewer_steps_to_the_same_dwells(monkeypatch):
     inside the 0.01 mm accuracy rule), the input work within 1e-9 relative (the work balance is
     the rectangle rule on the push force, which is constant along a pure slide)."""
     scene = load_scene("ring26-flexitron")
-    monkeypatch.setattr(schedule_mod, "APPROACH_COARSE_FACTOR", 1)  # the increment only
     monkeypatch.setattr(schedule_mod, "SLIDE_GROW_MAX_ITERS", -1)
     fixed = simulate(scene)
-    monkeypatch.setattr(schedule_mod, "SLIDE_GROW_MAX_ITERS", 1)
+    monkeypatch.undo()
     grown = simulate(scene)
     assert fixed.status == grown.status == 0
     assert fixed.stats.n_steps == 146
