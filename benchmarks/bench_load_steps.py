@@ -7,7 +7,8 @@ Nothing here changes the engine: each measurement patches the schedule or the pr
 Python load-step loop (``driver.USE_MARCH = False``, bit for bit the compiled loop) in this
 process. docs/engine.md, "Fewer load steps (branch coarse, 2026-11-29)", has the numbers.
 
-``dwells`` (default ring26-flexitron): solve only every D-th dwell (D = 2, 3, 4) with steps of D
+``dwells`` (default ring26-flexitron; scenes whose dwells are one increment apart, forward):
+solve only every D-th dwell (D = 2, 3, 4) with steps of D
 increments after the first dwell (the approach unchanged), and give the dwells between by dense
 output. Printed per D: Newton iterations per step between dwells, how far the solved dwells
 moved from the increment's path (the friction's path dependence), and the dense output's error
@@ -147,6 +148,10 @@ class _Frames:
 def dwells(name: str) -> None:
     scene = dict(compare_dwells.cases())[name]
     adv = np.asarray(scene.motion.advances_m, dtype=float)
+    spacing = np.diff(np.sort(adv))
+    if not np.allclose(spacing, scene.solver.increment_m, rtol=1e-6, atol=1e-12):
+        print(f"{name}: skipped (dwells not one increment apart: the measurement assumes it)")
+        return
     PATCH["log"], PATCH["states"] = {}, {}
     ref = simulate(scene)
     log, states = PATCH["log"], PATCH["states"]
@@ -154,12 +159,12 @@ def dwells(name: str) -> None:
     keys = sorted(states)
     first = keys[0]
     steps_between = [log[k] for k in keys[1:]]
-    ds = np.diff(ref.s_m) * 1e3
+    ds = np.diff(ref.s_m) / np.diff(adv)  # source advance along the centreline per input
     print(
         f"{name}: {ref.stats.n_steps} steps, {ref.stats.n_newton_iters} Newton iterations; "
         f"{len(steps_between)} steps between dwells, {np.mean(steps_between):.2f} iterations a "
-        f"step; the source advances {ds.min():.3f}-{ds.max():.3f} mm per mm of input (steps "
-        f"between neighbours up to {np.max(np.abs(np.diff(ds))):.3f} mm apart)"
+        f"step; the source advances {ds.min():.3f}-{ds.max():.3f} mm per mm of input between "
+        f"dwells (neighbouring rates up to {np.max(np.abs(np.diff(ds))):.3f} apart)"
     )
     frames = _Frames(scene, adv)
     print("| D | iterations a step between solved dwells | solved dwells moved, max / median "
