@@ -415,7 +415,9 @@ def solve(pb, mixed=False, chord=False, trace=None, lam0=None, mu0=None):
 def main() -> int:
     ap = argparse.ArgumentParser()
     ap.add_argument("scene", nargs="?", default="ring26-flexitron")
-    ap.add_argument("--variants", default="base,mixed,chord,mixed-chord,kkt,kkt-chord,kkt-mixed")
+    ap.add_argument(
+        "--variants", default="base,mixed,mixed-warm,mixed-oracle,chord,kkt,kkt-warm,kkt-warm-chord"
+    )
     ap.add_argument("--chord-rate", type=float, default=CHORD_RATE)
     ap.add_argument("--trace", type=int, default=-1, help="print the residuals of this step")
     ap.add_argument("--time-lu", action="store_true", help="time the penalty and KKT banded LUs")
