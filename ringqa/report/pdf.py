@@ -483,12 +483,16 @@ def dose_table(res) -> tuple[list[str], list[list[str]]]:
     tps = doses[(doses["kind"] == "tps") & (doses["plan"] != "rtplan")]
     rows = []
     for frame, suffix in ((standard, ""), (tps, " (RT Plan point)")):
+        # (point, plan) -> the position of its first row: one pass, not two filters per cell
+        first: dict[tuple, int] = {}
+        for k, key in enumerate(zip(frame["point"], frame["plan"], strict=True)):
+            first.setdefault(key, k)
         for name in dict.fromkeys(frame["point"]):
             row = [LONG_NAMES.get(name, name) + suffix]
             for plan in plans:
-                hit = frame[(frame["point"] == name) & (frame["plan"] == plan)]
+                k = first.get((name, plan))
                 row.append(
-                    "-" if hit.empty else _dose_cell(hit.iloc[0], plan, res.reference, registered)
+                    "-" if k is None else _dose_cell(frame.iloc[k], plan, res.reference, registered)
                 )
             rows.append(row)
     return ["dose point", *(_plan_label(p, res.reference) for p in plans)], rows
