@@ -816,18 +816,18 @@ class DrawnAhead:
             name: ForkedCall(functools.partial(_draw_figures, result, (name,)), fork)
             for name in AHEAD_FIGURES
         }
-        self._pixels: dict = {}
+        self._images: dict = {}
 
     @property
     def forked(self) -> bool:
         """The figures are being drawn in child processes (until their pixels arrive)."""
         return any(call.forked for call in self._calls.values())
 
-    def pixels(self, name: str):
-        """``(rgb, size_in)`` of figure ``name`` (waits for its child the first time)."""
-        if name not in self._pixels:
-            self._pixels.update(self._calls[name].result())
-        return self._pixels[name]
+    def image(self, name: str) -> layout.FlateImage:
+        """Figure ``name`` as the PDF stores it (waits for its child the first time)."""
+        if name not in self._images:
+            self._images.update(self._calls[name].result())
+        return self._images[name]
 
     def cancel(self) -> None:
         """Stop the children whose figures are no longer needed."""
@@ -842,10 +842,11 @@ def draw_ahead(result, fork: bool | None = None) -> DrawnAhead:
 
 
 def _draw_figures(result, names) -> dict:
-    return {name: layout.figure_pixels(AHEAD_FIGURES[name][0](result)) for name in names}
+    # drawn and compressed here (in the child when forked): only the PDF's bytes travel
+    return {name: layout.figure_flate(AHEAD_FIGURES[name][0](result)) for name in names}
 
 
-class _AheadImage(layout.PixelImage):
+class _AheadImage(layout.FlateFigure):
     """A figure of :class:`DrawnAhead`: its size is known at once (the figure's size), its
     pixels are fetched when its page is drawn."""
 
@@ -855,9 +856,8 @@ class _AheadImage(layout.PixelImage):
         self._drawn, self._name = drawn, name
 
     def draw(self):
-        if self.reader is None:
-            rgb, size_in = self._drawn.pixels(self._name)
-            self.reader = layout.pixel_image(rgb, size_in, self.width).reader
+        if self.image is None:
+            self.image = self._drawn.image(self._name)
         super().draw()
 
 

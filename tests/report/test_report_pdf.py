@@ -201,3 +201,34 @@ def test_figures_drawn_ahead_give_the_same_pdf(fake_result, tmp_path, monkeypatc
     write_pdf(fake_result, tmp_path / "ahead.pdf", drawn=drawn)
     assert (tmp_path / "ahead.pdf").read_bytes() == (tmp_path / "plain.pdf").read_bytes()
     assert len(made) == (0 if forked else 3)  # in the children when forked
+
+
+def test_flate_figure_is_what_draw_image_writes(tmp_path, monkeypatch):
+    """A figure handed over compressed (``layout.figure_image``: ``figure_flate`` +
+    ``draw_flate``, as the children drawing ahead hand figures over) gives the PDF byte for
+    byte that reportlab's ``drawImage`` of the same pixels as an ``ImageReader`` gives (the
+    same image object, name, Flate stream and operators; reportlab's invariant mode), and so
+    does the fallback for a canvas without the parts ``draw_flate`` uses (``image.reader()``
+    through ``drawImage``)."""
+    from reportlab import rl_config
+
+    from ringqa.report import layout
+    from ringqa.report.figures import new_figure
+
+    monkeypatch.setattr(rl_config, "invariant", 1)
+    fig = new_figure((3.0, 2.0))
+    ax = fig.add_subplot()
+    ax.plot([0, 1, 2], [0, 1, 4], marker="o", label="a line")
+    ax.legend()
+    stamp = layout.PageStamp(title="t", software="ringqa test", date="2026-11-29", inputs="-")
+
+    def build(name, flowable):
+        return layout.build_pdf(tmp_path / name, [flowable], stamp, title="t").read_bytes()
+
+    image = layout.figure_flate(fig)
+    reader = layout.pixel_image(*layout.figure_pixels(fig))  # reportlab's own path
+    assert (image.width_px, image.height_px) == reader.reader.getSize()
+    plain = build("plain.pdf", reader)
+    assert build("flate.pdf", layout.FlateFigure(image, layout.FRAME_WIDTH)) == plain
+    monkeypatch.setattr(layout, "draw_flate", lambda *a: False)  # e.g. another reportlab
+    assert build("fallback.pdf", layout.FlateFigure(image, layout.FRAME_WIDTH)) == plain
