@@ -267,7 +267,9 @@ def console_main() -> None:
 
     The garbage collector runs less often (:data:`GC_THRESHOLD_0`), OpenBLAS runs one thread
     (:data:`SCRIPT_ENVIRONMENT`), matplotlib is imported without generating its docstrings
-    (:mod:`ringqa.cli._lean_matplotlib`), and once the command has returned - its files
+    (:mod:`ringqa.cli._lean_matplotlib`) and numba without a YAML parser for a configuration
+    file that is not there (:func:`ringqa.cli._numba_loads.numba_config_without_yaml`), and
+    once the command has returned - its files
     written and closed, its log handlers closed, the compile helper stopped - the exit
     handlers run and the process ends without tearing down every module and object one by
     one (0.4-0.5 s of the warm example's run, measured). Only the script does this;
@@ -277,10 +279,12 @@ def console_main() -> None:
     import gc
 
     from ringqa.cli._lean_matplotlib import lean_matplotlib_docs
+    from ringqa.cli._numba_loads import numba_config_without_yaml
 
     for name, value in SCRIPT_ENVIRONMENT.items():
         os.environ.setdefault(name, value)
     lean_matplotlib_docs()
+    numba_config_without_yaml()
     gc.set_threshold(GC_THRESHOLD_0, *gc.get_threshold()[1:])
     code = main()
     atexit._run_exitfuncs()  # what a normal exit runs: logging.shutdown, finalizers, dask

@@ -33,6 +33,7 @@ set-up makes, then refuses as before).
 
 from __future__ import annotations
 
+import importlib.abc
 import importlib.machinery
 import importlib.util
 import os
@@ -139,4 +140,51 @@ def preload_cython_blas() -> bool:
     except Exception:  # pragma: no cover - left to the usual import
         del sys.modules[CYTHON_BLAS]
         return False
+    return True
+
+
+#: numba's configuration file, read from the working folder when numba is imported
+NUMBA_CONFIG_FILE = ".numba_config.yaml"
+
+
+class _ConfigHook(importlib.abc.MetaPathFinder):
+    """Finds ``numba.core.config`` as the path finder does; while it executes, ``yaml`` is
+    missing for it (see :func:`numba_config_without_yaml`)."""
+
+    def find_spec(self, name, path, target=None):
+        if name != "numba.core.config":
+            return None
+        spec = importlib.machinery.PathFinder.find_spec(name, path)
+        if spec is None or spec.loader is None or not hasattr(spec.loader, "exec_module"):
+            return spec  # pragma: no cover - another layout: as it is
+        real = spec.loader.exec_module
+
+        def exec_module(module):
+            blocked = "yaml" not in sys.modules and not os.path.isfile(NUMBA_CONFIG_FILE)
+            if blocked:
+                sys.modules["yaml"] = None  # "import yaml" raises ImportError: numba goes on
+            try:
+                real(module)
+            finally:
+                if blocked and sys.modules.get("yaml", 0) is None:
+                    del sys.modules["yaml"]
+
+        spec.loader.exec_module = exec_module
+        return spec
+
+
+def numba_config_without_yaml() -> bool:
+    """Import numba without importing a YAML parser for a configuration file that is not there.
+
+    ``numba.core.config`` imports ``yaml`` (PyYAML) when numba is imported, only to read
+    :data:`NUMBA_CONFIG_FILE` from the working folder where there is one: 0.015-0.02 s of CPU
+    of every command's start-up before it forks (docs/speed.md, 2026-11-29). Installed by the
+    ``ringqa`` script before numba is imported; where the file exists, or PyYAML is imported
+    already, numba is imported as usual, and ``yaml`` is importable as usual afterwards (only
+    numba's configuration module saw it missing). ``RINGQA_LEAN_NUMBA=0`` leaves numba as it is.
+    Returns whether the hook is in place."""
+    if os.environ.get(ENV, "1") == "0" or "numba.core.config" in sys.modules:
+        return False
+    if not any(isinstance(f, _ConfigHook) for f in sys.meta_path):
+        sys.meta_path.insert(0, _ConfigHook())
     return True

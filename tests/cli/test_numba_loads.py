@@ -120,3 +120,37 @@ def test_only_the_checked_numba_releases():
     assert numba_checked("0.68.1") and numba_checked("0.68.0")
     assert not any(numba_checked(v) for v in ("0.69.0", "0.59.1", "1.0.0", "dev"))
     assert numba_checked()
+
+
+@pytest.mark.parametrize("config_file", [False, True])
+def test_numba_imported_without_yaml_unless_its_config_file_is_there(tmp_path, config_file):
+    """With the hook (the ``ringqa`` script's), numba is imported without PyYAML when the
+    working folder has no ``.numba_config.yaml`` (numba reads only that file with it), and
+    PyYAML is importable afterwards as usual; with the file there numba reads it as before
+    (``.numba_config.yaml`` setting ``developer_mode: 1`` shows as
+    ``numba.config.DEVELOPER_MODE == 1``)."""
+    if config_file:
+        (tmp_path / ".numba_config.yaml").write_text("developer_mode: 1\n", encoding="utf-8")
+    code = textwrap.dedent(
+        """
+        import sys
+        from ringqa.cli._numba_loads import numba_config_without_yaml
+        assert numba_config_without_yaml()
+        import numba
+        print("YAML", "yaml" in sys.modules, numba.core.config._HAVE_YAML,
+              int(numba.config.DEVELOPER_MODE))
+        import yaml
+        print("LATER", yaml.safe_load("a: 1") == {"a": 1})
+        """
+    )
+    env = {k: v for k, v in os.environ.items() if k != "NUMBA_DEVELOPER_MODE"}
+    env["PYTHONPATH"] = os.pathsep.join([str(ROOT), env.get("PYTHONPATH", "")])
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          cwd=tmp_path, env=env, timeout=120)  # fmt: skip
+    assert proc.returncode == 0, proc.stderr
+    lines = [x.split() for x in proc.stdout.splitlines()]
+    if config_file:
+        assert lines[0] == ["YAML", "True", "True", "1"]
+    else:
+        assert lines[0][:3] == ["YAML", "False", "False"]
+    assert lines[1] == ["LATER", "True"]
