@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import functools
 import importlib.util
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from xml.sax.saxutils import escape
@@ -28,7 +29,7 @@ from reportlab.lib.enums import TA_LEFT
 from reportlab.lib.pagesizes import A4
 from reportlab.lib.styles import ParagraphStyle
 from reportlab.lib.units import mm
-from reportlab.pdfbase import pdfmetrics
+from reportlab.pdfbase import pdfdoc, pdfmetrics
 from reportlab.pdfbase.ttfonts import TTFont
 from reportlab.pdfgen import canvas as rl_canvas
 from reportlab.platypus import (
@@ -300,6 +301,73 @@ def draw_flate(canv, image: FlateImage, x: float, y: float, width: float, height
     canv.restoreState()
     canv._formsinuse.append(image.name)
     return True
+
+
+class _LaterImage(pdfdoc.PDFImageXObject):
+    """An RGB image XObject whose pixels are fetched when the PDF is written (:func:`format`
+    is called once, by the canvas's ``save``), not when its page is laid out."""
+
+    def __init__(self, name: str, fetch: Callable[[], FlateImage]) -> None:
+        super().__init__(name)  # no source: every field is set here or in format
+        self._fetch = fetch
+        self.bitsPerComponent = 8
+        self.colorSpace = "DeviceRGB"
+        self._filters = ("FlateDecode",)
+        self.mask = None
+
+    def format(self, document):
+        if self._fetch is not None:
+            image, self._fetch = self._fetch(), None
+            self.width, self.height = image.width_px, image.height_px
+            self.streamContent = image.data
+        return super().format(document)
+
+
+def draw_flate_later(canv, key: str, fetch: Callable[[], FlateImage], x: float, y: float,
+                     width: float, height: float) -> bool:  # fmt: skip
+    """As :func:`draw_flate`, the image fetched (``fetch()``, e.g. waiting for the process
+    drawing it) only when the canvas writes the PDF: its page, and the pages after it, are laid
+    out meanwhile. Its name in the PDF is ``key`` with the number of such images before it in
+    the document (``positions-1``: no pixels to name it by yet; unique in a document that holds
+    several results' figures). Returns False, drawing nothing, where :func:`draw_flate` would."""
+    doc = getattr(canv, "_doc", None)
+    parts = ("_setXObjects", "_code", "_formsinuse", "saveState", "translate", "scale")
+    if rl_config.useA85 or doc is None or not all(hasattr(canv, a) for a in parts):
+        return False  # pragma: no cover - another reportlab, or ASCII85 streams
+    count = doc.__dict__.get("_ringqa_later", 0) + 1
+    doc._ringqa_later = count
+    name = f"{key}-{count}"
+    canv._currentPageHasImages = 1
+    reg = doc.getXObjectName(name)
+    obj = _LaterImage(name, fetch)
+    canv._setXObjects(obj)
+    doc.Reference(obj, reg)
+    doc.addForm(name, obj)
+    canv.saveState()
+    canv.translate(x, y)
+    canv.scale(width, height)
+    canv._code.append(f"/{reg} Do")
+    canv.restoreState()
+    canv._formsinuse.append(name)
+    return True
+
+
+class LaterFigure(Flowable):
+    """A figure whose pixels come later (``fetch()`` returns its :class:`FlateImage`), drawn
+    ``width`` x ``height`` points, centred in the frame: laid out at once, its pixels written
+    when the PDF is (:func:`draw_flate_later`; where that cannot be, fetched at its page)."""
+
+    def __init__(self, key: str, fetch: Callable[[], FlateImage], width: float, height: float):
+        super().__init__()
+        self.key, self.fetch, self.width, self.height = key, fetch, width, height
+        self.hAlign = "CENTER"
+
+    def wrap(self, avail_width, avail_height):
+        return self.width, self.height
+
+    def draw(self):
+        if not draw_flate_later(self.canv, self.key, self.fetch, 0, 0, self.width, self.height):
+            self.canv.drawImage(self.fetch().reader(), 0, 0, self.width, self.height)
 
 
 class FlateFigure(Flowable):

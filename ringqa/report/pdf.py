@@ -801,8 +801,9 @@ AHEAD_FIGURES: dict[str, tuple[Callable, tuple[float, float]]] = {
 class DrawnAhead:
     """The report figures of one result (:data:`AHEAD_FIGURES`) being drawn in forked child
     processes (:class:`ringqa.parallel.ForkedCall`, one a figure: each is ready as soon as it
-    is drawn, the first one needed soonest) while this process writes the tables, report.html
-    and the rest of the PDF; the PDF waits for a figure's pixels only when it draws its page.
+    is drawn, compressed as the PDF stores it: :func:`ringqa.report.layout.figure_flate`) while
+    this process writes the tables, report.html and the PDF's pages; the PDF waits for a
+    figure only when the file is written (every page laid out by then: :func:`_figure`).
     Without a free core (or ``os.fork``) they are drawn here when first needed: the pixels, and
     so the PDF, are the same either way (each child is a copy of this process, matplotlib's
     state included). Give it to :func:`write_pdf` (``drawn=``)."""
@@ -846,32 +847,27 @@ def _draw_figures(result, names) -> dict:
     return {name: layout.figure_flate(AHEAD_FIGURES[name][0](result)) for name in names}
 
 
-class _AheadImage(layout.FlateFigure):
-    """A figure of :class:`DrawnAhead`: its size is known at once (the figure's size), its
-    pixels are fetched when its page is drawn."""
-
-    def __init__(self, drawn: DrawnAhead, name: str, width: float) -> None:
-        w_in, h_in = (float(x) for x in AHEAD_FIGURES[name][1])
-        super().__init__(None, width, width * h_in / w_in)
-        self._drawn, self._name = drawn, name
-
-    def draw(self):
-        if self.image is None:
-            self.image = self._drawn.image(self._name)
-        super().draw()
-
-
 #: the figures being drawn ahead for the report being written (set by :func:`write_pdf`)
 _AHEAD: list[DrawnAhead] = []
 
 
 def _figure(name: str, res, width: float):
-    """Report figure ``name`` of ``res``, ``width`` points wide: drawn ahead when
-    :func:`write_pdf` was given it for ``res``, else drawn now."""
+    """Report figure ``name`` of ``res``, ``width`` points wide, laid out at once and its
+    pixels written into the PDF when the PDF is written (:class:`ringqa.report.layout
+    .LaterFigure`): from the process drawing it ahead when :func:`write_pdf` was given one for
+    ``res`` (the pages after it are laid out meanwhile, not waiting for it), else drawn then."""
+    make, (w_in, h_in) = AHEAD_FIGURES[name]
     for drawn in _AHEAD:
         if drawn.result is res:
-            return _AheadImage(drawn, name, width)
-    return layout.figure_image(AHEAD_FIGURES[name][0](res), width)
+            fetch = functools.partial(drawn.image, name)
+            break
+    else:
+        fetch = functools.partial(_draw_one, make, res)
+    return layout.LaterFigure(name, fetch, width, width * float(h_in) / float(w_in))
+
+
+def _draw_one(make, res) -> layout.FlateImage:
+    return layout.figure_flate(make(res))
 
 
 # ---------------------------------------------------------------------------------------------
