@@ -268,44 +268,38 @@ def figure_flate(fig, dpi: int = FIGURE_DPI) -> FlateImage:
                       digest.hexdigest(), zlib.compress(raw))  # fmt: skip
 
 
-def draw_flate(canv, image: FlateImage, x: float, y: float, width: float, height: float) -> bool:
-    """Draw ``image`` on reportlab canvas ``canv`` at ``x, y`` (points), ``width`` x ``height``,
-    as ``canv.drawImage`` draws an RGB ``ImageReader`` with the same pixels (the same image
-    object, name, stream and drawing operators), from its compressed bytes. Returns False,
-    drawing nothing, where the canvas lacks the parts this uses (another reportlab) or streams
-    are ASCII85-encoded (:func:`build_pdf` switches that off): the caller then draws
-    ``image.reader()`` with ``drawImage``."""
-    from reportlab.pdfbase import pdfdoc
+def _takes_images(canv) -> bool:
+    """The canvas has the parts :func:`_place_image` uses (reportlab's ``Canvas``, as
+    ``drawImage`` uses them) and writes binary streams (:func:`build_pdf`)."""
+    parts = ("_doc", "_setXObjects", "_code", "_formsinuse", "saveState", "translate", "scale")
+    return not rl_config.useA85 and all(hasattr(canv, a) for a in parts)
 
-    doc = getattr(canv, "_doc", None)
-    parts = ("_setXObjects", "_code", "_formsinuse", "saveState", "translate", "scale")
-    if rl_config.useA85 or doc is None or not all(hasattr(canv, a) for a in parts):
-        return False  # pragma: no cover - another reportlab, or ASCII85 streams
+
+def _place_image(canv, name: str, make: Callable[[], pdfdoc.PDFImageXObject], x: float,
+                 y: float, width: float, height: float) -> None:  # fmt: skip
+    """What ``canv.drawImage`` does with an image named ``name``: the image object registered
+    once per name (``make()`` makes it), then drawn at ``x, y`` (points), ``width`` x
+    ``height``, and listed as used on the page."""
+    doc = canv._doc
     canv._currentPageHasImages = 1
-    reg = doc.getXObjectName(image.name)
+    reg = doc.getXObjectName(name)
     if not doc.idToObject.get(reg, None):
-        obj = pdfdoc.PDFImageXObject(image.name)  # no source: every field is set here
-        obj.width, obj.height = image.width_px, image.height_px
-        obj.bitsPerComponent = 8
-        obj.colorSpace = "DeviceRGB"
-        obj._filters = ("FlateDecode",)
-        obj.streamContent = image.data
-        obj.mask = None
+        obj = make()
         canv._setXObjects(obj)
         doc.Reference(obj, reg)
-        doc.addForm(image.name, obj)
+        doc.addForm(name, obj)
     canv.saveState()
     canv.translate(x, y)
     canv.scale(width, height)
     canv._code.append(f"/{reg} Do")
     canv.restoreState()
-    canv._formsinuse.append(image.name)
-    return True
+    canv._formsinuse.append(name)
 
 
 class _LaterImage(pdfdoc.PDFImageXObject):
-    """An RGB image XObject whose pixels are fetched when the PDF is written (:func:`format`
-    is called once, by the canvas's ``save``), not when its page is laid out."""
+    """An RGB image XObject whose compressed pixels (a :class:`FlateImage`, from ``fetch()``)
+    are fetched when the PDF is written (``format`` is called once, by the canvas's
+    ``save``), not when its page is laid out."""
 
     def __init__(self, name: str, fetch: Callable[[], FlateImage]) -> None:
         super().__init__(name)  # no source: every field is set here or in format
@@ -323,6 +317,20 @@ class _LaterImage(pdfdoc.PDFImageXObject):
         return super().format(document)
 
 
+def draw_flate(canv, image: FlateImage, x: float, y: float, width: float, height: float) -> bool:
+    """Draw ``image`` on reportlab canvas ``canv`` at ``x, y`` (points), ``width`` x ``height``,
+    as ``canv.drawImage`` draws an RGB ``ImageReader`` with the same pixels (the same image
+    object, name, stream and drawing operators), from its compressed bytes. Returns False,
+    drawing nothing, where the canvas lacks the parts this uses (another reportlab) or streams
+    are ASCII85-encoded (:func:`build_pdf` switches that off): the caller then draws
+    ``image.reader()`` with ``drawImage``."""
+    if not _takes_images(canv):
+        return False  # pragma: no cover - another reportlab, or ASCII85 streams
+    _place_image(canv, image.name, lambda: _LaterImage(image.name, lambda: image), x, y, width,
+                 height)  # fmt: skip
+    return True
+
+
 def draw_flate_later(canv, key: str, fetch: Callable[[], FlateImage], x: float, y: float,
                      width: float, height: float) -> bool:  # fmt: skip
     """As :func:`draw_flate`, the image fetched (``fetch()``, e.g. waiting for the process
@@ -330,25 +338,12 @@ def draw_flate_later(canv, key: str, fetch: Callable[[], FlateImage], x: float, 
     out meanwhile. Its name in the PDF is ``key`` with the number of such images before it in
     the document (``positions-1``: no pixels to name it by yet; unique in a document that holds
     several results' figures). Returns False, drawing nothing, where :func:`draw_flate` would."""
-    doc = getattr(canv, "_doc", None)
-    parts = ("_setXObjects", "_code", "_formsinuse", "saveState", "translate", "scale")
-    if rl_config.useA85 or doc is None or not all(hasattr(canv, a) for a in parts):
+    if not _takes_images(canv):
         return False  # pragma: no cover - another reportlab, or ASCII85 streams
-    count = doc.__dict__.get("_ringqa_later", 0) + 1
-    doc._ringqa_later = count
+    count = canv._doc.__dict__.get("_ringqa_later", 0) + 1
+    canv._doc._ringqa_later = count
     name = f"{key}-{count}"
-    canv._currentPageHasImages = 1
-    reg = doc.getXObjectName(name)
-    obj = _LaterImage(name, fetch)
-    canv._setXObjects(obj)
-    doc.Reference(obj, reg)
-    doc.addForm(name, obj)
-    canv.saveState()
-    canv.translate(x, y)
-    canv.scale(width, height)
-    canv._code.append(f"/{reg} Do")
-    canv.restoreState()
-    canv._formsinuse.append(name)
+    _place_image(canv, name, lambda: _LaterImage(name, fetch), x, y, width, height)
     return True
 
 
