@@ -269,12 +269,11 @@ def console_main() -> None:
     (:data:`SCRIPT_ENVIRONMENT`), matplotlib is imported without generating its docstrings
     (:mod:`ringqa.cli._lean_matplotlib`) and numba without a YAML parser for a configuration
     file that is not there (:func:`ringqa.cli._numba_loads.numba_config_without_yaml`), and
-    once the command has returned - its files
-    written and closed, its log handlers closed, the compile helper stopped - the exit
-    handlers run and the process ends without tearing down every module and object one by
-    one (0.4-0.5 s of the warm example's run, measured). Only the script does this;
-    :func:`main` called in-process (tests, notebooks) returns as usual.
-    """
+    once the command has returned - its files written and closed, its log handlers closed,
+    the compile helper stopped - the exit handlers run and the process ends without tearing
+    down every module and object one by one (0.4-0.5 s of the warm example's run, measured).
+    Only the script does this; :func:`main` called in-process (tests, notebooks) returns as
+    usual."""
     import atexit
     import gc
 
