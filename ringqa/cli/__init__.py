@@ -252,19 +252,38 @@ def terminal_streams():
 #: (docs/speed.md, 2026-11-29). A long batch or sweep still collects, every million objects.
 GC_THRESHOLD_0 = 1_000_000
 
+#: the environment the ``ringqa`` script sets for itself where the user has not: OpenBLAS
+#: (numpy's BLAS) with one thread. ringqa's work runs in processes (the commissioning, its
+#: engine runs, the figures, a batch's workers), its matrices are small (3x3 frames, banded
+#: systems of a few hundred unknowns), and OpenBLAS's extra threads only spin: in the warm
+#: example they took 0.13-0.17 s of CPU while numpy was imported, before the first fork
+#: (measured, docs/speed.md 2026-11-29). numba's own threads (tg43's parallel kernel) are not
+#: affected. Set before numpy is imported; a value in the environment is kept.
+SCRIPT_ENVIRONMENT = {"OPENBLAS_NUM_THREADS": "1"}
+
 
 def console_main() -> None:
     """The ``ringqa`` script (and ``python -m ringqa``): :func:`main`, then a quick exit.
 
-    The garbage collector runs less often (:data:`GC_THRESHOLD_0`), and once the command has
-    returned - its files written and closed, its log handlers closed, the compile helper
-    stopped - the exit handlers run and the process ends without tearing down every module
-    and object one by one (0.4-0.5 s of the warm example's run, measured). Only the script
-    does this; :func:`main` called in-process (tests, notebooks) returns as usual.
-    """
+    The garbage collector runs less often (:data:`GC_THRESHOLD_0`), OpenBLAS runs one thread
+    (:data:`SCRIPT_ENVIRONMENT`), matplotlib is imported without generating its docstrings
+    (:mod:`ringqa.cli._lean_matplotlib`) and numba without a YAML parser for a configuration
+    file that is not there (:func:`ringqa.cli._numba_loads.numba_config_without_yaml`), and
+    once the command has returned - its files written and closed, its log handlers closed,
+    the compile helper stopped - the exit handlers run and the process ends without tearing
+    down every module and object one by one (0.4-0.5 s of the warm example's run, measured).
+    Only the script does this; :func:`main` called in-process (tests, notebooks) returns as
+    usual."""
     import atexit
     import gc
 
+    from ringqa.cli._lean_matplotlib import lean_matplotlib_docs
+    from ringqa.cli._numba_loads import numba_config_without_yaml
+
+    for name, value in SCRIPT_ENVIRONMENT.items():
+        os.environ.setdefault(name, value)
+    lean_matplotlib_docs()
+    numba_config_without_yaml()
     gc.set_threshold(GC_THRESHOLD_0, *gc.get_threshold()[1:])
     code = main()
     atexit._run_exitfuncs()  # what a normal exit runs: logging.shutdown, finalizers, dask

@@ -33,6 +33,7 @@ set-up makes, then refuses as before).
 
 from __future__ import annotations
 
+import importlib.abc
 import importlib.machinery
 import importlib.util
 import os
@@ -83,6 +84,70 @@ def lean_cache_loads() -> bool:
     load_overload.__doc__ = cache.load_overload.__doc__
     cache.load_overload = load_overload
     preload_cython_blas()
+    lazy_defined_symbols()
+    return True
+
+
+class _Defined:
+    """What one LLVM module defines, looked up when asked: a function by name (LLVM's own
+    lookup), the global variables (few; LLVM's lookup by name skips private ones, which
+    numba's walk counts) listed once when first needed."""
+
+    def __init__(self, module) -> None:
+        self.module = module
+        self.globals: set[str] | None = None
+
+    def __contains__(self, name: str) -> bool:
+        try:
+            fn = self.module.get_function(name)
+        except NameError:
+            pass
+        else:
+            if not fn.is_declaration:
+                return True
+        if self.globals is None:
+            self.globals = {g.name for g in self.module.global_variables if not g.is_declaration}
+        return name in self.globals
+
+
+def lazy_defined_symbols() -> bool:
+    """numba's JIT engine told which symbols a module defines when asked, not by listing them
+    all when the module is added (whether it is in place).
+
+    ``JitEngine`` keeps the set of every symbol its modules define, for
+    ``is_symbol_defined`` (asked for a kernel's entry point when it is loaded, and at a
+    compile); it builds the set by walking every function and global of each module added:
+    the shared module a cached kernel carries holds every function inlined into it, and each
+    name and declaration flag is a call through llvmlite's lock. For the example's 24 cached
+    kernels that walk was 0.035 s of CPU and about half of their loading in the profile
+    (docs/speed.md, 2026-11-29). Here the modules are kept, and ``is_symbol_defined(name)``
+    looks ``name`` up in them, newest first (the set is only added to, never read otherwise,
+    and numba never removes a module), remembering each name found: the same answers."""
+    try:
+        from numba.core.codegen import JitEngine
+    except ImportError:  # pragma: no cover - another numba: as it is
+        return False
+    if getattr(JitEngine._load_defined_symbols, "ringqa_lean", False):
+        return True
+    if not hasattr(JitEngine, "is_symbol_defined"):
+        return False  # pragma: no cover - another numba: as it is
+
+    def _load_defined_symbols(self, mod):
+        self.__dict__.setdefault("_ringqa_modules", []).append(_Defined(mod))
+
+    def is_symbol_defined(self, name):
+        if name in self._defined_symbols:
+            return True
+        for defined in reversed(self.__dict__.get("_ringqa_modules", ())):
+            if name in defined:
+                self._defined_symbols.add(name)
+                return True
+        return False
+
+    _load_defined_symbols.ringqa_lean = True
+    is_symbol_defined.__doc__ = JitEngine.is_symbol_defined.__doc__
+    JitEngine._load_defined_symbols = _load_defined_symbols
+    JitEngine.is_symbol_defined = is_symbol_defined
     return True
 
 
@@ -139,4 +204,51 @@ def preload_cython_blas() -> bool:
     except Exception:  # pragma: no cover - left to the usual import
         del sys.modules[CYTHON_BLAS]
         return False
+    return True
+
+
+#: numba's configuration file, read from the working folder when numba is imported
+NUMBA_CONFIG_FILE = ".numba_config.yaml"
+
+
+class _ConfigHook(importlib.abc.MetaPathFinder):
+    """Finds ``numba.core.config`` as the path finder does; while it executes, ``yaml`` is
+    missing for it (see :func:`numba_config_without_yaml`)."""
+
+    def find_spec(self, name, path, target=None):
+        if name != "numba.core.config":
+            return None
+        spec = importlib.machinery.PathFinder.find_spec(name, path)
+        if spec is None or spec.loader is None or not hasattr(spec.loader, "exec_module"):
+            return spec  # pragma: no cover - another layout: as it is
+        real = spec.loader.exec_module
+
+        def exec_module(module):
+            blocked = "yaml" not in sys.modules and not os.path.isfile(NUMBA_CONFIG_FILE)
+            if blocked:
+                sys.modules["yaml"] = None  # "import yaml" raises ImportError: numba goes on
+            try:
+                real(module)
+            finally:
+                if blocked and sys.modules.get("yaml", 0) is None:
+                    del sys.modules["yaml"]
+
+        spec.loader.exec_module = exec_module
+        return spec
+
+
+def numba_config_without_yaml() -> bool:
+    """Import numba without importing a YAML parser for a configuration file that is not there.
+
+    ``numba.core.config`` imports ``yaml`` (PyYAML) when numba is imported, only to read
+    :data:`NUMBA_CONFIG_FILE` from the working folder where there is one: 0.015-0.02 s of CPU
+    of every command's start-up before it forks (docs/speed.md, 2026-11-29). Installed by the
+    ``ringqa`` script before numba is imported; where the file exists, or PyYAML is imported
+    already, numba is imported as usual, and ``yaml`` is importable as usual afterwards (only
+    numba's configuration module saw it missing). ``RINGQA_LEAN_NUMBA=0`` leaves numba as it is.
+    Returns whether the hook is in place."""
+    if os.environ.get(ENV, "1") == "0" or "numba.core.config" in sys.modules:
+        return False
+    if not any(isinstance(f, _ConfigHook) for f in sys.meta_path):
+        sys.meta_path.insert(0, _ConfigHook())
     return True

@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ringqa.outdir import atomic_write_text
+from ringqa.outdir import atomic_write_bytes
 from ringqa.pipeline.numbers import (
     DIST_MM,
     DOSE_GY,
@@ -35,7 +35,7 @@ from ringqa.pipeline.numbers import (
 from ringqa.report.figures import FLAG_NAMES, reference_name
 from ringqa.report.pdf import LONG_NAMES, dose_table
 
-__all__ = ["PATH_STYLES", "html_text", "view_figure", "write_html"]
+__all__ = ["PATH_STYLES", "html_parts", "html_text", "plotly_js", "view_figure", "write_html"]
 
 #: dwell path -> (legend name, colour, marker size) in the 3D view
 PATH_STYLES = {
@@ -219,21 +219,44 @@ def prepare_html() -> None:
     plotly.io.to_html(tiny, full_html=False, include_plotlyjs=False, validate=False)
 
 
-def html_text(res) -> str:
-    """The whole page (one string, plotly's JavaScript inlined)."""
+#: plotly's own configuration line, which it writes before its inlined script
+#: (``plotly.io.to_html(..., include_plotlyjs=True)``): MathJax is not fetched
+PLOTLY_CONFIG = "<script>window.PlotlyConfig = {MathJaxConfig: 'local'};</script>"
+
+
+def plotly_js() -> bytes:
+    """plotly.js, minified, as the installed plotly ships it (the file
+    :func:`plotly.offline.get_plotlyjs` reads, as bytes: no 4.6 MB decode and encode)."""
+    import pkgutil
+
+    data = pkgutil.get_data("plotly", "package_data/plotly.min.js")
+    if data is None:  # pragma: no cover - a plotly laid out otherwise
+        from plotly.offline import get_plotlyjs
+
+        data = get_plotlyjs().encode("utf-8")
+    return data
+
+
+def html_parts(res) -> tuple[str, str]:
+    """The page (:func:`html_text`) before and after plotly.js, which goes between them in a
+    ``<script>`` element of the page's head, after :data:`PLOTLY_CONFIG` (as
+    ``plotly.io.to_html`` with ``include_plotlyjs=True`` writes both, once for the page)."""
     import plotly.io
 
-    view = plotly.io.to_html(view_figure(res), full_html=False, include_plotlyjs=True,
+    view = plotly.io.to_html(view_figure(res), full_html=False, include_plotlyjs=False,
                              validate=False, config={"displaylogo": False})  # fmt: skip
     header, rows = dose_table(res)
     prov = res.provenance
     inputs = "".join(
         f"<li>{escape(name)} (SHA-256 {digest})</li>" for name, digest in prov.inputs.items()
     )
-    return f"""<!DOCTYPE html>
+    before = f"""<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8">
 <title>ringqa commissioning: {escape(res.applicator)}</title>
-<style>{CSS}</style></head>
+<style>{CSS}</style>
+{PLOTLY_CONFIG}
+<script>"""
+    after = f"""</script></head>
 <body>
 <h1>Commissioning: {escape(res.applicator)}</h1>
 <p class="small">{escape(prov.software)}, {escape(prov.created_utc)} UTC; input
@@ -254,6 +277,13 @@ supplied / registered, % (as report.pdf).</p>
 {_table(header, rows)}
 </body></html>
 """
+    return before, after
+
+
+def html_text(res) -> str:
+    """The whole page (one string, plotly's JavaScript inlined in its head)."""
+    before, after = html_parts(res)
+    return before + plotly_js().decode("utf-8") + after
 
 
 def write_html(res, path) -> Path:
@@ -269,5 +299,8 @@ def write_html(res, path) -> Path:
     pathlib.Path
     """
     path = Path(path)
-    atomic_write_text(path, html_text(res))
+    before, after = html_parts(res)
+    # plotly.js (4.6 MB) goes in as the bytes it was read as: one copy of the page in all
+    # (building it as text, then encoding it, made five; docs/speed.md, 2026-11-29)
+    atomic_write_bytes(path, b"".join((before.encode("utf-8"), plotly_js(), after.encode("utf-8"))))
     return path

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import functools
 import importlib.util
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from xml.sax.saxutils import escape
@@ -28,7 +29,7 @@ from reportlab.lib.enums import TA_LEFT
 from reportlab.lib.pagesizes import A4
 from reportlab.lib.styles import ParagraphStyle
 from reportlab.lib.units import mm
-from reportlab.pdfbase import pdfmetrics
+from reportlab.pdfbase import pdfdoc, pdfmetrics
 from reportlab.pdfbase.ttfonts import TTFont
 from reportlab.pdfgen import canvas as rl_canvas
 from reportlab.platypus import (
@@ -199,11 +200,188 @@ def grid_table(
 def figure_image(fig, width: float = FRAME_WIDTH, dpi: int = FIGURE_DPI) -> Flowable:
     """A matplotlib Figure as an embedded image ``width`` points wide (its aspect kept).
 
-    The figure is drawn by the Agg canvas at ``dpi`` (no pyplot, no backend switch) and handed
-    to reportlab as pixels (no PNG encoding and decoding on the way; the PDF stores them
-    Flate-compressed, lossless).
+    The figure is drawn by the Agg canvas at ``dpi`` (no pyplot, no backend switch) and its
+    pixels compressed as the PDF stores them (:func:`figure_flate`: no PNG encoding and
+    decoding on the way; Flate, lossless).
     """
-    return pixel_image(*figure_pixels(fig, dpi), width)
+    return FlateFigure(figure_flate(fig, dpi), width)
+
+
+@dataclass(frozen=True)
+class FlateImage:
+    """A figure's pixels as the PDF stores them: what reportlab makes of an RGB image
+    (``canvas.drawImage`` of an ``ImageReader``), made ahead, e.g. in the process that drew
+    the figure (:func:`figure_flate`), so that only the compressed bytes travel and the
+    report's process does not copy, hash and compress megabytes of pixels again.
+
+    Attributes
+    ----------
+    width_px, height_px : int
+        Pixels across and down.
+    size_in : tuple of float
+        The figure's size (width, height), inches.
+    name : str
+        The image's name in the PDF: reportlab's for these pixels (the MD5 hex digest of the
+        RGB bytes and ``b"None"``, the mask: ``reportlab.lib.utils._digester``), so the file is
+        the one ``drawImage`` writes.
+    data : bytes
+        The RGB bytes (rows top to bottom, 3 bytes a pixel), zlib-compressed at zlib's default
+        level (as reportlab compresses them: the PDF's FlateDecode stream).
+    """
+
+    width_px: int
+    height_px: int
+    size_in: tuple[float, float]
+    name: str
+    data: bytes
+
+    def reader(self):
+        """The pixels as a reportlab ``ImageReader`` (a canvas without :func:`draw_flate`)."""
+        import zlib
+
+        from PIL import Image as PILImage
+        from reportlab.lib.utils import ImageReader
+
+        raw = zlib.decompress(self.data)
+        return ImageReader(PILImage.frombytes("RGB", (self.width_px, self.height_px), raw))
+
+
+def figure_flate(fig, dpi: int = FIGURE_DPI) -> FlateImage:
+    """A matplotlib Figure drawn by the Agg canvas at ``dpi``, as the PDF stores it
+    (:class:`FlateImage`: picklable and small, a figure may be drawn in another process)."""
+    import hashlib
+    import zlib
+
+    import numpy as np
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    if not isinstance(fig.canvas, FigureCanvasAgg):
+        FigureCanvasAgg(fig)
+    fig.set_dpi(dpi)
+    fig.canvas.draw()
+    rgba = np.asarray(fig.canvas.buffer_rgba())
+    raw = rgba[..., :3].tobytes()  # C order: what PIL's tobytes gives reportlab for RGB
+    digest = hashlib.md5(raw, usedforsecurity=False)
+    digest.update(b"None")  # reportlab names an ImageReader's pixels with its mask (None)
+    w_in, h_in = fig.get_size_inches()
+    return FlateImage(int(rgba.shape[1]), int(rgba.shape[0]), (float(w_in), float(h_in)),
+                      digest.hexdigest(), zlib.compress(raw))  # fmt: skip
+
+
+def _takes_images(canv) -> bool:
+    """The canvas has the parts :func:`_place_image` uses (reportlab's ``Canvas``, as
+    ``drawImage`` uses them) and writes binary streams (:func:`build_pdf`)."""
+    parts = ("_doc", "_setXObjects", "_code", "_formsinuse", "saveState", "translate", "scale")
+    return not rl_config.useA85 and all(hasattr(canv, a) for a in parts)
+
+
+def _place_image(canv, name: str, make: Callable[[], pdfdoc.PDFImageXObject], x: float,
+                 y: float, width: float, height: float) -> None:  # fmt: skip
+    """What ``canv.drawImage`` does with an image named ``name``: the image object registered
+    once per name (``make()`` makes it), then drawn at ``x, y`` (points), ``width`` x
+    ``height``, and listed as used on the page."""
+    doc = canv._doc
+    canv._currentPageHasImages = 1
+    reg = doc.getXObjectName(name)
+    if not doc.idToObject.get(reg, None):
+        obj = make()
+        canv._setXObjects(obj)
+        doc.Reference(obj, reg)
+        doc.addForm(name, obj)
+    canv.saveState()
+    canv.translate(x, y)
+    canv.scale(width, height)
+    canv._code.append(f"/{reg} Do")
+    canv.restoreState()
+    canv._formsinuse.append(name)
+
+
+class _LaterImage(pdfdoc.PDFImageXObject):
+    """An RGB image XObject whose compressed pixels (a :class:`FlateImage`, from ``fetch()``)
+    are fetched when the PDF is written (``format`` is called once, by the canvas's
+    ``save``), not when its page is laid out."""
+
+    def __init__(self, name: str, fetch: Callable[[], FlateImage]) -> None:
+        super().__init__(name)  # no source: every field is set here or in format
+        self._fetch = fetch
+        self.bitsPerComponent = 8
+        self.colorSpace = "DeviceRGB"
+        self._filters = ("FlateDecode",)
+        self.mask = None
+
+    def format(self, document):
+        if self._fetch is not None:
+            image, self._fetch = self._fetch(), None
+            self.width, self.height = image.width_px, image.height_px
+            self.streamContent = image.data
+        return super().format(document)
+
+
+def draw_flate(canv, image: FlateImage, x: float, y: float, width: float, height: float) -> bool:
+    """Draw ``image`` on reportlab canvas ``canv`` at ``x, y`` (points), ``width`` x ``height``,
+    as ``canv.drawImage`` draws an RGB ``ImageReader`` with the same pixels (the same image
+    object, name, stream and drawing operators), from its compressed bytes. Returns False,
+    drawing nothing, where the canvas lacks the parts this uses (another reportlab) or streams
+    are ASCII85-encoded (:func:`build_pdf` switches that off): the caller then draws
+    ``image.reader()`` with ``drawImage``."""
+    if not _takes_images(canv):
+        return False  # pragma: no cover - another reportlab, or ASCII85 streams
+    _place_image(canv, image.name, lambda: _LaterImage(image.name, lambda: image), x, y, width,
+                 height)  # fmt: skip
+    return True
+
+
+def draw_flate_later(canv, key: str, fetch: Callable[[], FlateImage], x: float, y: float,
+                     width: float, height: float) -> bool:  # fmt: skip
+    """As :func:`draw_flate`, the image fetched (``fetch()``, e.g. waiting for the process
+    drawing it) only when the canvas writes the PDF: its page, and the pages after it, are laid
+    out meanwhile. Its name in the PDF is ``key`` with the number of such images before it in
+    the document (``positions-1``: no pixels to name it by yet; unique in a document that holds
+    several results' figures). Returns False, drawing nothing, where :func:`draw_flate` would."""
+    if not _takes_images(canv):
+        return False  # pragma: no cover - another reportlab, or ASCII85 streams
+    count = canv._doc.__dict__.get("_ringqa_later", 0) + 1
+    canv._doc._ringqa_later = count
+    name = f"{key}-{count}"
+    _place_image(canv, name, lambda: _LaterImage(name, fetch), x, y, width, height)
+    return True
+
+
+class LaterFigure(Flowable):
+    """A figure whose pixels come later (``fetch()`` returns its :class:`FlateImage`), drawn
+    ``width`` x ``height`` points, centred in the frame: laid out at once, its pixels written
+    when the PDF is (:func:`draw_flate_later`; where that cannot be, fetched at its page)."""
+
+    def __init__(self, key: str, fetch: Callable[[], FlateImage], width: float, height: float):
+        super().__init__()
+        self.key, self.fetch, self.width, self.height = key, fetch, width, height
+        self.hAlign = "CENTER"
+
+    def wrap(self, avail_width, avail_height):
+        return self.width, self.height
+
+    def draw(self):
+        if not draw_flate_later(self.canv, self.key, self.fetch, 0, 0, self.width, self.height):
+            self.canv.drawImage(self.fetch().reader(), 0, 0, self.width, self.height)
+
+
+class FlateFigure(Flowable):
+    """A :class:`FlateImage` drawn ``width`` points wide (its aspect kept), centred in the
+    frame (:func:`draw_flate`)."""
+
+    def __init__(self, image: FlateImage | None, width: float, height: float | None = None):
+        super().__init__()
+        self.image, self.width = image, width
+        w_in, h_in = (1.0, 1.0) if image is None else image.size_in
+        self.height = width * h_in / w_in if height is None else height
+        self.hAlign = "CENTER"
+
+    def wrap(self, avail_width, avail_height):
+        return self.width, self.height
+
+    def draw(self):
+        if not draw_flate(self.canv, self.image, 0, 0, self.width, self.height):
+            self.canv.drawImage(self.image.reader(), 0, 0, self.width, self.height)
 
 
 def figure_pixels(fig, dpi: int = FIGURE_DPI):

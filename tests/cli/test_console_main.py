@@ -83,3 +83,23 @@ def test_collector_threshold_while_the_script_runs():
     assert proc.returncode == 0, proc.stderr
     line = [x for x in proc.stdout.splitlines() if x.startswith("GC ")]
     assert line == [f"GC {GC_THRESHOLD_0} True True"]
+
+
+@pytest.mark.parametrize(("given", "seen"), [(None, "1"), ("3", "3")])
+def test_openblas_one_thread_unless_the_user_says(monkeypatch, given, seen):
+    """The script runs OpenBLAS with one thread (``SCRIPT_ENVIRONMENT``: its extra threads only
+    spin, 0.13-0.17 s of CPU in the warm example's start-up), set before numpy is imported;
+    a value the user has set is kept."""
+    code = (
+        "import atexit, os, sys; import ringqa.cli as c\n"
+        "atexit.register(lambda: print('BLAS', os.environ.get('OPENBLAS_NUM_THREADS'), "
+        "'numpy' in sys.modules))\n"
+        "print('BEFORE', 'numpy' in sys.modules)\n"
+        "sys.argv = ['ringqa', 'config', 'show']; c.console_main()"
+    )
+    monkeypatch.delenv("OPENBLAS_NUM_THREADS", raising=False)
+    proc = _run("-c", code, **({} if given is None else {"OPENBLAS_NUM_THREADS": given}))
+    assert proc.returncode == 0, proc.stderr
+    lines = [x for x in proc.stdout.splitlines() if x.startswith(("BEFORE", "BLAS"))]
+    assert lines[0] == "BEFORE False"  # numpy not imported before the script sets it
+    assert lines[-1].split()[:2] == ["BLAS", seen]

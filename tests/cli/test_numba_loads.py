@@ -120,3 +120,87 @@ def test_only_the_checked_numba_releases():
     assert numba_checked("0.68.1") and numba_checked("0.68.0")
     assert not any(numba_checked(v) for v in ("0.69.0", "0.59.1", "1.0.0", "dev"))
     assert numba_checked()
+
+
+@pytest.mark.parametrize("config_file", [False, True])
+def test_numba_imported_without_yaml_unless_its_config_file_is_there(tmp_path, config_file):
+    """With the hook (the ``ringqa`` script's), numba is imported without PyYAML when the
+    working folder has no ``.numba_config.yaml`` (numba reads only that file with it), and
+    PyYAML is importable afterwards as usual; with the file there numba reads it as before
+    (``.numba_config.yaml`` setting ``developer_mode: 1`` shows as
+    ``numba.config.DEVELOPER_MODE == 1``)."""
+    if config_file:
+        (tmp_path / ".numba_config.yaml").write_text("developer_mode: 1\n", encoding="utf-8")
+    code = textwrap.dedent(
+        """
+        import sys
+        from ringqa.cli._numba_loads import numba_config_without_yaml
+        assert numba_config_without_yaml()
+        import numba
+        print("YAML", "yaml" in sys.modules, numba.core.config._HAVE_YAML,
+              int(numba.config.DEVELOPER_MODE))
+        import yaml
+        print("LATER", yaml.safe_load("a: 1") == {"a": 1})
+        """
+    )
+    env = {k: v for k, v in os.environ.items() if k != "NUMBA_DEVELOPER_MODE"}
+    env["PYTHONPATH"] = os.pathsep.join([str(ROOT), env.get("PYTHONPATH", "")])
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          cwd=tmp_path, env=env, timeout=120)  # fmt: skip
+    assert proc.returncode == 0, proc.stderr
+    lines = [x.split() for x in proc.stdout.splitlines()]
+    if config_file:
+        assert lines[0] == ["YAML", "True", "True", "1"]
+    else:
+        assert lines[0][:3] == ["YAML", "False", "False"]
+    assert lines[1] == ["LATER", "True"]
+
+
+#: a process that loads KERNELS' plain loop from the cache with the lean loads and compares the
+#: JIT engine's lazy answers with numba's own walk of every module added
+SYMBOLS_PROBE = textwrap.dedent(
+    """
+    import json, sys
+    import numpy as np
+    from ringqa.cli._numba_loads import lean_cache_loads
+    assert lean_cache_loads()
+    import kernels_for_test as k
+    k.loop(np.ones(4))
+    from numba.core import codegen
+    engine = k.loop.targetctx.codegen()._engine
+    modules = [d.module for d in engine.__dict__["_ringqa_modules"]]
+    eager, names = set(), set()
+    for mod in modules:  # numba's own JitEngine._load_defined_symbols
+        for gsets in (mod.functions, mod.global_variables):
+            for gv in gsets:
+                names.add(gv.name)
+                if not gv.is_declaration:
+                    eager.add(gv.name)
+    fresh = codegen.JitEngine.__new__(codegen.JitEngine)
+    fresh._defined_symbols = set()
+    fresh.__dict__["_ringqa_modules"] = list(engine.__dict__["_ringqa_modules"])
+    lazy = {n for n in names if fresh.is_symbol_defined(n)}
+    print(json.dumps({"modules": len(modules), "names": len(names), "eager": len(eager),
+                      "same": lazy == eager, "unknown": fresh.is_symbol_defined("no_such_fn"),
+                      "hits": sum(k.loop.stats.cache_hits.values())}))
+    """
+)
+
+
+def test_lazy_defined_symbols_answer_as_numbas_walk(tmp_path):
+    """After a kernel is loaded from the cache with the lean loads, the JIT engine's lazy
+    ``is_symbol_defined`` says yes for exactly the names numba's own walk of the modules
+    collects (every function and global not only declared), no for a name none defines."""
+    (tmp_path / "kernels_for_test.py").write_text(KERNELS)
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "cache")}
+    env["PYTHONPATH"] = os.pathsep.join([str(tmp_path), str(ROOT), env.get("PYTHONPATH", "")])
+    env.pop("RINGQA_LEAN_NUMBA", None)
+    warm = "import numpy as np, kernels_for_test as k; k.loop(np.ones(4))"
+    for code in (warm, SYMBOLS_PROBE):  # compile into the cache, then load from it
+        proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                              env=env, cwd=tmp_path, timeout=300)  # fmt: skip
+        assert proc.returncode == 0, proc.stderr
+    out = json.loads(proc.stdout.strip().splitlines()[-1])
+    assert out["hits"] == 1 and out["modules"] >= 1
+    assert out["eager"] > 0 and out["names"] > out["eager"]  # declarations are left out
+    assert out["same"] and out["unknown"] is False

@@ -201,3 +201,60 @@ def test_figures_drawn_ahead_give_the_same_pdf(fake_result, tmp_path, monkeypatc
     write_pdf(fake_result, tmp_path / "ahead.pdf", drawn=drawn)
     assert (tmp_path / "ahead.pdf").read_bytes() == (tmp_path / "plain.pdf").read_bytes()
     assert len(made) == (0 if forked else 3)  # in the children when forked
+
+
+def test_flate_figure_is_what_draw_image_writes(tmp_path, monkeypatch):
+    """A figure handed over compressed (``layout.figure_image``: ``figure_flate`` +
+    ``draw_flate``, as the children drawing ahead hand figures over) gives the PDF byte for
+    byte that reportlab's ``drawImage`` of the same pixels as an ``ImageReader`` gives (the
+    same image object, name, Flate stream and operators; reportlab's invariant mode), and so
+    does the fallback for a canvas without the parts ``draw_flate`` uses (``image.reader()``
+    through ``drawImage``)."""
+    from reportlab import rl_config
+
+    from ringqa.report import layout
+    from ringqa.report.figures import new_figure
+
+    monkeypatch.setattr(rl_config, "invariant", 1)
+    fig = new_figure((3.0, 2.0))
+    ax = fig.add_subplot()
+    ax.plot([0, 1, 2], [0, 1, 4], marker="o", label="a line")
+    ax.legend()
+    stamp = layout.PageStamp(title="t", software="ringqa test", date="2026-11-29", inputs="-")
+
+    def build(name, flowable):
+        return layout.build_pdf(tmp_path / name, [flowable], stamp, title="t").read_bytes()
+
+    image = layout.figure_flate(fig)
+    reader = layout.pixel_image(*layout.figure_pixels(fig))  # reportlab's own path
+    assert (image.width_px, image.height_px) == reader.reader.getSize()
+    plain = build("plain.pdf", reader)
+    assert build("flate.pdf", layout.FlateFigure(image, layout.FRAME_WIDTH)) == plain
+    monkeypatch.setattr(layout, "draw_flate", lambda *a: False)  # e.g. another reportlab
+    assert build("fallback.pdf", layout.FlateFigure(image, layout.FRAME_WIDTH)) == plain
+
+
+def test_several_results_figures_each_their_own_image(fake_result, tmp_path):
+    """One PDF with two results' figures (``write_channels_pdf``: a section per channel) holds
+    six image objects under six names (each figure is named when laid out, its pixels written
+    with the file: ``positions-1``, ``deviations-2``, ... in the order laid out), and the two
+    results' positions figures differ where their simulated paths differ (0.2 vs 0.5 mm)."""
+    import zlib
+
+    from ringqa.pipeline import CommissionSettings, commission
+    from ringqa.report.pdf import write_channels_pdf
+    from tests.pipeline.fakes import fake_engine, fake_simulator, make_applicator
+
+    engine = fake_engine(fake_simulator(z_m=5e-4, coarse_z_m=3e-5))
+    other = commission(make_applicator(tandem=True), CommissionSettings(), engine=engine)
+    path = write_channels_pdf([fake_result, other], tmp_path / "two.pdf", conclusion="both")
+    data = path.read_bytes()
+    streams = [zlib.decompress(m) for m in re.findall(rb"stream\r?\n(.*?)endstream", data, re.S)
+               if m[:1] == b"x"]  # the zlib streams: pages and images  # fmt: skip
+    names = re.findall(rb"/FormXob\.((?:positions|deviations|doses)-\d+) Do", b"".join(streams))
+    assert sorted(set(names)) == sorted(
+        f"{k}-{n}".encode() for n, k in enumerate(["positions", "deviations", "doses"] * 2, 1)
+    )
+    assert data.count(b"/Subtype /Image") == 6
+    images = [x for x in streams if len(x) > 1_000_000]  # RGB pixels, 1 MB and more each
+    assert len(images) == 6 and len(set(images)) >= 4
