@@ -38,6 +38,7 @@ import contextlib
 import contextvars
 import datetime as _dt
 import errno
+import hashlib
 import json
 import os
 import re
@@ -53,7 +54,6 @@ from pathlib import Path
 from typing import Literal
 
 from ringqa.errors import RingQAError
-from ringqa.provenance import sha256_of
 
 #: the file that marks a folder as written by ringqa (and lists the files it wrote)
 MARKER_NAME = ".ringqa-output.json"
@@ -178,6 +178,15 @@ def current_umask() -> int:
     return mask
 
 
+def sha256_file(path: Path) -> str:
+    """The SHA-256 of a file's bytes (hex)."""
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
 def _walk(folder: Path) -> tuple[list[str], list[str]]:
     """Files (and links, and anything not a folder) and folders under ``folder``, as relative
     POSIX paths; symbolic links are not followed."""
@@ -221,7 +230,7 @@ def list_files(folder: Path, unhashed: Iterable[str] = ()) -> dict:
             {
                 "path": rel,
                 "size": st.st_size,
-                "sha256": None if rel in skip else sha256_of(p),
+                "sha256": None if rel in skip else sha256_file(p),
                 "mtime_ns": st.st_mtime_ns,
             }
         )
@@ -274,7 +283,7 @@ def _unchanged(path: Path, entry: dict) -> bool:
     if digest is None or entry.get("mtime_ns") == st.st_mtime_ns:
         return True  # a cache, or not touched since (a rename keeps the time): no hashing
     try:
-        return sha256_of(path) == digest
+        return sha256_file(path) == digest
     except OSError:
         return False
 

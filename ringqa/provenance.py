@@ -11,13 +11,13 @@ from __future__ import annotations
 
 import datetime as _dt
 import functools
-import hashlib
 import platform
 from dataclasses import dataclass, field
 from importlib import metadata
 from pathlib import Path
 
 from ringqa import __version__
+from ringqa.outdir import sha256_file
 
 #: the distributions whose versions are recorded (those the results depend on)
 DEPENDENCIES = (
@@ -137,13 +137,10 @@ def input_folder(path: str | Path) -> Path:
     return p if p.is_dir() else p.parent
 
 
-def sha256_of(path: str | Path) -> str:
-    """SHA-256 hex digest of a file's bytes."""
-    h = hashlib.sha256()
-    with open(path, "rb") as fh:
-        for chunk in iter(lambda: fh.read(1 << 20), b""):
-            h.update(chunk)
-    return h.hexdigest()
+#: SHA-256 hex digest of a file's bytes: the one helper, :func:`ringqa.outdir.sha256_file` (the
+#: output folder's marker uses it; defined there so that ``import ringqa.outdir`` stays free of
+#: ``importlib.metadata``, tests/cli/test_lazy_imports.py)
+sha256_of = sha256_file
 
 
 @dataclass(frozen=True)
