@@ -68,6 +68,10 @@ NAMED_FILES = 5
 #: its output in place meanwhile
 COMMIT_ATTEMPTS = 8
 
+#: how often a folder is read again when it was replaced while it was read (a reading is a
+#: directory walk and a marker: cheap; six runs committing at once replace it many times)
+READ_ATTEMPTS = 32
+
 _COMMAND: contextvars.ContextVar[str] = contextvars.ContextVar("ringqa_command", default="")
 _UMASK_LOCK = threading.Lock()
 
@@ -306,12 +310,23 @@ def folder_state(out: Path, ours: Iterable[str] = ()) -> FolderState:
     out = Path(out)
     ours = tuple(ours)
     state = FolderState("missing")
-    for _ in range(COMMIT_ATTEMPTS):
+    for _ in range(READ_ATTEMPTS):
         before = _identity(out)
         state = _classify(out, ours)
-        if _identity(out) == before:
+        if _settled(before, _identity(out), state):
             break
     return state
+
+
+def _settled(before, after, state: FolderState) -> bool:
+    """A reading of a folder stands: the same folder was there before and after it. A missing
+    folder before and after stands only for "missing": while other runs commit into the same
+    ``out`` it is missing between each one's set-aside and its rename, and a reading that began
+    in such a gap and ended in the next may have seen parts of a folder that came and went
+    (a marker and files of two runs: a false "changed since ringqa wrote it")."""
+    if before != after:
+        return False
+    return before is not None or state.kind == "missing"
 
 
 def _identity(path: Path) -> tuple[int, int] | None:
