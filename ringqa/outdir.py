@@ -273,6 +273,28 @@ def _listed(data: dict) -> tuple[dict[str, dict], set[str]] | None:
     return out, {f for f in folders if isinstance(f, str)}
 
 
+def recorded_digests(folder: Path) -> dict[str, str]:
+    """The SHA-256 that the marker of ``folder`` records for each file still as it was written
+    (a plain file of the recorded size and modification time): relative POSIX path -> hex
+    digest. A file changed since, not listed, or listed without a checksum is absent (hash it
+    to know it); no marker, or one without a valid list: empty."""
+    data = read_marker(folder)
+    listed = None if data is None else _listed(data)
+    if listed is None:
+        return {}
+    out: dict[str, str] = {}
+    for rel, entry in listed[0].items():
+        digest = entry.get("sha256")
+        try:
+            st = (folder / rel).lstat()
+        except OSError:
+            continue
+        same = st.st_size == entry.get("size") and st.st_mtime_ns == entry.get("mtime_ns")
+        if isinstance(digest, str) and stat.S_ISREG(st.st_mode) and same:
+            out[rel] = digest
+    return out
+
+
 def _unchanged(path: Path, entry: dict) -> bool:
     """True if ``path`` is a plain file with the recorded size and checksum."""
     try:

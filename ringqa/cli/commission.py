@@ -411,22 +411,17 @@ def audit_files(out: Path) -> None:
     hashed when no handler takes the log's INFO lines: neither ``-v`` nor ``--log-file``)."""
     if not log.isEnabledFor(logging.INFO):
         return
-    from ringqa.outdir import read_marker
+    from ringqa.outdir import recorded_digests
     from ringqa.provenance import sha256_of
 
     # the folder's marker (ringqa.outdir) already lists every file it finished with its size,
     # modification time and SHA-256: a file it lists unchanged is not read and hashed again
-    marker = read_marker(Path(out)) or {}
-    entries = marker.get("files") if isinstance(marker.get("files"), list) else []
-    listed = {e.get("path"): e for e in entries if isinstance(e, dict)}
+    digests = recorded_digests(Path(out))
     files = sorted(p for p in Path(out).rglob("*") if p.is_file())
     for p in files:
-        rel, st = p.relative_to(out).as_posix(), p.stat()
-        entry = listed.get(rel, {})
-        same = entry.get("size") == st.st_size and entry.get("mtime_ns") == st.st_mtime_ns
-        digest = entry.get("sha256") if same else None
-        log.info("file written: %s (%d bytes, SHA-256 %s)", rel, st.st_size,
-                 digest or sha256_of(p))  # fmt: skip
+        rel, size = p.relative_to(out).as_posix(), p.stat().st_size
+        log.info("file written: %s (%d bytes, SHA-256 %s)", rel, size,
+                 digests.get(rel) or sha256_of(p))  # fmt: skip
     log.info("%d file(s) written in %s", len(files), out)
 
 

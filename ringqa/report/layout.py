@@ -252,20 +252,11 @@ def figure_flate(fig, dpi: int = FIGURE_DPI) -> FlateImage:
     import hashlib
     import zlib
 
-    import numpy as np
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-
-    if not isinstance(fig.canvas, FigureCanvasAgg):
-        FigureCanvasAgg(fig)
-    fig.set_dpi(dpi)
-    fig.canvas.draw()
-    rgba = np.asarray(fig.canvas.buffer_rgba())
-    raw = rgba[..., :3].tobytes()  # C order: what PIL's tobytes gives reportlab for RGB
-    digest = hashlib.md5(raw, usedforsecurity=False)
+    rgb, (w_in, h_in) = figure_pixels(fig, dpi)  # C order: the bytes PIL gives reportlab
+    digest = hashlib.md5(rgb, usedforsecurity=False)
     digest.update(b"None")  # reportlab names an ImageReader's pixels with its mask (None)
-    w_in, h_in = fig.get_size_inches()
-    return FlateImage(int(rgba.shape[1]), int(rgba.shape[0]), (float(w_in), float(h_in)),
-                      digest.hexdigest(), zlib.compress(raw))  # fmt: skip
+    return FlateImage(int(rgb.shape[1]), int(rgb.shape[0]), (w_in, h_in), digest.hexdigest(),
+                      zlib.compress(rgb))  # fmt: skip
 
 
 def _takes_images(canv) -> bool:
@@ -369,11 +360,10 @@ class FlateFigure(Flowable):
     """A :class:`FlateImage` drawn ``width`` points wide (its aspect kept), centred in the
     frame (:func:`draw_flate`)."""
 
-    def __init__(self, image: FlateImage | None, width: float, height: float | None = None):
+    def __init__(self, image: FlateImage, width: float):
         super().__init__()
-        self.image, self.width = image, width
-        w_in, h_in = (1.0, 1.0) if image is None else image.size_in
-        self.height = width * h_in / w_in if height is None else height
+        w_in, h_in = image.size_in
+        self.image, self.width, self.height = image, width, width * h_in / w_in
         self.hAlign = "CENTER"
 
     def wrap(self, avail_width, avail_height):
@@ -387,7 +377,8 @@ class FlateFigure(Flowable):
 def figure_pixels(fig, dpi: int = FIGURE_DPI):
     """A matplotlib Figure drawn by the Agg canvas at ``dpi``: its pixels (rows x columns x 3,
     uint8, C order) and its size (width, height in inches). Picklable: a figure may be drawn in
-    another process (:func:`pixel_image` makes the flowable)."""
+    another process (:func:`figure_flate` compresses them as the PDF stores them;
+    :func:`pixel_image` makes a flowable of them)."""
     import numpy as np
     from matplotlib.backends.backend_agg import FigureCanvasAgg
 
