@@ -26,7 +26,7 @@ from ringqa.simulation.solvers.newton import (
     newton,
     newton_uncached,
 )
-from ringqa.simulation.solvers.predictor import predict
+from ringqa.simulation.solvers.predictor import continuation_scale, predict
 
 #: Load-step predictor: the fraction of the previous step's Newton correction added to the slide
 #: (:meth:`Model.predict`). Measured on ring26-flexitron (Newton iterations, line-search halvings):
@@ -39,6 +39,21 @@ EXTRAPOLATE_FRACTION = 0.5
 #: 0.5, ring26-flexitron 602 -> 573 iterations and the Oncentra example's ring 960 iterations and
 #: 6 stabilised steps -> 762 and 2 (plain slide: 815 and 2); 5: 641 and 789, 2; 10: 578 and 772, 1
 EXTRAPOLATE_MAX_ITERS = 8
+#: ... and only when the step continues the previous one: it starts where that one ended and is
+#: as long, to this relative tolerance (:func:`~.solvers.predictor.continuation_scale`). 0 is
+#: the exact equality used before 2026-11-29, under which a step ``target - u`` that fell
+#: round-off short of the increment (~1e-17 m) lost the extrapolation: 6 to 31 steps a run in
+#: 13 of the 17 quasi-static compare_dwells scenes, 4 and 6 in two of the README job's runs
+#: (ring13-push100 318 -> 307
+#: iterations, all 17 quasi-static scenes and the README job's runs 19033 -> 18922; dwells
+#: moved <= 1.6e-9 m; docs/engine.md "The load-step predictor and round-off")
+EXTRAPOLATE_RTOL = 1e-9
+#: ... and a step of another length (the last, shorter step into a waypoint) extrapolates
+#: ``du / pred_du`` of the correction where that is at most this (0: never). Measured with 1
+#: (the shorter steps scaled): 18922 -> 19298 iterations over the same runs, the README job's
+#: whole channel at commissioning settings 1713 -> 2033, the Oncentra example's ring +1
+#: stabilised step: not used
+EXTRAPOLATE_SCALE_MAX = 0.0
 #: the plain-slide retry after an extrapolated start that stalled (:meth:`Model.solve`) gets at
 #: most this many Newton iterations (never more than ``solver.max_iter``). Measured (2026-11-29,
 #: docs/engine.md "Failed steps reach the fallback sooner"; 64 runs traced: the 21 compare_dwells
@@ -420,19 +435,22 @@ class Model:
 
         Quasi-static forward load steps without an always-on tether also extrapolate (retraction
         reverses the friction and stays with the plain slide): when this step
-        continues the previous one (same ``du``, it starts where that one ended)
+        continues the previous one (the same ``du`` to :data:`EXTRAPOLATE_RTOL`, so that a step
+        round-off short of the increment still continues it; it starts where that one ended:
+        :func:`~.solvers.predictor.continuation_scale`, the compiled loop's rule too)
         :data:`EXTRAPOLATE_FRACTION` of the previous step's Newton correction (its solution minus
         its plain slide prediction) is added and the link lengths restored. A retried or cut step
         does not continue the previous one: it starts from the plain slide; so does a solve from an
         extrapolated start that fails (:meth:`solve` tries the plain slide before it returns).
         """
-        ext = (
-            slide
-            and du > 0.0
-            and self.extrapolate
-            and self._pred_du == du
-            and abs(self._pred_u + du - u_new) <= 1e-9 * abs(du)
+        scale = (
+            continuation_scale.py_func(
+                du, u_new, self._pred_du, self._pred_u, EXTRAPOLATE_RTOL, EXTRAPOLATE_SCALE_MAX
+            )
+            if slide and du > 0.0 and self.extrapolate
+            else 0.0
         )
+        ext = scale > 0.0
         if ext:
             corr = q - self._pred_plain
         self._predict_call(
@@ -446,7 +464,7 @@ class Model:
             self._extrapolated = ext
             if ext:
                 self._pred_hints[:] = self.samples.s
-                q += EXTRAPOLATE_FRACTION * corr
+                q += (EXTRAPOLATE_FRACTION * scale) * corr
                 K.restore_lengths(q, self.nd, self.n_nodes, self.chain.link_len)
 
     def nodes(self, q: np.ndarray) -> np.ndarray:

@@ -351,6 +351,7 @@ def _march_args(model: Model, schedule: Schedule, monitor: Monitor, q, v, target
         model.max_iter, model.max_step, model.chain.link_len, model._chan, model._cum, model.cft,
         model._node_sample, np.ascontiguousarray(model.table.tan[0]), bool(model.extrapolate),
         float(model_mod.EXTRAPOLATE_FRACTION), int(model_mod.EXTRAPOLATE_MAX_ITERS),
+        float(model_mod.EXTRAPOLATE_RTOL), float(model_mod.EXTRAPOLATE_SCALE_MAX),
         model_mod.plain_retry_iters(STALLED, int(model.max_iter)),
         model_mod.plain_retry_iters(ITERATION_LIMIT, int(model.max_iter)), model._pred_plain,
         model._pred_hints, targets, bool(schedule.history_free), bool(schedule.slide_grow),

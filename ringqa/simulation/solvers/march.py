@@ -37,7 +37,7 @@ from ringqa.simulation._kernels import closest_point, curve_eval, restore_length
 from ringqa.simulation.effects.base import Step
 from ringqa.simulation.solvers.monitor import max_penetration
 from ringqa.simulation.solvers.newton import ITERATION_LIMIT, NO_PROGRESS, newton
-from ringqa.simulation.solvers.predictor import predict
+from ringqa.simulation.solvers.predictor import continuation_scale, predict
 from ringqa.simulation.solvers.recorder import lump_to_nodes
 
 #: :func:`march`'s return codes
@@ -70,10 +70,10 @@ def _push_force(r, nd, n_nodes, t0):
 def march(
     effects, q, v, sw, d_prev, r, B, energies, counters, nd, n_nodes, kl, n_free, tol_abs,
     max_iter, max_step, link_len, chan, cum, cft, node_sample, t0, extrapolate, ext_fraction,
-    ext_max_iters, plain_max_iter, plain_max_iter_crawled, pred_plain, pred_hints, targets,
-    history_free, slide_grow, base_inc, jump_factor, slide_grow_max_iters, speed, i_fr, i_damp,
-    contact_on, jam_force, jam_length, hist_u, hist_s, fs, ist, max_steps, rec_q, rec_push,
-    rec_iters, rec_contact, rec_u,
+    ext_max_iters, ext_rtol, ext_scale_max, plain_max_iter, plain_max_iter_crawled, pred_plain,
+    pred_hints, targets, history_free, slide_grow, base_inc, jump_factor, slide_grow_max_iters,
+    speed, i_fr, i_damp, contact_on, jam_force, jam_length, hist_u, hist_s, fs, ist, max_steps,
+    rec_q, rec_push, rec_iters, rec_contact, rec_u,
 ):  # fmt: skip
     """March the quasi-static load steps from ``fs[F_U]`` along the waypoints ``targets`` from
     ``ist[I_LEG]`` on (module docstring); returns a code (:data:`DONE` ...).
@@ -100,8 +100,9 @@ def march(
         The channel's tangent at its entry (push force direction).
     extrapolate : bool
         The predictor extrapolates (:attr:`Model.extrapolate`).
-    ext_fraction, ext_max_iters : float, int
-        :data:`~ringqa.simulation.model.EXTRAPOLATE_FRACTION` and ``..._MAX_ITERS``.
+    ext_fraction, ext_max_iters, ext_rtol, ext_scale_max : float, int, float, float
+        :data:`~ringqa.simulation.model.EXTRAPOLATE_FRACTION`, ``..._MAX_ITERS``, ``..._RTOL``
+        and ``..._SCALE_MAX`` (:func:`~.predictor.continuation_scale`).
     plain_max_iter, plain_max_iter_crawled : int
         Iteration limits of the plain-slide retry after a failed extrapolated start, and after
         one that failed at the iteration limit or without progress
@@ -159,12 +160,10 @@ def march(
                 s_saved[i] = sw.s[i]
             u_new = u + du
             # Model.predict
-            ext = (
-                du > 0.0
-                and extrapolate
-                and pred_du == du
-                and abs(pred_u + du - u_new) <= 1e-9 * abs(du)
-            )
+            scale = 0.0
+            if du > 0.0 and extrapolate:
+                scale = continuation_scale(du, u_new, pred_du, pred_u, ext_rtol, ext_scale_max)
+            ext = scale > 0.0
             if ext:
                 for i in range(n_all):
                     corr[i] = q[i] - pred_plain[i]
@@ -179,8 +178,9 @@ def march(
                 if ext:
                     for i in range(sw.s.shape[0]):
                         pred_hints[i] = sw.s[i]
+                    f_ext = ext_fraction * scale
                     for i in range(n_all):
-                        q[i] += ext_fraction * corr[i]
+                        q[i] += f_ext * corr[i]
                     restore_lengths(q, nd, n_nodes, link_len)
             for i in range(n_all):
                 q_ref[i] = q[i]

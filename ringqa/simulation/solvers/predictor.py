@@ -1,5 +1,7 @@
 """The load-step predictor kernel: the previous chain slid along the channel, the driven end put
-at the new input advance, the link lengths restored."""
+at the new input advance, the link lengths restored; and the rule that says whether a load step
+continues the previous one (:func:`continuation_scale`: the extrapolation of
+:meth:`ringqa.simulation.model.Model.predict` and :func:`~.march.march`)."""
 
 from __future__ import annotations
 
@@ -69,3 +71,39 @@ def predict(q, slide, du, u_new, nd, n_nodes, link_len, chan, samp_s, cum, cft, 
         if nd == 4:
             q[nd * k + 3] = 0.0
     restore_lengths(q, nd, n_nodes, link_len)
+
+
+@njit(cache=True, error_model="numpy")
+def continuation_scale(du, u_new, pred_du, pred_u, rtol, scale_max):
+    """How much of the previous step's Newton correction a forward load step may extrapolate:
+    the factor on :data:`~ringqa.simulation.model.EXTRAPOLATE_FRACTION` (0: none, the plain
+    slide). The one rule of both load-step loops (the Python one calls ``py_func``).
+
+    The step continues the previous one when it starts where that one ended
+    (``|pred_u + du - u_new| <= 1e-9 |du|``) and is as long: ``|du - pred_du| <= rtol |du|``
+    (factor 1; ``rtol`` = 0 is exact equality). The step ``du = min(target - u, inc)`` with ``u``
+    accumulated by ``u + du`` falls round-off short of ``inc`` (~1e-17 m) wherever ``target - u``
+    is computed, e.g. on every step into a dwell one increment away. A step of another length
+    gets ``du / pred_du`` where that is at most ``scale_max`` (0: never).
+
+    Parameters
+    ----------
+    du, u_new : float
+        This step's advance and the input advance at its end (m); ``du > 0``.
+    pred_du, pred_u : float
+        The previous predicted step's advance and end (m; NaN: the previous step was hard or
+        failed, or there was none).
+    rtol : float
+        Relative tolerance on ``du`` (:data:`~ringqa.simulation.model.EXTRAPOLATE_RTOL`).
+    scale_max : float
+        Largest ``du / pred_du`` extrapolated for a step of another length
+        (:data:`~ringqa.simulation.model.EXTRAPOLATE_SCALE_MAX`).
+    """
+    if not abs(pred_u + du - u_new) <= 1e-9 * abs(du):
+        return 0.0
+    if abs(du - pred_du) <= rtol * abs(du):
+        return 1.0
+    ratio = du / pred_du
+    if 0.0 < ratio <= scale_max:
+        return ratio
+    return 0.0
