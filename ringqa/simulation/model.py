@@ -41,12 +41,11 @@ EXTRAPOLATE_FRACTION = 0.5
 EXTRAPOLATE_MAX_ITERS = 8
 #: ... and only when the step continues the previous one: it starts where that one ended and is
 #: as long, to this relative tolerance (:func:`~.solvers.predictor.continuation_scale`). 0 is
-#: the exact equality used before 2026-11-29, under which a step ``target - u`` that fell
-#: round-off short of the increment (~1e-17 m) lost the extrapolation: 6 to 31 steps a run in
-#: 13 of the 17 quasi-static compare_dwells scenes, 4 and 6 in two of the README job's runs
-#: (ring13-push100 318 -> 307
-#: iterations, all 17 quasi-static scenes and the README job's runs 19033 -> 18922; dwells
-#: moved <= 1.6e-9 m; docs/engine.md "The load-step predictor and round-off")
+#: the exact equality used before 2026-11-29, under which a step ``target - u`` that fell a few
+#: ulp short of the increment lost the extrapolation: 6 to 31 steps a run in 13 of the 17
+#: quasi-static compare_dwells scenes, 4 and 6 in two of the README job's runs (ring13-push100
+#: 318 -> 307 iterations; those runs in all 19033 -> 18922; dwells moved <= 1.6e-9 m;
+#: docs/engine.md "The load-step predictor and round-off")
 EXTRAPOLATE_RTOL = 1e-9
 #: ... and a step of another length (the last, shorter step into a waypoint) extrapolates
 #: ``du / pred_du`` of the correction where that is at most this (0: never). Measured with 1
