@@ -8,9 +8,11 @@ correction added to the slide) only when it continues the previous one
 (:func:`ringqa.simulation.solvers.predictor.continuation_scale`): it starts where that one ended,
 that one converged within ``EXTRAPOLATE_MAX_ITERS``, and it is as long (``EXTRAPOLATE_RTOL``; a
 step of another length extrapolates ``du / pred_du`` of the correction where that ratio is at
-most ``EXTRAPOLATE_SCALE_MAX``). Each ``--rule NAME=RTOL,SCALE_MAX`` runs every scene with those
-two settings (default: ``exact=0,0`` the rule before 2026-11-29, ``tol=1e-9,0`` shipped,
-``scaled=1e-9,1`` the shorter last step of a leg extrapolated too).
+most ``EXTRAPOLATE_SCALE_MAX``). Each ``--rule NAME=RTOL,SCALE_MAX[,RETRY]`` runs every scene
+with those settings (RETRY: ``PLAIN_RETRY_MAX_ITERS``, an integer or ``none``; default the
+shipped one). Default rules: ``main=0,0,20`` (53719b4: exact equality, a retry budget of 20
+after a stall), ``shipped=1e-9,0``, ``scaled=1e-9,1`` (the shorter last step of a leg
+extrapolated too).
 
 Every run goes through the Python load-step loop (``driver.USE_MARCH = False``, bit for bit the
 compiled one: tests/simulation/solvers/test_march.py), with ``Model.predict`` and ``Model.solve``
@@ -31,8 +33,9 @@ stabilised steps, and how far its dwells (source centre and tip) moved from the 
 (m). ``--error`` adds the numerical error of the compare_dwells scenes as ``ringqa commission``
 measures it (the largest source-centre distance to the run refined once, first rule), mm.
 ``--main-job`` adds the README main job's engine runs (captured as
-``benchmarks/bench_failed_steps.py`` does). docs/engine.md, "The load-step predictor and
-round-off", has the numbers.
+``benchmarks/bench_failed_steps.py`` does), ``--convergence`` the friction scenes of
+tests/simulation/test_convergence.py's increment study (0.125-4 mm). docs/engine.md, "The
+load-step predictor and round-off", has the numbers.
 """
 
 from __future__ import annotations
@@ -62,6 +65,8 @@ CLASSES = ("same", "round-off", "shorter (leg end)", "shorter (reset)", "longer"
 #: the measurement's state (module state: one run at a time)
 LOG: dict = {"steps": None, "pending": None, "clip": None}
 
+#: the shipped plain-retry budget after a stall (a rule's third field replaces it)
+RETRY = model_mod.PLAIN_RETRY_MAX_ITERS
 _predict = model_mod.Model.predict
 _solve = model_mod.Model.solve
 _next_step = schedule_mod.Schedule.next_step
@@ -115,8 +120,9 @@ def _install() -> None:
     schedule_mod.Schedule.next_step = _patched_next_step
 
 
-def _run(scene, adv, rtol: float, scale_max: float):
+def _run(scene, adv, rtol: float, scale_max: float, retry=RETRY):
     model_mod.EXTRAPOLATE_RTOL, model_mod.EXTRAPOLATE_SCALE_MAX = rtol, scale_max
+    model_mod.PLAIN_RETRY_MAX_ITERS = retry
     LOG["steps"], LOG["pending"], LOG["clip"] = [], None, None
     try:
         res = simulate(scene, advances_mm=adv)
@@ -155,16 +161,22 @@ def _numerical_error_mm(scene, res) -> float:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("scenes", nargs="*", help="compare_dwells scene names (default: all)")
-    ap.add_argument("--rule", action="append", default=None, metavar="NAME=RTOL,SCALE_MAX")
+    ap.add_argument("--rule", action="append", default=None,
+                    metavar="NAME=RTOL,SCALE_MAX[,RETRY]")  # fmt: skip
     ap.add_argument("--main-job", action="store_true", help="the README main job's runs too")
     ap.add_argument("--no-scenes", action="store_true", help="only the main job's runs")
     ap.add_argument("--error", action="store_true", help="numerical error of the scenes (slow)")
+    ap.add_argument("--convergence", action="store_true",
+                    help="tests/simulation/test_convergence.py's friction scenes")  # fmt: skip
     args = ap.parse_args(argv)
     rules = []
-    for text in args.rule or ["exact=0,0", "tol=1e-9,0", "scaled=1e-9,1"]:
+    for text in args.rule or ["main=0,0,20", "shipped=1e-9,0", "scaled=1e-9,1"]:
         name, _, vals = text.partition("=")
-        rtol, scale_max = (float(x) for x in vals.split(","))
-        rules.append((name, rtol, scale_max))
+        fields = vals.split(",")
+        retry = RETRY
+        if len(fields) > 2:
+            retry = None if fields[2] == "none" else int(fields[2])
+        rules.append((name, float(fields[0]), float(fields[1]), retry))
     runs = []
     if not args.no_scenes:
         for name, scene in compare_dwells.cases():
@@ -182,6 +194,16 @@ def main(argv=None) -> int:
             with open(path, "rb") as f:
                 captured = pickle.load(f)
         runs += [(f"main job run {i}", s, a, False) for i, (s, a) in enumerate(captured)]
+    if args.convergence:
+        from ringqa.simulation.scene import Effects, SolverSettings
+        from tests.simulation.builders import flexitron, ring_channel
+        from tests.simulation.builders import scene as make_scene
+
+        adv = np.arange(60.0, 101.0, 5.0)
+        for inc in (4e-3, 2e-3, 1e-3, 0.5e-3, 0.25e-3, 0.125e-3):
+            sc = make_scene(ring_channel(), flexitron(), effects=Effects(friction="stribeck"),
+                            solver=SolverSettings(increment_m=inc))  # fmt: skip
+            runs.append((f"convergence, increment {inc * 1e3:g} mm", sc, adv, False))
     _install()  # (after the capture, which ran the job through ringqa.cli)
     print("classes: n/extrapolated: mean iterations, " + " | ".join(CLASSES))
     head = ["run", "rule", *CLASSES, "steps", "iterations", "stabilised", "moved (m)"]
@@ -190,8 +212,8 @@ def main(argv=None) -> int:
     totals: dict = defaultdict(lambda: np.zeros(3, dtype=np.int64))
     for name, scene, adv, err in runs:
         first = None
-        for rule, rtol, scale_max in rules:
-            res, steps = _run(scene, adv, rtol, scale_max)
+        for rule, rtol, scale_max, retry in rules:
+            res, steps = _run(scene, adv, rtol, scale_max, retry)
             moved = "" if first is None else f"{_moved(res, first):.1e}"
             e = ""
             if first is None:
