@@ -44,14 +44,15 @@ EXTRAPOLATE_MAX_ITERS = 8
 #: the exact equality used before 2026-11-29, under which a step ``target - u`` that fell a few
 #: ulp short of the increment lost the extrapolation: 6 to 31 steps a run in 13 of the 17
 #: quasi-static compare_dwells scenes, 4 and 6 in two of the README job's runs (ring13-push100
-#: 318 -> 307 iterations; those runs in all 19033 -> 18922; dwells moved <= 1.6e-9 m;
+#: 318 -> 307 iterations, ring26-flexitron 518 -> 512; dwells moved <= 1.6e-9 m;
 #: docs/engine.md "The load-step predictor and round-off")
 EXTRAPOLATE_RTOL = 1e-9
 #: ... and a step of another length (the last, shorter step into a waypoint) extrapolates
 #: ``du / pred_du`` of the correction where that is at most this (0: never). Measured with 1
-#: (the shorter steps scaled): 18922 -> 19298 iterations over the same runs, the README job's
-#: whole channel at commissioning settings 1713 -> 2033, the Oncentra example's ring +1
-#: stabilised step: not used
+#: (the shorter steps scaled): 27695 -> 28043 iterations over the runs above and
+#: tests/simulation/test_convergence.py's friction scenes, the README job's whole channel at
+#: commissioning settings 1751 -> 2078 (with a retry budget of 20 also the Oncentra example's
+#: ring +1 stabilised step): not used
 EXTRAPOLATE_SCALE_MAX = 0.0
 #: the plain-slide retry after an extrapolated start that stalled (:meth:`Model.solve`) gets at
 #: most this many Newton iterations (None: ``solver.max_iter``, never more). Measured (2026-11-29,
