@@ -22,30 +22,35 @@ import pandas as pd
 __all__ = ["channels_wanted", "conclusion", "run_channels"]
 
 
-def channels_wanted(item, settings, channel_args) -> tuple[list[str] | None, object, float]:
+def channels_wanted(
+    item, settings, channel_args, loaded=None, load_s: float = 0.0
+) -> tuple[list[str] | None, object, float]:
     """The channels to commission one by one (None for the one-channel run: one ``--channel``,
     or an input whose default choice is one channel: its files as before, with the plan's other
     channels named in its warnings), the input as loaded for the choice (None when not
     loaded; :func:`ringqa.pipeline.commission` takes it, so it is read once) and the seconds
-    the loading took.
+    the loading took. ``loaded``: the input loaded already (``load_s`` seconds; not loaded
+    again, handed back as it is).
 
     Without ``--channel``: an RT Plan's channels with dwells and a centreline (those without a
     reference source path where one is required are named, not commissioned:
     :func:`ringqa.pipeline.commission.channel_choice`); other inputs: the family's default (a
     ring applicator: its ring)."""
     if channel_args:
-        return (None if len(channel_args) == 1 else [str(c) for c in channel_args]), None, 0.0
+        wanted = None if len(channel_args) == 1 else [str(c) for c in channel_args]
+        return wanted, loaded, load_s
     import time
 
     from ringqa.errors import RingQAError
     from ringqa.pipeline.commission import channel_choice, load_commission_input
 
-    t0 = time.perf_counter()
-    try:
-        loaded = load_commission_input(item, settings)  # as commission() loads it
-    except RingQAError:
-        return None, None, 0.0  # the single run says what is wrong
-    load_s = time.perf_counter() - t0
+    if loaded is None:
+        t0 = time.perf_counter()
+        try:
+            loaded = load_commission_input(item, settings)  # as commission() loads it
+        except RingQAError:
+            return None, None, 0.0  # the single run says what is wrong
+        load_s = time.perf_counter() - t0
     names = channel_choice(loaded, settings.require_measured).names
     return (None if len(names) <= 1 else list(names)), loaded, load_s
 
