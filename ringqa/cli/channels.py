@@ -23,27 +23,29 @@ __all__ = ["channels_wanted", "conclusion", "run_channels"]
 
 
 def channels_wanted(
-    item, settings, channel_args, loaded=None, load_s: float = 0.0
+    item, settings, channel_args, ahead=None
 ) -> tuple[list[str] | None, object, float]:
     """The channels to commission one by one (None for the one-channel run: one ``--channel``,
     or an input whose default choice is one channel: its files as before, with the plan's other
     channels named in its warnings), the input as loaded for the choice (None when not
     loaded; :func:`ringqa.pipeline.commission` takes it, so it is read once) and the seconds
-    the loading took. ``loaded``: the input loaded already (``load_s`` seconds; not loaded
-    again, handed back as it is).
+    the loading took. ``ahead``: called (without arguments) where the input is needed, it
+    gives the input loaded already, with the seconds that took, or ``(None, 0.0)``: then it is
+    loaded here (the command's RT Plan read in a forked process:
+    :func:`ringqa.cli.commission.commission_ahead`).
 
     Without ``--channel``: an RT Plan's channels with dwells and a centreline (those without a
     reference source path where one is required are named, not commissioned:
     :func:`ringqa.pipeline.commission.channel_choice`); other inputs: the family's default (a
     ring applicator: its ring)."""
     if channel_args:
-        wanted = None if len(channel_args) == 1 else [str(c) for c in channel_args]
-        return wanted, loaded, load_s
+        return (None if len(channel_args) == 1 else [str(c) for c in channel_args]), None, 0.0
     import time
 
     from ringqa.errors import RingQAError
     from ringqa.pipeline.commission import channel_choice, load_commission_input
 
+    loaded, load_s = (None, 0.0) if ahead is None else ahead()
     if loaded is None:
         t0 = time.perf_counter()
         try:

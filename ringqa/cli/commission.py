@@ -40,6 +40,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import functools
 import logging
 import sys
 import time
@@ -620,15 +621,19 @@ def commission_ahead(
             # overhead)
             fork = report and _real_std_streams() and second_core_worthwhile()
 
+        # the input with the plan the reader read (once; (None, 0.0) without a reader)
+        ahead = functools.cache(lambda: _loaded_ahead(item, settings, reader))
+
         def run():  # the input as the channel choice read it is not read twice
-            loaded, load_s = _loaded_ahead(item, settings, reader)
+            loaded, load_s = None, 0.0
             if by_channel:
                 from ringqa.cli.channels import channels_wanted
 
-                wanted, loaded, load_s = channels_wanted(item, settings, channel_args, loaded,
-                                                         load_s)  # fmt: skip
+                wanted, loaded, load_s = channels_wanted(item, settings, channel_args, ahead)
                 if wanted is not None:
                     return ChannelsWanted(tuple(wanted))
+            if loaded is None:
+                loaded, load_s = ahead()
             return commission(item, settings, progress=progress, loaded=loaded, load_s=load_s)
 
         call = ForkedCall(run, bool(fork))
