@@ -638,7 +638,7 @@ def commission_ahead(
 
         call = ForkedCall(run, bool(fork))
         try:
-            if call.forked:  # the report's imports and set-up here, beside the child's work
+            if call.forked and report:  # the report's imports and set-up, beside the child
                 from ringqa.report import prepare_report
 
                 prepare_report()
