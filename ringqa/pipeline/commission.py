@@ -301,10 +301,12 @@ def load_commission_input(input, settings: CommissionSettings | None = None, *, 
 
 
 def _load(input, cfg, rtplan=None):
-    """:func:`load_input` of ``input`` (with the settings' structure set and lumen)."""
-    if cfg.structures is None and cfg.lumen_mm is None:
-        return load_input(input, rtplan=rtplan)
-    return load_input(input, cfg.structures, cfg.lumen_mm, rtplan=rtplan)
+    """:func:`load_input` of ``input`` (with the settings' structure set and lumen; ``rtplan``
+    passed only when given)."""
+    args = () if cfg.structures is None and cfg.lumen_mm is None else (cfg.structures, cfg.lumen_mm)
+    if rtplan is None:
+        return load_input(input, *args)
+    return load_input(input, *args, rtplan=rtplan)
 
 
 def unsimulated_channels(loaded) -> tuple[str, ...]:
