@@ -47,12 +47,17 @@ BATCH_SIZE = (7.1, 4.4)
 
 def new_figure(size: tuple[float, float]):
     """A :class:`matplotlib.figure.Figure` of ``size`` (inches), not registered with pyplot,
-    drawn by the Agg canvas (``fig.canvas.draw()``, ``fig.savefig`` work without a GUI)."""
+    drawn by the Agg canvas (``fig.canvas.draw()``, ``fig.savefig`` work without a GUI):
+    :class:`ringqa.report.agg_text.FigureCanvas`, matplotlib's Agg canvas whose text is laid
+    out and rendered once per distinct string and glyph (the same pixels), where the installed
+    matplotlib is the release it was checked on, else ``FigureCanvasAgg``."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
+    from ringqa.report import agg_text
+
     fig = Figure(figsize=size)
-    FigureCanvasAgg(fig)
+    (agg_text.FigureCanvas if agg_text.checked() else FigureCanvasAgg)(fig)
     return fig
 
 

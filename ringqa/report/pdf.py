@@ -851,7 +851,7 @@ def draw_ahead(result, fork: bool | None = None) -> DrawnAhead:
 
 def _draw_figures(result, names) -> dict:
     # drawn and compressed here (in the child when forked): only the PDF's bytes travel
-    return {name: layout.figure_flate(AHEAD_FIGURES[name][0](result)) for name in names}
+    return {name: _draw_one(AHEAD_FIGURES[name][0], result) for name in names}
 
 
 #: the figures being drawn ahead for the report being written (set by :func:`write_pdf`)
@@ -874,7 +874,8 @@ def _figure(name: str, res, width: float):
 
 
 def _draw_one(make, res) -> layout.FlateImage:
-    return layout.figure_flate(make(res))
+    # unnamed: LaterFigure names the image by its key (no MD5 of the pixels needed)
+    return layout.figure_flate(make(res), named=False)
 
 
 # ---------------------------------------------------------------------------------------------

@@ -84,3 +84,45 @@ def test_top_ticks_keep_the_title_automatic():
     _fig, ax = _axes_with((0.0, 5.0))
     ax.xaxis.tick_top()
     assert plots._pin_title(ax) is False
+
+
+def test_figure_pixels_are_the_canvas_rgb():
+    """``layout.figure_pixels`` (copied a channel at a time) is the canvas's RGBA buffer less
+    its alpha, as a C-ordered uint8 array (the bytes reportlab and the MD5 name read)."""
+    from ringqa.report import layout
+
+    fig = plots.new_figure((2.0, 1.5))
+    ax = fig.add_subplot()
+    ax.plot([0, 1, 2], [0, 1, 4], color="tab:red", marker="o", label="a line")
+    ax.axvspan(0.5, 1.0, color="#cfd8dc", alpha=0.8)
+    ax.legend()
+    rgb, size = layout.figure_pixels(fig, 100)
+    rgba = np.asarray(fig.canvas.buffer_rgba())
+    assert size == (2.0, 1.5) and rgb.shape == (150, 200, 3) and rgb.dtype == np.uint8
+    assert rgb.flags["C_CONTIGUOUS"]
+    assert np.array_equal(rgb, rgba[..., :3])
+    assert len(np.unique(rgb.reshape(-1, 3), axis=0)) > 10  # not a blank canvas
+
+
+def test_unnamed_and_cheaper_flate_images_hold_the_same_pixels():
+    """``figure_flate(..., named=False)`` skips the MD5 name (""), ``level`` changes only the
+    compression: every variant decompresses to the same RGB bytes as the default image, whose
+    name is reportlab's (MD5 of the bytes and ``b"None"``)."""
+    import hashlib
+    import zlib
+
+    from ringqa.report import layout
+
+    def fig():
+        f = plots.new_figure((2.0, 1.5))
+        f.add_subplot().plot([0, 1, 2], [0, 1, 4], marker="o")
+        return f
+
+    default = layout.figure_flate(fig())
+    raw = zlib.decompress(default.data)
+    assert default.name == hashlib.md5(raw + b"None").hexdigest()
+    assert len(raw) == 3 * default.width_px * default.height_px
+    unnamed = layout.figure_flate(fig(), named=False)
+    assert unnamed.name == "" and unnamed.data == default.data
+    fast = layout.figure_flate(fig(), named=False, level=1)
+    assert fast.data != default.data and zlib.decompress(fast.data) == raw
