@@ -67,6 +67,36 @@ def test_placed_and_rotated_text_same_pixels(dpi):
     assert np.array_equal(_rgb(_text_figure(), agg_text.FigureCanvas, dpi), plain)
 
 
+def test_text_extents_and_line_metrics_as_matplotlib_measures_them(fake_result):
+    """Every text of the dose-map figure (tick labels, titles, labels, annotations, legend)
+    has the same window extent (pixels, exactly) measured through :class:`agg_text
+    .TextRenderer` (its cached string metrics and font line metrics) as through matplotlib's
+    own renderer, at two resolutions; the line metrics are the font's OS/2 table's."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg, RendererAgg
+    from matplotlib.text import Text
+
+    def extents(canvas_class, dpi):
+        fig = plots.dose_points_figure(fake_result)
+        canvas_class(fig)
+        layout.figure_pixels(fig, dpi)
+        renderer = fig.canvas.get_renderer()
+        texts = [t for t in fig.findobj(Text) if t.get_text() and t.get_visible()]
+        return [tuple(t.get_window_extent(renderer).bounds) for t in texts]
+
+    for dpi in (layout.FIGURE_DPI, 97):
+        agg_text.clear_caches()
+        plain = extents(FigureCanvasAgg, dpi)
+        assert len(plain) > 20
+        assert extents(agg_text.FigureCanvas, dpi) == plain
+        assert extents(agg_text.FigureCanvas, dpi) == plain
+    assert not hasattr(RendererAgg, "_get_font_height_metrics")  # else matplotlib's own is used
+    from matplotlib.font_manager import FontProperties
+
+    renderer = agg_text.TextRenderer(10, 10, 100)
+    ascent, descent, gap = renderer._get_font_height_metrics(FontProperties(size=7.2))
+    assert 0 < descent < ascent < 7.2 * 100 / 72 and gap >= 0
+
+
 def test_a_glyph_moved_by_whole_pixels_is_the_same_bitmap():
     """What the glyph cache relies on: FreeType renders a glyph whose offset (1/64 px) differs
     by whole pixels as the same bitmap, its ``left``/``top`` moved by those pixels (upright and
