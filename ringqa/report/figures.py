@@ -74,11 +74,14 @@ def _pin_title(ax) -> bool:
 
     matplotlib places a title automatically at every draw: it measures the y axis' offset text
     ("1e-5", "+1000") and any tick labels on top, which builds and measures all tick labels once
-    more (13 % of the six shipped rings' PDF time, issue 16). Without top ticks and with no
-    offset text (checked here with the axis' own locator and formatter, as the draw would) the
-    automatic place is the default one (y = 1 in axes coordinates): pinning it there draws the
-    same pixels. Otherwise the title stays automatic. (A figure changed afterwards, e.g. by a
-    notebook's ``ax.set_ylim`` that brings an offset text, keeps the pinned height.)
+    more (13 % of the six shipped rings' PDF time, issue 16). Without tick labels on top (the
+    test matplotlib's ``_update_title_position`` makes: the first major and minor x ticks'
+    ``label2``; the axes of a stack sharing x, whose x tick labels are hidden, included), an x
+    label at the bottom, no child axes and no offset text (checked here with the axis' own
+    locator and formatter, as the draw would) the automatic place is the default one (y = 1 in
+    axes coordinates): pinning it there draws the same pixels. Otherwise the title stays
+    automatic. (A figure changed afterwards, e.g. by a notebook's ``ax.set_ylim`` that brings
+    an offset text, keeps the pinned height.)
 
     Returns
     -------
@@ -86,10 +89,10 @@ def _pin_title(ax) -> bool:
         True when the title was pinned.
     """
     text = ax.get_title()
-    if not text or ax.xaxis.get_ticks_position() in ("top", "unknown"):
+    if not text or ax.child_axes or ax.xaxis.get_label_position() == "top":
         return False
-    if ax.xaxis.get_label_position() == "top":
-        return False
+    if any(tick.label2.get_visible() for tick in (ax.xaxis.majorTicks[0], ax.xaxis.minorTicks[0])):
+        return False  # tick labels on top: the draw lifts the title above them
     fmt = ax.yaxis.get_major_formatter()
     fmt.set_locs(ax.yaxis.get_majorticklocs())  # as the draw does (Axis._update_ticks)
     if fmt.get_offset():
