@@ -14,6 +14,7 @@ All lengths in mm, angles in degrees, as in the result's tables.
 
 from __future__ import annotations
 
+import itertools
 import textwrap
 
 import numpy as np
@@ -178,9 +179,9 @@ def _flagged_rows(res) -> pd.DataFrame:
     return sub.assign(flag=flags.to_numpy())[flags.to_numpy() != ""]
 
 
-def _shade_flags(ax, res, legend: bool) -> None:
-    """Shade the relative positions whose reference position is flagged."""
-    table = reference_flags(res)
+def _shade_flags(ax, table: pd.DataFrame, legend: bool) -> None:
+    """Shade the relative positions whose reference position is flagged (``table``:
+    :func:`reference_flags` of the result)."""
     rel = table["relative_position_mm"].to_numpy(dtype=float)
     half = 0.5 * float(np.median(np.diff(np.sort(rel)))) if rel.size > 1 else 0.5
     seen = set()
@@ -235,9 +236,10 @@ def positions_figure(res, title: str | None = None):
         ax1.plot(u, v, label=f"{path_label(path, res.reference)} dwells", **kw)
         ax2.plot(u, h, **kw)
         if path == res.reference:
+            rel = sub["relative_position_mm"].to_numpy()
             for k in range(0, len(u), 4):
                 ax1.annotate(
-                    f"{sub['relative_position_mm'].iloc[k]:g}",
+                    f"{rel[k]:g}",
                     (u[k], v[k]),
                     textcoords="offset points",
                     xytext=(6, 4),
@@ -325,8 +327,10 @@ def deviations_figure(res, title: str | None = None):
     versus = "reference" if ref == "measured" else "centreline"
     d = res.dwells
     lim_rec, lim_req = res.settings.position_limits_mm
+    compared = list(_compared_paths(d, ref))  # (path, its rows): the three axes' lines
+    flags = reference_flags(res)
     ax = axes[0]
-    for path, sub in _compared_paths(d, ref):
+    for path, sub in compared:
         rel = sub["relative_position_mm"].to_numpy(dtype=float)
         dist = sub["dist_to_reference_mm"].to_numpy(dtype=float)
         ax.plot(
@@ -363,14 +367,14 @@ def deviations_figure(res, title: str | None = None):
         )
     ax.axhline(lim_rec, color="#ef6c00", ls="--", lw=1, label=f"{lim_rec:g} mm recommended")
     ax.axhline(lim_req, color="#c62828", ls="--", lw=1, label=f"{lim_req:g} mm required")
-    _shade_flags(ax, res, legend=True)
+    _shade_flags(ax, flags, legend=True)
     ax.set_ylabel("3D distance (mm)")
     ax.set_ylim(0, 1.6 * max(ax.get_ylim()[1], lim_req))  # room for the legend
     ax.legend(fontsize=6.5, ncol=2, loc="upper center")
     ax.grid(alpha=0.3)
     ax = axes[1]
     styles = {"along_mm": "-", "radial_mm": "--", "out_of_plane_mm": ":"}
-    for path, sub in _compared_paths(d, ref):
+    for path, sub in compared:
         for comp, ls in styles.items():
             ax.plot(
                 sub["relative_position_mm"],
@@ -380,7 +384,7 @@ def deviations_figure(res, title: str | None = None):
                 lw=1.2,
                 label=f"{path}: {comp[:-3].replace('_', '-')}",
             )
-    _shade_flags(ax, res, legend=False)
+    _shade_flags(ax, flags, legend=False)
     ax.axhline(0, color="0.5", lw=0.6)
     ax.set_ylabel("component (mm)")
     ax.set_title(
@@ -391,7 +395,7 @@ def deviations_figure(res, title: str | None = None):
     ax.legend(fontsize=6.5, ncol=2)
     ax.grid(alpha=0.3)
     ax = axes[2]
-    for path, sub in _compared_paths(d, ref):
+    for path, sub in compared:
         ax.plot(
             sub["relative_position_mm"],
             sub["angle_deg"],
@@ -400,7 +404,7 @@ def deviations_figure(res, title: str | None = None):
             color=COLOURS[path],
             label=f"{path} vs {versus}",
         )
-    _shade_flags(ax, res, legend=False)
+    _shade_flags(ax, flags, legend=False)
     ax.set_ylabel("orientation difference (deg)")
     ax.set_xlabel("relative position (mm), 0 = most distal dwell")
     ax.legend(fontsize=7)
@@ -467,10 +471,15 @@ def dose_points_figure(res, title: str | None = None):
         "depth5_right": "5 R",
     }
     labels = [short.get(name, name) for name in pts["point"]]
-    for k in range(len(labels)):
-        colour = "tab:green" if pts["kind"].iloc[k] != "tps" else "tab:purple"
-        ax1.plot(pu[k], pv[k], "*", color=colour, ms=9)
-        ax2.plot(pu[k], ph[k], "*", color=colour, ms=9)
+    colours = ["tab:green" if kind != "tps" else "tab:purple" for kind in pts["kind"]]
+    # one line of star markers per run of points of one colour: the markers drawn in the
+    # points' order, as one line per point would draw them (the same pixels)
+    start = 0
+    for colour, run in itertools.groupby(colours):
+        stop = start + len(list(run))
+        ax1.plot(pu[start:stop], pv[start:stop], "*", color=colour, ms=9)
+        ax2.plot(pu[start:stop], ph[start:stop], "*", color=colour, ms=9)
+        start = stop
     # points that fall (nearly) on one another in a view share one label ("A L / S L / A2"):
     # one label per place, none printed over another
     # ... written outward (left of a point on the patient's right, right of one on the left),

@@ -161,3 +161,42 @@ def test_unnamed_and_cheaper_flate_images_hold_the_same_pixels():
     assert unnamed.name == "" and unnamed.data == default.data
     fast = layout.figure_flate(fig(), named=False, level=1)
     assert fast.data != default.data and zlib.decompress(fast.data) == raw
+
+
+def test_one_line_of_markers_draws_as_one_line_per_marker(fake_result):
+    """What the dose map relies on (its star markers, one line per run of points of one
+    colour): a line of N markers draws the same pixels as N one-marker lines in the same
+    order, overlapping markers of two colours included; the dose map of the stand-in ring has
+    one star line per run of its points' colours in each view."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    rng = np.random.default_rng(3)
+    x, y = rng.uniform(0, 10, 12), rng.uniform(0, 10, 12)
+    colours = ["tab:green"] * 5 + ["tab:purple"] * 4 + ["tab:green"] * 3
+
+    def draw(grouped):
+        fig = Figure(figsize=(2.0, 2.0))
+        FigureCanvasAgg(fig)
+        ax = fig.add_subplot()
+        ax.set_xlim(0, 10)
+        ax.set_ylim(0, 10)
+        if grouped:
+            for a, b, c in ((0, 5, colours[0]), (5, 9, colours[5]), (9, 12, colours[9])):
+                ax.plot(x[a:b], y[a:b], "*", color=c, ms=9)
+        else:
+            for k in range(12):
+                ax.plot(x[k], y[k], "*", color=colours[k], ms=9)
+        fig.set_dpi(150)
+        fig.canvas.draw()
+        return np.asarray(fig.canvas.buffer_rgba()).copy()
+
+    assert np.array_equal(draw(True), draw(False))
+    import itertools
+
+    pts = fake_result.doses[fake_result.doses["plan"] == fake_result.reference]
+    runs = len(list(itertools.groupby(k == "tps" for k in pts["kind"])))
+    fig = plots.dose_points_figure(fake_result)
+    for ax in fig.axes:
+        stars = [line for line in ax.get_lines() if line.get_marker() == "*"]
+        assert len(stars) == runs and sum(len(line.get_xdata()) for line in stars) == len(pts)
