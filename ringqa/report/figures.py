@@ -63,8 +63,12 @@ def new_figure(size: tuple[float, float]):
 
 
 def _finish(fig, title: str | None):
+    from ringqa.report import agg_text, ticks
+
     if title:
         fig.suptitle(title, fontsize=11, weight="bold", x=0.02, ha="left")
+    if agg_text.checked():  # the matplotlib release the tick places were checked on
+        ticks.ticks_in_view(fig)  # no ticks made outside the view (the same drawing)
     for ax in fig.axes:
         _pin_title(ax)
     return fig
