@@ -875,8 +875,9 @@ def _figure(name: str, res, width: float):
 
 #: zlib's level for the report's three figures (:data:`AHEAD_FIGURES`): 3 compresses their
 #: 9.8 MB of pixels in 26 ms of CPU instead of the default level's 64 ms (in the figure
-#: children, on the main job's two busy cores), the example's image streams 426 kB instead of
-#: 370 kB (its report.pdf about 511 instead of 458 kB; the same pixels)
+#: children, on the main job's two busy cores); the same pixels, the PDF about 12-15 % larger
+#: (README's main job 455 -> 510 kB, the example without registration 458 -> 522 kB,
+#: ring26x60 355 -> 408 kB)
 FIGURE_FLATE_LEVEL = 3
 
 
