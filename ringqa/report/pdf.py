@@ -817,6 +817,7 @@ class DrawnAhead:
 
     def __init__(self, result, fork: bool | None = None) -> None:
         from ringqa.parallel import ForkedCall, second_core_free
+        from ringqa.report import agg_text, ticks  # noqa: F401 - loaded once, before the forks
 
         self.result = result
         fork = second_core_free() if fork is None else fork
