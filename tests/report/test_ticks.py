@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from hypothesis import given
+from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from ringqa.report import agg_text, ticks
@@ -50,6 +50,7 @@ ENDS = st.tuples(
 )
 
 
+@settings(max_examples=25)  # two figures drawn per example: about 0.1 s each
 @given(x=ENDS, y=ENDS)
 def test_same_ticks_labels_offsets_and_pixels(x, y):
     """Random data spans (the view autoscaled with margins around them): with the places
@@ -74,6 +75,7 @@ ROUND_VIEW = st.tuples(
 )
 
 
+@settings(max_examples=25)
 @given(x=ROUND_VIEW, y=ROUND_VIEW)
 def test_same_ticks_on_the_views_edges(x, y):
     """Views set to multiples of a round step (ticks on the edges, drawn by matplotlib within
