@@ -14,6 +14,7 @@ All lengths in mm, angles in degrees, as in the result's tables.
 
 from __future__ import annotations
 
+import itertools
 import textwrap
 
 import numpy as np
@@ -47,18 +48,27 @@ BATCH_SIZE = (7.1, 4.4)
 
 def new_figure(size: tuple[float, float]):
     """A :class:`matplotlib.figure.Figure` of ``size`` (inches), not registered with pyplot,
-    drawn by the Agg canvas (``fig.canvas.draw()``, ``fig.savefig`` work without a GUI)."""
+    drawn by the Agg canvas (``fig.canvas.draw()``, ``fig.savefig`` work without a GUI):
+    :class:`ringqa.report.agg_text.FigureCanvas`, matplotlib's Agg canvas whose text is laid
+    out and rendered once per distinct string and glyph (the same pixels), where the installed
+    matplotlib is the release it was checked on, else ``FigureCanvasAgg``."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
+    from ringqa.report import agg_text
+
     fig = Figure(figsize=size)
-    FigureCanvasAgg(fig)
+    (agg_text.FigureCanvas if agg_text.checked() else FigureCanvasAgg)(fig)
     return fig
 
 
 def _finish(fig, title: str | None):
+    from ringqa.report import agg_text, ticks
+
     if title:
         fig.suptitle(title, fontsize=11, weight="bold", x=0.02, ha="left")
+    if agg_text.checked():  # the matplotlib release the tick places were checked on
+        ticks.ticks_in_view(fig)  # no ticks made outside the view (the same drawing)
     for ax in fig.axes:
         _pin_title(ax)
     return fig
@@ -69,11 +79,14 @@ def _pin_title(ax) -> bool:
 
     matplotlib places a title automatically at every draw: it measures the y axis' offset text
     ("1e-5", "+1000") and any tick labels on top, which builds and measures all tick labels once
-    more (13 % of the six shipped rings' PDF time, issue 16). Without top ticks and with no
-    offset text (checked here with the axis' own locator and formatter, as the draw would) the
-    automatic place is the default one (y = 1 in axes coordinates): pinning it there draws the
-    same pixels. Otherwise the title stays automatic. (A figure changed afterwards, e.g. by a
-    notebook's ``ax.set_ylim`` that brings an offset text, keeps the pinned height.)
+    more (13 % of the six shipped rings' PDF time, issue 16). Without tick labels on top (the
+    test matplotlib's ``_update_title_position`` makes: the first major and minor x ticks'
+    ``label2``; the axes of a stack sharing x, whose x tick labels are hidden, included), an x
+    label at the bottom, no child axes and no offset text (checked here with the axis' own
+    locator and formatter, as the draw would) the automatic place is the default one (y = 1 in
+    axes coordinates): pinning it there draws the same pixels. Otherwise the title stays
+    automatic. (A figure changed afterwards, e.g. by a notebook's ``ax.set_ylim`` that brings
+    an offset text, keeps the pinned height.)
 
     Returns
     -------
@@ -81,10 +94,10 @@ def _pin_title(ax) -> bool:
         True when the title was pinned.
     """
     text = ax.get_title()
-    if not text or ax.xaxis.get_ticks_position() in ("top", "unknown"):
+    if not text or ax.child_axes or ax.xaxis.get_label_position() == "top":
         return False
-    if ax.xaxis.get_label_position() == "top":
-        return False
+    if any(tick.label2.get_visible() for tick in (ax.xaxis.majorTicks[0], ax.xaxis.minorTicks[0])):
+        return False  # tick labels on top: the draw lifts the title above them
     fmt = ax.yaxis.get_major_formatter()
     fmt.set_locs(ax.yaxis.get_majorticklocs())  # as the draw does (Axis._update_ticks)
     if fmt.get_offset():
@@ -170,9 +183,9 @@ def _flagged_rows(res) -> pd.DataFrame:
     return sub.assign(flag=flags.to_numpy())[flags.to_numpy() != ""]
 
 
-def _shade_flags(ax, res, legend: bool) -> None:
-    """Shade the relative positions whose reference position is flagged."""
-    table = reference_flags(res)
+def _shade_flags(ax, table: pd.DataFrame, legend: bool) -> None:
+    """Shade the relative positions whose reference position is flagged (``table``:
+    :func:`reference_flags` of the result)."""
     rel = table["relative_position_mm"].to_numpy(dtype=float)
     half = 0.5 * float(np.median(np.diff(np.sort(rel)))) if rel.size > 1 else 0.5
     seen = set()
@@ -227,9 +240,10 @@ def positions_figure(res, title: str | None = None):
         ax1.plot(u, v, label=f"{path_label(path, res.reference)} dwells", **kw)
         ax2.plot(u, h, **kw)
         if path == res.reference:
+            rel = sub["relative_position_mm"].to_numpy()
             for k in range(0, len(u), 4):
                 ax1.annotate(
-                    f"{sub['relative_position_mm'].iloc[k]:g}",
+                    f"{rel[k]:g}",
                     (u[k], v[k]),
                     textcoords="offset points",
                     xytext=(6, 4),
@@ -317,8 +331,10 @@ def deviations_figure(res, title: str | None = None):
     versus = "reference" if ref == "measured" else "centreline"
     d = res.dwells
     lim_rec, lim_req = res.settings.position_limits_mm
+    compared = list(_compared_paths(d, ref))  # (path, its rows): the three axes' lines
+    flags = reference_flags(res)
     ax = axes[0]
-    for path, sub in _compared_paths(d, ref):
+    for path, sub in compared:
         rel = sub["relative_position_mm"].to_numpy(dtype=float)
         dist = sub["dist_to_reference_mm"].to_numpy(dtype=float)
         ax.plot(
@@ -355,14 +371,14 @@ def deviations_figure(res, title: str | None = None):
         )
     ax.axhline(lim_rec, color="#ef6c00", ls="--", lw=1, label=f"{lim_rec:g} mm recommended")
     ax.axhline(lim_req, color="#c62828", ls="--", lw=1, label=f"{lim_req:g} mm required")
-    _shade_flags(ax, res, legend=True)
+    _shade_flags(ax, flags, legend=True)
     ax.set_ylabel("3D distance (mm)")
     ax.set_ylim(0, 1.6 * max(ax.get_ylim()[1], lim_req))  # room for the legend
     ax.legend(fontsize=6.5, ncol=2, loc="upper center")
     ax.grid(alpha=0.3)
     ax = axes[1]
     styles = {"along_mm": "-", "radial_mm": "--", "out_of_plane_mm": ":"}
-    for path, sub in _compared_paths(d, ref):
+    for path, sub in compared:
         for comp, ls in styles.items():
             ax.plot(
                 sub["relative_position_mm"],
@@ -372,7 +388,7 @@ def deviations_figure(res, title: str | None = None):
                 lw=1.2,
                 label=f"{path}: {comp[:-3].replace('_', '-')}",
             )
-    _shade_flags(ax, res, legend=False)
+    _shade_flags(ax, flags, legend=False)
     ax.axhline(0, color="0.5", lw=0.6)
     ax.set_ylabel("component (mm)")
     ax.set_title(
@@ -383,7 +399,7 @@ def deviations_figure(res, title: str | None = None):
     ax.legend(fontsize=6.5, ncol=2)
     ax.grid(alpha=0.3)
     ax = axes[2]
-    for path, sub in _compared_paths(d, ref):
+    for path, sub in compared:
         ax.plot(
             sub["relative_position_mm"],
             sub["angle_deg"],
@@ -392,7 +408,7 @@ def deviations_figure(res, title: str | None = None):
             color=COLOURS[path],
             label=f"{path} vs {versus}",
         )
-    _shade_flags(ax, res, legend=False)
+    _shade_flags(ax, flags, legend=False)
     ax.set_ylabel("orientation difference (deg)")
     ax.set_xlabel("relative position (mm), 0 = most distal dwell")
     ax.legend(fontsize=7)
@@ -459,10 +475,15 @@ def dose_points_figure(res, title: str | None = None):
         "depth5_right": "5 R",
     }
     labels = [short.get(name, name) for name in pts["point"]]
-    for k in range(len(labels)):
-        colour = "tab:green" if pts["kind"].iloc[k] != "tps" else "tab:purple"
-        ax1.plot(pu[k], pv[k], "*", color=colour, ms=9)
-        ax2.plot(pu[k], ph[k], "*", color=colour, ms=9)
+    colours = ["tab:green" if kind != "tps" else "tab:purple" for kind in pts["kind"]]
+    # one line of star markers per run of points of one colour: the markers drawn in the
+    # points' order, as one line per point would draw them (the same pixels)
+    start = 0
+    for colour, run in itertools.groupby(colours):
+        stop = start + len(list(run))
+        ax1.plot(pu[start:stop], pv[start:stop], "*", color=colour, ms=9)
+        ax2.plot(pu[start:stop], ph[start:stop], "*", color=colour, ms=9)
+        start = stop
     # points that fall (nearly) on one another in a view share one label ("A L / S L / A2"):
     # one label per place, none printed over another
     # ... written outward (left of a point on the patient's right, right of one on the left),

@@ -258,3 +258,25 @@ def test_several_results_figures_each_their_own_image(fake_result, tmp_path):
     assert data.count(b"/Subtype /Image") == 6
     images = [x for x in streams if len(x) > 1_000_000]  # RGB pixels, 1 MB and more each
     assert len(images) == 6 and len(set(images)) >= 4
+
+
+def test_report_figures_stored_at_the_cheaper_level_hold_the_same_pixels(fake_result):
+    """The report's three figures (drawn ahead or at their page: ``pdf._draw_one``) are stored
+    zlib-compressed at ``FIGURE_FLATE_LEVEL`` (3, cheaper than reportlab's default 6), unnamed
+    (``LaterFigure`` names them by key): the stream decompresses to the figure's exact RGB
+    pixels, and is no larger than 1.3x the default level's."""
+    import zlib
+
+    from ringqa.report import figures as plots
+    from ringqa.report import layout, pdf
+
+    assert pdf.FIGURE_FLATE_LEVEL == 3
+    for name, (make, size) in pdf.AHEAD_FIGURES.items():
+        image = pdf._draw_one(make, fake_result)
+        rgb, size_in = layout.figure_pixels(make(fake_result))
+        assert image.name == "" and image.size_in == size_in == size, name
+        assert (image.height_px, image.width_px) == rgb.shape[:2]
+        assert zlib.decompress(image.data) == rgb.tobytes(), name
+        assert image.data == zlib.compress(rgb.tobytes(), 3)
+        assert len(image.data) <= 1.3 * len(zlib.compress(rgb.tobytes())), name
+    assert pdf.AHEAD_FIGURES["positions"][0] is plots.positions_figure
