@@ -417,12 +417,17 @@ def test_bad_out_paths_are_refused_at_once(tmp_path, monkeypatch, kind):
 
 def test_sighup_is_handled_like_sigterm(tmp_path):
     """SIGHUP (the terminal closed) while staging: OutputInterrupted, exit status 129, no staging
-    folder left."""
+    folder left. SIGHUP is set to its default first: a suite started under ``nohup`` inherits it
+    ignored, and ringqa leaves an ignored signal ignored on purpose."""
     out = tmp_path / "out"
-    with pytest.raises(OutputInterrupted) as info, staged_output(out) as stage:
-        (stage / "a.csv").write_text("a")
-        os.kill(os.getpid(), signal.SIGHUP)
-        time.sleep(5)
+    previous = signal.signal(signal.SIGHUP, signal.SIG_DFL)
+    try:
+        with pytest.raises(OutputInterrupted) as info, staged_output(out) as stage:
+            (stage / "a.csv").write_text("a")
+            os.kill(os.getpid(), signal.SIGHUP)
+            time.sleep(5)
+    finally:
+        signal.signal(signal.SIGHUP, previous)
     assert info.value.exit_status == 129
     assert list(tmp_path.iterdir()) == []
 
