@@ -82,8 +82,9 @@ def continuation_scale(du, u_new, pred_du, pred_u, rtol, scale_max):
     The step continues the previous one when it starts where that one ended
     (``|pred_u + du - u_new| <= 1e-9 |du|``) and is as long: ``|du - pred_du| <= rtol |du|``
     (factor 1; ``rtol`` = 0 is exact equality). The step ``du = min(target - u, inc)`` with ``u``
-    accumulated by ``u + du`` falls round-off short of ``inc`` (~1e-17 m) wherever ``target - u``
-    is computed, e.g. on every step into a dwell one increment away. A step of another length
+    accumulated by ``u + du`` falls a few ulp short of ``inc`` (1e-19-1e-17 m) at random
+    wherever it is ``target - u``, e.g. on a step into a dwell one increment away; such a step
+    continues the one before it. A step of another length
     gets ``du / pred_du`` where that is at most ``scale_max`` (0: never).
 
     Parameters
