@@ -660,17 +660,23 @@ def _read_plan_ahead(item):
     return ForkedCall(lambda: _read_plan(item))
 
 
-def _read_plan(item) -> tuple[object, float]:
-    """:func:`ringqa.io.rtplan.read_rtplan` of ``item`` and the seconds it took; ``(None, 0.0)``
-    where it fails (the commissioning then reads the input itself, and says what is wrong as
-    it always has)."""
+def _read_plan(item) -> tuple[object, float, tuple]:
+    """:func:`ringqa.io.rtplan.read_rtplan` of ``item``, the seconds it took and the Python
+    warnings it gave (held back: the commissioning shows them where it would have read the
+    plan, :func:`_loaded_ahead`); ``(None, 0.0, ())`` where it fails (the commissioning then
+    reads the input itself, and says what is wrong, its warnings included, as it always has)."""
+    import warnings
+
     t0 = time.perf_counter()
     try:
-        from ringqa.io.rtplan import read_rtplan
+        with warnings.catch_warnings(record=True) as caught:
+            from ringqa.io.rtplan import read_rtplan
 
-        return read_rtplan(Path(item).expanduser()), time.perf_counter() - t0
+            plan = read_rtplan(Path(item).expanduser())
+        shown = tuple((w.message, w.category, w.filename, w.lineno) for w in caught)
+        return plan, time.perf_counter() - t0, shown
     except Exception:
-        return None, 0.0
+        return None, 0.0, ()
 
 
 def _loaded_ahead(item, settings, reader) -> tuple[object, float]:
@@ -680,12 +686,16 @@ def _loaded_ahead(item, settings, reader) -> tuple[object, float]:
     and raises the error it always has)."""
     if reader is None:
         return None, 0.0
+    import warnings
+
     from ringqa.errors import RingQAError
     from ringqa.pipeline.commission import load_commission_input
 
-    rtplan, read_s = reader.result()
+    rtplan, read_s, shown = reader.result()
     if rtplan is None:
         return None, 0.0
+    for message, category, filename, lineno in shown:  # as the reading here would show them
+        warnings.warn_explicit(message, category, filename, lineno)
     t0 = time.perf_counter()
     try:
         loaded = load_commission_input(item, settings, rtplan=rtplan)
