@@ -3,7 +3,7 @@
 Every page carries a running header (report title with the applicator's full name; software
 version and date) and footer (the input's SHA-256 prefix; ``page n/N``). Text and tables are
 reportlab flowables (fast, selectable, wrapped to the page); matplotlib is used for the figures
-only, embedded as PNG at :data:`FIGURE_DPI`.
+only, embedded as Flate-compressed RGB images at :data:`FIGURE_DPI` (no PNG).
 
 Fonts: DejaVu Sans (shipped with matplotlib, so present wherever ringqa runs) is registered as a
 TrueType font and embedded (subset) in the PDF: no Type 3 fonts, no unembedded base-14 fonts, and
