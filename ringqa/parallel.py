@@ -6,8 +6,6 @@ a pipe. Whatever the child could not hand back (a result or an exception that ca
 a child that died) is made here instead when :meth:`ForkedCall.result` is called, so the caller
 always sees what calling ``fn()`` here would have given: the same value, or the same exception.
 Where ``os.fork`` is missing, on one core, or with ``fork=False`` the call is simply made here.
-A process forked after the call was made may take its result instead (:meth:`ForkedCall.result`
-there reads what the child hands over; the process that made the call still reaps the child).
 :func:`worker_pool` is the pool of forked worker processes a batch uses (commissioning, PDFs;
 :func:`default_workers` of them), the calibration's fit too.
 
@@ -110,7 +108,6 @@ class ForkedCall:
         self._fn = fn
         self._pid = 0
         self._fd = -1
-        self._maker = os.getpid()  # the process that made the call: the child's parent
         if not (fork and can_fork()):
             return
         try:
@@ -146,11 +143,7 @@ class ForkedCall:
         return self._pid != 0
 
     def result(self):
-        """The call's result (from the child, else made here); its exception is raised.
-
-        Called in a process forked from the one that made the call (after it was made), it
-        reads what the child hands over there, once, and leaves the child alone: the maker
-        ends and reaps it (:meth:`cancel`)."""
+        """The call's result (from the child, else made here); its exception is raised."""
         if self._pid:
             try:
                 with os.fdopen(self._fd, "rb") as f:
@@ -169,13 +162,10 @@ class ForkedCall:
         return self._fn()
 
     def cancel(self) -> None:
-        """Stop the child (its result is not needed) and reap it (in a process forked from the
-        maker: only let go of this process's end of the pipe; the child is the maker's)."""
+        """Stop the child (its result is not needed) and reap it."""
         if self._fd >= 0:
             os.close(self._fd)
             self._fd = -1
-        if self._pid and os.getpid() != self._maker:
-            self._pid = 0
         if self._pid:
             pid, self._pid = self._pid, 0
             try:

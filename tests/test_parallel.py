@@ -74,35 +74,3 @@ def test_second_core_free_on_two_cores(monkeypatch, load, others, free):
     monkeypatch.setattr(os, "getloadavg", lambda: (load, load, load))
     monkeypatch.setattr(parallel, "others_running", lambda: others)
     assert parallel.second_core_free() is free
-
-
-@pytest.mark.skipif(not parallel.can_fork(), reason="needs fork and 2 cores")
-def test_a_forked_calls_result_taken_in_a_later_fork():
-    """A call made here and taken in a process forked afterwards (the main job's RT Plan
-    reader, taken by the commissioning child): that process gets the child's value and lets
-    the child be (its cancel neither kills nor waits: the child is not its own); the maker
-    then reaps the child with cancel, and the call's child is gone (no zombie left)."""
-    maker = os.getpid()
-    call = parallel.ForkedCall(lambda: (os.getpid(), os.getppid()))
-    r, w = os.pipe()
-    pid = os.fork()
-    if pid == 0:  # pragma: no cover - the later fork: reports what it got, leaves at once
-        code = 1
-        try:
-            os.close(r)
-            child, parent = call.result()
-            call.cancel()  # a no-op here
-            os.write(w, f"{child} {parent}".encode())
-            code = 0
-        finally:
-            os._exit(code)
-    os.close(w)
-    with os.fdopen(r) as f:
-        got = f.read().split()
-    os.waitpid(pid, 0)
-    assert len(got) == 2 and int(got[1]) == maker and int(got[0]) == call._pid
-    child = call._pid
-    call.cancel()  # the maker reaps it
-    assert not call.forked
-    with pytest.raises(ChildProcessError):
-        os.waitpid(child, os.WNOHANG)

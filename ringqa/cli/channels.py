@@ -22,17 +22,12 @@ import pandas as pd
 __all__ = ["channels_wanted", "conclusion", "run_channels"]
 
 
-def channels_wanted(
-    item, settings, channel_args, ahead=None
-) -> tuple[list[str] | None, object, float]:
+def channels_wanted(item, settings, channel_args) -> tuple[list[str] | None, object, float]:
     """The channels to commission one by one (None for the one-channel run: one ``--channel``,
     or an input whose default choice is one channel: its files as before, with the plan's other
     channels named in its warnings), the input as loaded for the choice (None when not
     loaded; :func:`ringqa.pipeline.commission` takes it, so it is read once) and the seconds
-    the loading took. ``ahead``: called (without arguments) where the input is needed, it
-    gives the input loaded already, with the seconds that took, or ``(None, 0.0)``: then it is
-    loaded here (the command's RT Plan read in a forked process:
-    :func:`ringqa.cli.commission.commission_ahead`).
+    the loading took.
 
     Without ``--channel``: an RT Plan's channels with dwells and a centreline (those without a
     reference source path where one is required are named, not commissioned:
@@ -45,14 +40,12 @@ def channels_wanted(
     from ringqa.errors import RingQAError
     from ringqa.pipeline.commission import channel_choice, load_commission_input
 
-    loaded, load_s = (None, 0.0) if ahead is None else ahead()
-    if loaded is None:
-        t0 = time.perf_counter()
-        try:
-            loaded = load_commission_input(item, settings)  # as commission() loads it
-        except RingQAError:
-            return None, None, 0.0  # the single run says what is wrong
-        load_s = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    try:
+        loaded = load_commission_input(item, settings)  # as commission() loads it
+    except RingQAError:
+        return None, None, 0.0  # the single run says what is wrong
+    load_s = time.perf_counter() - t0
     names = channel_choice(loaded, settings.require_measured).names
     return (None if len(names) <= 1 else list(names)), loaded, load_s
 

@@ -40,7 +40,6 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import functools
 import logging
 import sys
 import time
@@ -351,11 +350,12 @@ def run(args: argparse.Namespace) -> int:
     with SHA-256, settings with origin, every verdict, every file written with SHA-256, the exit
     status and the wall time). Returns the exit status (:data:`EXIT_MEANINGS`)."""
     from ringqa.outdir import OutputInterrupted
+    from ringqa.pipeline import SimulationJammedError
 
     t0 = time.perf_counter()
     try:
         code = _run(args)
-    except _jammed_error() as exc:  # looked up when raised (the pipeline: after _run's start)
+    except SimulationJammedError as exc:
         print(f"ringqa commission: error: {exc}", file=sys.stderr)
         code = EXIT_SOLVER
     except RingQAError as exc:
@@ -372,12 +372,6 @@ def run(args: argparse.Namespace) -> int:
         raise
     _audit_exit(code, t0)
     return code
-
-
-def _jammed_error() -> type[Exception]:
-    from ringqa.pipeline import SimulationJammedError
-
-    return SimulationJammedError
 
 
 def _audit_exit(code: int, t0: float, reason: str = "") -> None:
@@ -433,12 +427,11 @@ def audit_files(out: Path) -> None:
 
 def _run(args: argparse.Namespace) -> int:
     from ringqa.outdir import check_writable
-    from ringqa.pipeline.inputs import check_labels
+    from ringqa.pipeline import commission_batch
+    from ringqa.pipeline.batch import check_labels
 
     # ringqa.report (reportlab, matplotlib, plotly) is imported where it is used: for one
-    # input after the commissioning has been forked (commission_ahead), beside it; the
-    # pipeline's steps (pandas, the engine's runs) for one input after an RT Plan's reading
-    # has been forked (commission_ahead), beside it
+    # input after the commissioning has been forked (commission_ahead), beside it
 
     if args.example and args.register is None:
         args.register = "plane-height"  # README's quick start (a 2D path: see README)
@@ -482,7 +475,7 @@ def _run(args: argparse.Namespace) -> int:
         # read: in the forked process, beside the commissioning)
         res = commission_ahead(
             items[0], settings, not args.quiet, ahead, by_channel=sweep_spec is None,
-            channel_args=args.channel, fork=ahead and _fork_worthwhile(),
+            channel_args=args.channel,
         )  # fmt: skip
         fields = config.report_fields()  # imports ringqa.report: after the fork
         if isinstance(res, ChannelsWanted):
@@ -518,8 +511,6 @@ def _run(args: argparse.Namespace) -> int:
         )
         return EXIT_FAIL if strict and not res.passed else EXIT_OK
     fields = config.report_fields()
-    from ringqa.pipeline import commission_batch
-
     batch = commission_batch(items, settings, progress=not args.quiet, labels=labels,
                              workers=args.workers)  # fmt: skip
     audit_inputs_and_settings(config, batch.results)
@@ -575,18 +566,9 @@ class ChannelsWanted:
     channels: tuple[str, ...]
 
 
-def _fork_worthwhile() -> bool:
-    """The commissioning of one input may go to a forked child beside the report's preparation
-    (:func:`commission_ahead`): this command's streams are the process's own, the engine's
-    kernels are cached and a core is free; told without importing the pipeline's steps."""
-    from ringqa.pipeline.second_core import default_engine_may_fork
-
-    return _real_std_streams() and default_engine_may_fork()
-
-
 def commission_ahead(
     item, settings, progress: bool, report: bool = True, *, by_channel: bool = False,
-    channel_args=None, fork: bool | None = None,
+    channel_args=None,
 ):  # fmt: skip
     """:func:`ringqa.pipeline.commission` of one input, in a forked child process while this
     one loads the report's libraries and fonts (:func:`ringqa.report.prepare_report`: about
@@ -595,113 +577,36 @@ def commission_ahead(
     the output captured in memory, on a first run (an empty kernel cache) or with no core free
     (:func:`ringqa.parallel.second_core_free`), the commissioning runs here as before.
 
-    ``fork``: whether to fork, decided by the caller (:func:`_fork_worthwhile`, with
-    ``report``) before the pipeline's steps are imported; None: decided here as above. When
-    it forks and the input is an RT Plan file, the plan is read in another forked process
-    started first (:func:`_read_plan_ahead`), beside this process's imports of the pipeline
-    (pandas, the engine: about 0.15-0.2 s), and the commissioning takes it from there
-    instead of reading it again (pydicom's import and the plan's parse, 0.1-0.15 s of the
-    input's reading off the command's critical path).
-
     ``by_channel``: an input with several channels may be commissioned channel by channel
     (``channel_args``: the command's ``--channel`` values, None when none was given): the input
     is read first (in the child, beside the report's preparation here) and, for such an input,
     a :class:`ChannelsWanted` is returned instead of a result."""
     from ringqa.parallel import ForkedCall
+    from ringqa.pipeline import commission
+    from ringqa.pipeline.simulate import second_core_worthwhile
 
-    reader = _read_plan_ahead(item) if fork else None
+    def run():  # the input as the channel choice read it is not read twice
+        loaded, load_s = None, 0.0
+        if by_channel:
+            from ringqa.cli.channels import channels_wanted
+
+            wanted, loaded, load_s = channels_wanted(item, settings, channel_args)
+            if wanted is not None:
+                return ChannelsWanted(tuple(wanted))
+        return commission(item, settings, progress=progress, loaded=loaded, load_s=load_s)
+
+    # a first run (numba compiling, with its helper process) stays as it was
+    # ... and so does a machine whose cores are busy (the fork would only add its overhead)
+    fork = report and _real_std_streams() and second_core_worthwhile()
+    call = ForkedCall(run, fork)
     try:
-        from ringqa.pipeline import commission
+        if call.forked:  # the report's imports and set-up here, beside the child's work
+            from ringqa.report import prepare_report
 
-        if fork is None:
-            from ringqa.pipeline.simulate import second_core_worthwhile
-
-            # a first run (numba compiling, with its helper process) stays as it was
-            # ... and so does a machine whose cores are busy (the fork would only add its
-            # overhead)
-            fork = report and _real_std_streams() and second_core_worthwhile()
-
-        # the input with the plan the reader read (once; (None, 0.0) without a reader)
-        ahead = functools.cache(lambda: _loaded_ahead(item, settings, reader))
-
-        def run():  # the input as the channel choice read it is not read twice
-            loaded, load_s = None, 0.0
-            if by_channel:
-                from ringqa.cli.channels import channels_wanted
-
-                wanted, loaded, load_s = channels_wanted(item, settings, channel_args, ahead)
-                if wanted is not None:
-                    return ChannelsWanted(tuple(wanted))
-            if loaded is None:
-                loaded, load_s = ahead()
-            return commission(item, settings, progress=progress, loaded=loaded, load_s=load_s)
-
-        call = ForkedCall(run, bool(fork))
-        try:
-            if call.forked and report:  # the report's imports and set-up, beside the child
-                from ringqa.report import prepare_report
-
-                prepare_report()
-            return call.result()
-        finally:
-            call.cancel()
+            prepare_report()
+        return call.result()
     finally:
-        if reader is not None:
-            reader.cancel()
-
-
-def _read_plan_ahead(item):
-    """A :class:`ringqa.parallel.ForkedCall` reading the RT Plan file ``item`` names
-    (:func:`_read_plan`); None for any other input."""
-    from ringqa.parallel import ForkedCall
-
-    if not isinstance(item, str | Path) or Path(item).suffix.lower() != ".dcm":
-        return None
-    return ForkedCall(lambda: _read_plan(item))
-
-
-def _read_plan(item) -> tuple[object, float, tuple]:
-    """:func:`ringqa.io.rtplan.read_rtplan` of ``item``, the seconds it took and the Python
-    warnings it gave (held back: the commissioning shows them where it would have read the
-    plan, :func:`_loaded_ahead`); ``(None, 0.0, ())`` where it fails (the commissioning then
-    reads the input itself, and says what is wrong, its warnings included, as it always has)."""
-    import warnings
-
-    t0 = time.perf_counter()
-    try:
-        with warnings.catch_warnings(record=True) as caught:
-            from ringqa.io.rtplan import read_rtplan
-
-            plan = read_rtplan(Path(item).expanduser())
-        shown = tuple((w.message, w.category, w.filename, w.lineno) for w in caught)
-        return plan, time.perf_counter() - t0, shown
-    except Exception:
-        return None, 0.0, ()
-
-
-def _loaded_ahead(item, settings, reader) -> tuple[object, float]:
-    """The input loaded with the RT Plan ``reader`` read (:func:`_read_plan_ahead`), and the
-    seconds the reading and loading took; ``(None, 0.0)`` without a reader, where it could not
-    read the plan, or where the loading fails (the commissioning then loads the input itself
-    and raises the error it always has)."""
-    if reader is None:
-        return None, 0.0
-    import warnings
-
-    from ringqa.errors import RingQAError
-    from ringqa.pipeline.commission import load_commission_input
-
-    rtplan, read_s, shown = reader.result()
-    if rtplan is None:
-        return None, 0.0
-    for message, category, filename, lineno in shown:  # as the reading here would show them
-        warnings.warn_explicit(message, category, filename, lineno)
-    t0 = time.perf_counter()
-    try:
-        loaded = load_commission_input(item, settings, rtplan=rtplan)
-    except RingQAError:
-        return None, 0.0
-    return loaded, read_s + time.perf_counter() - t0
+        call.cancel()
 
 
 def sweep_spec_for(args, item, settings=None):

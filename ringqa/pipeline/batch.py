@@ -16,7 +16,6 @@ from ringqa.errors import RingQAError
 from ringqa.parallel import default_workers, worker_signals
 from ringqa.pipeline import simulate
 from ringqa.pipeline.commission import commission
-from ringqa.pipeline.inputs import check_labels  # defined there: the command line checks
 from ringqa.pipeline.result import CommissioningResult
 from ringqa.pipeline.settings import CommissionSettings
 from ringqa.pipeline.simulate import (
@@ -209,6 +208,15 @@ def _outcomes(items, settings, engine, workers: int, bar, labels) -> Iterator[tu
                 yield pickle.loads(data)
             else:
                 yield _commission_one(items[k], settings, engine)
+
+
+def check_labels(labels: Sequence[str] | None, n_inputs: int) -> None:
+    """Refuse labels (``--label``) that are not one per input (RingQAError)."""
+    if labels is not None and len(labels) != n_inputs:
+        raise RingQAError(
+            f"--label: {len(labels)} label(s) for {n_inputs} input(s); give one --label per "
+            "input, in the order of the inputs"
+        )
 
 
 def unique_label(name: str, taken: set[str]) -> str:

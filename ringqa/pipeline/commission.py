@@ -293,20 +293,17 @@ def commission_channels(
     return ChannelRuns(results, (*unsimulated_channels(loaded), *skipped))
 
 
-def load_commission_input(input, settings: CommissionSettings | None = None, *, rtplan=None):
+def load_commission_input(input, settings: CommissionSettings | None = None):
     """``input`` loaded as :func:`commission` loads it (:func:`load_input` with the settings'
-    structure set and lumen; ``rtplan``: the RT Plan ``input`` names, read already); hand it
-    back as ``commission(..., loaded=)``."""
-    return _load(input, CommissionSettings() if settings is None else settings, rtplan)
+    structure set and lumen); hand it back as ``commission(..., loaded=)``."""
+    return _load(input, CommissionSettings() if settings is None else settings)
 
 
-def _load(input, cfg, rtplan=None):
-    """:func:`load_input` of ``input`` (with the settings' structure set and lumen; ``rtplan``
-    passed only when given)."""
-    args = () if cfg.structures is None and cfg.lumen_mm is None else (cfg.structures, cfg.lumen_mm)
-    if rtplan is None:
-        return load_input(input, *args)
-    return load_input(input, *args, rtplan=rtplan)
+def _load(input, cfg):
+    """:func:`load_input` of ``input`` (with the settings' structure set and lumen)."""
+    if cfg.structures is None and cfg.lumen_mm is None:
+        return load_input(input)
+    return load_input(input, cfg.structures, cfg.lumen_mm)
 
 
 def unsimulated_channels(loaded) -> tuple[str, ...]:

@@ -8,7 +8,6 @@ message that says what to change (bad settings already by
 
 from __future__ import annotations
 
-from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -70,15 +69,11 @@ class SourceChoice:
     sk_given: bool = True
 
 
-def load_input(item, structures=None, lumen_mm: float | None = None, *, rtplan=None) -> LoadedInput:
+def load_input(item, structures=None, lumen_mm: float | None = None) -> LoadedInput:
     """The applicator of a shipped name, folder, applicator JSON, RT Plan or Applicator object;
     with ``structures`` (an RT Structure Set) the RT Plan's channels are its open contours
     (:func:`ringqa.io.rtstruct.applicator_from_structures`, lumens ``lumen_mm`` or the lumen
     table).
-
-    ``rtplan``: the RT Plan ``item`` names, read already (:func:`ringqa.io.rtplan.read_rtplan`
-    of that file, e.g. in a process forked beside the command's start-up); used in place of
-    reading it again where ``item`` is an RT Plan, ignored otherwise.
 
     Raises
     ------
@@ -103,8 +98,7 @@ def load_input(item, structures=None, lumen_mm: float | None = None, *, rtplan=N
             raise RingQAError(f"input {path}: RT Plan file not found (check the path)")
         from ringqa.io.rtplan import applicator_from_rtplan, read_rtplan
 
-        if rtplan is None:
-            rtplan = read_rtplan(path)
+        rtplan = read_rtplan(path)
         if structures is not None:
             from ringqa.io.rtstruct import applicator_from_structures, read_rtstruct
 
@@ -121,17 +115,6 @@ def load_input(item, structures=None, lumen_mm: float | None = None, *, rtplan=N
     if path.is_file():
         return LoadedInput(app, None, "file", (path,))
     return LoadedInput(app, None, "shipped", _shipped_file(str(item)))
-
-
-def check_labels(labels: Sequence[str] | None, n_inputs: int) -> None:
-    """Refuse labels (``--label``) that are not one per input (RingQAError). (Here rather than
-    in :mod:`ringqa.pipeline.batch`, which imports every step and pandas: ``ringqa commission``
-    checks its labels before those imports; the batch module imports it from here.)"""
-    if labels is not None and len(labels) != n_inputs:
-        raise RingQAError(
-            f"--label: {len(labels)} label(s) for {n_inputs} input(s); give one --label per "
-            "input, in the order of the inputs"
-        )
 
 
 def _shipped_file(name: str) -> tuple[Path, ...]:

@@ -4,7 +4,6 @@ centreline correction that is used (real applicators and engine)."""
 from __future__ import annotations
 
 import json
-import os
 
 import numpy as np
 import pytest
@@ -82,36 +81,3 @@ def test_a_correction_is_used_and_reported(tmp_path):
                for n in data["notes"])  # fmt: skip
     assert data["settings"]["centreline_correction"] == str(seg)
     assert any(str(seg) in json.dumps(i) for i in data["provenance"]["inputs"])
-
-
-@pytest.mark.skipif(not hasattr(os, "fork") or (os.cpu_count() or 1) < 2, reason="needs fork")
-@pytest.mark.parametrize("content", [b"not a DICOM file", b"\0" * 128 + b"DICM\x02\x00"])
-def test_a_bad_rt_plan_read_ahead_gives_the_same_error(tmp_path, capsys, monkeypatch, content):
-    """A file named .dcm that is not DICOM, or a truncated one, with a core free (the command
-    forks an RT Plan reader and the commissioning): the reader gives nothing back, the
-    commissioning reads the file itself and the command prints the same one line, exit 2,
-    as on one core (no fork)."""
-    from ringqa import parallel
-    from ringqa.cli import commission as cli
-    from ringqa.pipeline import second_core
-
-    plan = tmp_path / "RP.dcm"
-    plan.write_bytes(content)
-    monkeypatch.setattr(parallel, "second_core_free", lambda: False)
-    alone = _one_line_exit_2([str(plan)], tmp_path, capsys, str(plan))
-    readers = []
-    real = cli._read_plan_ahead
-
-    def spy(item):
-        call = real(item)
-        readers.append((call, call is not None and call.forked))
-        return call
-
-    monkeypatch.setattr(cli, "_read_plan_ahead", spy)
-    monkeypatch.setattr(cli, "_real_std_streams", lambda: True)
-    monkeypatch.setattr(parallel, "second_core_free", lambda: True)
-    monkeypatch.setattr(second_core, "kernels_cached", lambda: True)
-    forked = _one_line_exit_2([str(plan)], tmp_path, capsys, str(plan))
-    assert [forked for _call, forked in readers] == [True]
-    assert not readers[0][0].forked  # reaped by the command
-    assert forked == alone
