@@ -55,7 +55,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "benchmarks"))
 
-from bench_kernels import _copy_nt, capture  # noqa: E402
+from bench_kernels import _copy_nt, best_us, capture  # noqa: E402
 
 from ringqa.simulation._kernels import closest_point  # noqa: E402
 from ringqa.simulation.band import band_solve  # noqa: E402
@@ -526,8 +526,6 @@ def main() -> int:
 def time_kkt_lu(model, state, calls=2000, rounds=5):
     """us a call of the banded LU (``band_solve``) on the captured state's Jacobian and on its
     KKT counterpart (node-interleaved unknowns x, y, z, mu_j: half-bandwidth 6), fastest round."""
-    import time
-
     from bench_kernels import loop_copy, loop_solve
 
     pb = Problem(model, state, True)
@@ -566,16 +564,9 @@ def time_kkt_lu(model, state, calls=2000, rounds=5):
         rhs0[:nn] = 1.0
         Bw = B0.copy()
         rw = rhs0.copy()
-        best = []
-        for fn, args in ((loop_copy, (B0, Bw, rhs0, rw)), (loop_solve, (B0, Bw, rhs0, rw, k, nn))):
-            fn(*args, 1)
-            b = np.inf
-            for _ in range(rounds):
-                t0 = time.process_time()
-                fn(*args, calls)
-                b = min(b, (time.process_time() - t0) / calls)
-            best.append(b)
-        out[label] = (nn, k, (best[1] - best[0]) * 1e6)
+        copy_us = best_us(loop_copy, (B0, Bw, rhs0, rw), calls, rounds)
+        solve_us = best_us(loop_solve, (B0, Bw, rhs0, rw, k, nn), calls, rounds)
+        out[label] = (nn, k, solve_us - copy_us)
     return out
 
 
